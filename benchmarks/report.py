@@ -173,7 +173,7 @@ journal eccentricity vector of joint A over the horizon, outputs every 20 µs.
 """
 
 RATIO_TEXT = """
-Baselines, measured in the same run: the seed's way (fixed-step RK4 at 1 µs, our compiled kernel, with our event
+Baselines, measured in the same run: Muvengei et al.'s way (fixed-step RK4 at 1 µs, our compiled kernel, with our event
 location) and `benchmarks/scipy_baseline.py`: `scipy.integrate.solve_ivp` (RK45 and DOP853) with the right-hand
 side written in numpy and the contact handled the way solve_ivp allows — terminal events on the penetration,
 restarted with the other mode, impact velocity from the event state, and `max_step = 10 µs` (without it

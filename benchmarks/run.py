@@ -359,7 +359,7 @@ def plot_wp(sec, name, title, xlabel="time-loop wall time [s]", ylabel="error"):
         ax.loglog(x, np.maximum(y, 1e-17), st, color=col, label=method, ms=4)
     for r in sec["rows"]:
         if r["label"] == "RK4 h=1e-06" and "error" in r:
-            ax.loglog([r["wall"]], [r["error"]], "*", color="k", ms=14, label="seed's way: RK4, 1 us")
+            ax.loglog([r["wall"]], [r["error"]], "*", color="k", ms=14, label="Muvengei et al.'s way: RK4, 1 us")
     if "floor" in sec:
         ax.axhline(sec["floor"], color="gray", lw=0.8, ls=":", label="reference floor")
     ax.set_xlabel(xlabel)

@@ -16,7 +16,7 @@ did: the journal left the bearing).  The simple remedy solve_ivp offers is
 ``max_step``.  50 us was not enough: after an impact the journal bounces on the
 same side with free flights of ~70 us, and a step from one separation to past
 the next onset sees delta > 0 at both ends (events lost, journal escaped);
-10 us (the seed's output step) finds every contact the library finds (77
+10 us (Muvengei et al.'s output step) finds every contact the library finds (77
 switches in the benchmark horizon at rtol 1e-6, 75 at 1e-8; 76 for the library).
 Differences that favour scipy: no interior samples (a grazing contact inside
 one step is missed) and no outputs beyond the state are computed.

@@ -1,4 +1,4 @@
-"""The seed slider-crank with a clearance joint at A, written out by hand twice.
+"""Muvengei et al.'s slider-crank with a clearance joint at A, written out by hand twice.
 
 Both functions implement exactly the equations planar_mbs builds from
 `models/slider_crank_clearance_a.mbs` (Nikravesh body coordinates, Baumgarte
@@ -108,7 +108,7 @@ def rhs_hand(t, y, p, mode, vimp, S, r, ydot):
     s2 = math.sin(q[5])
     w1 = qd[2]
     w2 = qd[5]
-    # applied forces: the contact only (no gravity in the seed model)
+    # applied forces: the contact only (no gravity in model of Muvengei et al.)
     F, nx, ny, a1x, a1y, a2x, a2y = contact_force_hand(p, q, qd, mode, vimp)
     fx = -F * nx  # on the journal (rod)
     fy = -F * ny

@@ -58,7 +58,7 @@ def plot(
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
     Time series (one panel per SIGNAL), Poincaré maps, journal orbits; for a sweep file, a grid
-    per signal and a bifurcation diagram.  With no SIGNAL: the seed's default figures.
+    per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
     mbs plot a.h5 --poincare slider.vx:slider.ax --skip 2 · mbs plot a.h5 --orbit A -f svg

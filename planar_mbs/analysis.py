@@ -1,7 +1,7 @@
 """Poincaré sections and a measured verdict on the motion: periodic, quasi-periodic or chaotic.
 
 A **Poincaré section** (`poincare_section`) samples chosen signals of a run once
-per period of the driver (stroboscopic section, the seed's choice) or each time
+per period of the driver (stroboscopic section, Muvengei et al.'s choice) or each time
 a clock body passes a given angle, after a transient.  When the output step
 divides the period, the section times are output times and the samples are the
 integrator's own values (``method = "grid"``); otherwise they are interpolated

@@ -1,4 +1,4 @@
-"""ModelSpec → Model: the compiler as a straight list of named passes (design.md §1).
+"""ModelSpec → Model: the compiler as a straight list of named passes.
 
     collect        merge included statements, apply `override`, reject duplicates
     resolve_params apply `--set` overrides, evaluate params in dependency order
@@ -464,7 +464,7 @@ class Compiler:
             a["joint_param"][k, JP_LENGTH] = length
 
     def _sigma(self, name: str, pos: Pos) -> float:
-        """sigma = (1 - nu^2) / E of a material (seed eq. 18)."""
+        """sigma = (1 - nu^2) / E of a material (Muvengei et al. eq. 18)."""
         if name in self._sigma_cache:
             return self._sigma_cache[name]
         if name not in self.materials:
@@ -494,7 +494,7 @@ class Compiler:
         return v.name, e.pos
 
     def _fill_clearance(self, k: int, st: Statement):
-        """A revolute clearance joint: a force element (seed §II.A–C), stiffness from eq. 18."""
+        """A revolute clearance joint: a force element (Muvengei et al. §II.A–C), stiffness from eq. 18."""
         c: Call = st.value
         label = f"clearance joint `{st.name}`"
         bi, pi, bj, pj = self._two_refs(st, label)
@@ -558,7 +558,7 @@ class Compiler:
             sigma_sum = self._sigma(*self._material(f, "bearing_material")) + \
                 self._sigma(*self._material(f, "journal_material"))
         if law in CYLINDRICAL_LAWS:
-            # implicit cylindrical laws (seed eqs. 22, 23): compliance from sigma, L and the radii
+            # implicit cylindrical laws (Muvengei et al. eqs. 22, 23): compliance from sigma, L and the radii
             for key in ("stiffness", "exponent"):
                 if f.has(key):
                     raise f.expr(key).pos.error(
@@ -583,7 +583,7 @@ class Compiler:
                     hint="e.g. `material = steel` with `material steel { E = 207 GPa  nu = 0.3 }`")
             if exponent != 1.5:
                 raise f.expr("exponent").pos.error(
-                    "the default stiffness (seed eq. 18) holds for exponent 1.5; give `stiffness` too")
+                    "the default stiffness (Muvengei et al. eq. 18) holds for exponent 1.5; give `stiffness` too")
             stiffness = hertz_stiffness(rb, rj, sigma_sum)
         if law in DISSIPATIVE_LAWS or f.has("restitution"):
             ce = f.scalar("restitution", U.NUMBER)
@@ -833,7 +833,7 @@ def _param_order(params: dict[str, Statement], overrides: dict[str, Expr]) -> li
 
 
 def hertz_stiffness(r_bearing: float, r_journal: float, sigma_sum: float) -> float:
-    """K = 4 / (3 (sigma_1 + sigma_2)) * sqrt(R_B R_J / (R_B - R_J))  (seed eq. 18, bearing concave:
+    """K = 4 / (3 (sigma_1 + sigma_2)) * sqrt(R_B R_J / (R_B - R_J))  (Muvengei et al. eq. 18, bearing concave:
     R_1 = -R_B, R_2 = R_J turn R_1 R_2 / (R_1 + R_2) into R_B R_J / (R_B - R_J))."""
     return 4.0 / (3.0 * sigma_sum) * math.sqrt(r_bearing * r_journal / (r_bearing - r_journal))
 

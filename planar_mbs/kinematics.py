@@ -1,6 +1,6 @@
 """Initial conditions: move the user's approximate pose onto the constraints.
 
-Seed §III.A: the run starts from the ideal-joint kinematics with every
+Muvengei et al. §III.A: the run starts from the ideal-joint kinematics with every
 clearance journal centred in its bearing.  So for assembly each clearance
 joint is treated as an ideal revolute joint; positions are found by
 Newton–Raphson with minimum-norm corrections (the assembled pose is the one

@@ -1,4 +1,4 @@
-"""The compiled scene: flat arrays and integer type codes (design.md §1).
+"""The compiled scene: flat arrays and integer type codes.
 
 `Model` is what the compiler produces and what every later stage reads.  It
 follows MuJoCo's ``mjModel``: counts ``n<obj>``, per-object arrays
@@ -15,12 +15,12 @@ joints in declaration order (``JOINT_ROWS[type]`` rows each), then drivers
 Sign conventions shared by kernels, signals and tests:
 
 * equations of motion ``M q'' + Cq^T lam = Qe``,
-  ``Cq q'' = gamma - 2 alpha C' - beta^2 C`` (seed eq. 2);
+  ``Cq q'' = gamma - 2 alpha C' - beta^2 C`` (Muvengei et al. eq. 2);
 * the reaction of an ideal joint is reported on its **second** body:
   ``F = -Cq[rows, body_j]^T lam`` (global frame); when the second body is
   ground, it is minus the reaction on the first body;
 * a clearance joint's first body holds the bearing, the second the journal;
-  its ``fx, fy`` are the contact force on the journal (seed eqs. 13–16).
+  its ``fx, fy`` are the contact force on the journal (Muvengei et al. eqs. 13–16).
 """
 from __future__ import annotations
 
@@ -69,12 +69,12 @@ N_MOTION_PARAM = 8
 
 
 class ContactLaw(IntEnum):
-    """Normal contact-force laws of a clearance joint (seed §II.C, contact.md)."""
+    """Normal contact-force laws of a clearance joint (Muvengei et al. §II.C, contact.md)."""
 
-    HERTZ = 0  # F = K d^n                                       (seed eq. 17)
-    LANKARANI_NIKRAVESH = 1  # F = K d^n (1 + 3(1-ce^2)/4 d'/d'-)  (seed eq. 21)
-    DUBOWSKY_FREUDENSTEIN = 2  # implicit, cylindrical            (seed eq. 22, sigma1+sigma2 form)
-    ESDU_78035 = 3  # implicit, cylindrical                         (seed eq. 23)
+    HERTZ = 0  # F = K d^n                                       (Muvengei et al. eq. 17)
+    LANKARANI_NIKRAVESH = 1  # F = K d^n (1 + 3(1-ce^2)/4 d'/d'-)  (Muvengei et al. eq. 21)
+    DUBOWSKY_FREUDENSTEIN = 2  # implicit, cylindrical            (Muvengei et al. eq. 22, sigma1+sigma2 form)
+    ESDU_78035 = 3  # implicit, cylindrical                         (Muvengei et al. eq. 23)
     HUNT_CROSSLEY = 4  # F = K d^n (1 + 3(1-ce)/2 d'/d'-)          (Hunt & Crossley 1975)
     FLORES = 5  # F = K d^n (1 + 8(1-ce)/(5 ce) d'/d'-)                (Flores et al. 2011)
     GONTHIER = 6  # F = K d^n (1 + (1-ce^2)/ce d'/d'-)                 (Gonthier et al. 2004)
@@ -88,7 +88,7 @@ CP_CLEARANCE = 0  # radial clearance c = R_B - R_J  [m]
 CP_R_BEARING = 1  # R_B [m]
 CP_R_JOURNAL = 2  # R_J [m]
 CP_LENGTH = 3  # bearing length L [m]
-CP_STIFFNESS = 4  # K of F = K d^n [N/m^n]  (seed eq. 18 unless given)
+CP_STIFFNESS = 4  # K of F = K d^n [N/m^n]  (Muvengei et al. eq. 18 unless given)
 CP_EXPONENT = 5  # n (1.5 for metals)
 CP_RESTITUTION = 6  # c_e
 CP_SIGMA_SUM = 7  # sigma_1 + sigma_2, sigma = (1 - nu^2)/E  [1/Pa]

@@ -188,7 +188,7 @@ def contact_onsets(results: "Results", joint: str) -> np.ndarray:
 
 
 def default_panels(results: "Results", model: "Model | None" = None) -> list[tuple[str, list[str]]]:
-    """The seed's figures from the signals present: slider velocity, slider acceleration,
+    """Muvengei et al.'s figures from the signals present: slider velocity, slider acceleration,
     clearance-joint forces, driver torques (or forces)."""
     panels: list[tuple[str, list[str]]] = []
     slider = slider_body(results, model)
@@ -404,7 +404,7 @@ def _grid(n: int):
 
 
 def sweep_grid_figure(cases, name: str, against: str | None = None):
-    """One subplot per case of one signal (the seed's Figs. 9-11)."""
+    """One subplot per case of one signal (Muvengei et al.'s Figs. 9-11)."""
     keys = varying_parameters(cases)
     nrows, ncols = _grid(len(cases))
     fig = _figure(4.0 * ncols, 0.6 + 2.6 * nrows)

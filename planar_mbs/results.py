@@ -1,4 +1,4 @@
-"""Results of a run: named signals in memory and in one HDF5 file (design.md §4).
+"""Results of a run: named signals in memory and in one HDF5 file.
 
 File layout::
 

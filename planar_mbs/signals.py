@@ -1,6 +1,6 @@
 """Signal names: `<entity>.<quantity>`, mapped onto columns of the observation row.
 
-One table (design.md §4) serves the HDF5 file, the CLI, plots and the Python
+One table serves the HDF5 file, the CLI, plots and the Python
 API.  The kernel's `observe` fills rows in the layout of
 `model.observation_size`; `signal_table` says which column (or which
 combination of columns) each named signal is.

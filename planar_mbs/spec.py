@@ -1,4 +1,4 @@
-"""ModelSpec: the model text as plain dataclasses, straight from the parser (design.md §1).
+"""ModelSpec: the model text as plain dataclasses, straight from the parser.
 
 Nothing here is evaluated yet: expressions stay trees (`Number`, `Name`,
 `BinOp`, `Neg`, `Vector`, `Call`) so that parameters can be overridden and

@@ -221,7 +221,7 @@ def case_settings(model, spec: CaseSpec) -> dict:
 
 
 def default_section_signals(model) -> tuple[str, str] | None:
-    """The seed's Poincaré plane: slider velocity against slider acceleration, the slider being
+    """Muvengei et al.'s Poincaré plane: slider velocity against slider acceleration, the slider being
     the body a translational joint ties to ground (else the last body)."""
     from .model import JointType
 

@@ -140,7 +140,7 @@ _DESCRIBE = (MASS, LENGTH, TIME, INERTIA, NUMBER, ANGULAR_VELOCITY, VELOCITY, AC
 
 
 def contact_stiffness(exponent: float) -> Dim:
-    """N/m^n: the stiffness K of F = K d^n (seed eq. 17)."""
+    """N/m^n: the stiffness K of F = K d^n (Muvengei et al. eq. 17)."""
     return Dim(f"a contact stiffness (N/m^{exponent:g})", f"N/m**{exponent!r}", f"4e10 N/m^{exponent:g}")
 
 

@@ -122,7 +122,7 @@ def double_pendulum(L1=1.0, L2=0.8, m1=1.0, m2=0.7, th1=1.2, th2=-0.4, w1=0.0, w
     return km, q0, qd0
 
 
-# seed slider-crank (seed §III.A)
+# Muvengei et al.'s slider-crank (Muvengei et al. §III.A)
 L_OA, L_AB = 0.05, 0.12
 M_CRANK, I_CRANK = 0.30, 1e-5
 M_ROD, I_ROD = 0.21, 2.5e-4
@@ -137,7 +137,7 @@ def _slider_crank(omega, clearance_at_A, law, restitution, clearance, E=207e9):
         RB = 5e-3
         RJ = RB - clearance
         sigma = 2 * (1 - 0.3 ** 2) / E
-        K = 4.0 / (3.0 * sigma) * math.sqrt(RB * RJ / (RB - RJ))  # seed eq. 18, concave bearing
+        K = 4.0 / (3.0 * sigma) * math.sqrt(RB * RJ / (RB - RJ))  # Muvengei et al. eq. 18, concave bearing
         clearances.append(dict(bodies=(0, 1), points=((L_OA / 2, 0), (-L_AB / 2, 0)), law=law, params={
             CP_CLEARANCE: clearance, CP_R_BEARING: RB, CP_R_JOURNAL: RJ, CP_LENGTH: 0.02,
             CP_STIFFNESS: K, CP_EXPONENT: 1.5, CP_RESTITUTION: restitution, CP_SIGMA_SUM: sigma}))
@@ -150,7 +150,7 @@ def _slider_crank(omega, clearance_at_A, law, restitution, clearance, E=207e9):
     drivers = [dict(type=DriverType.ANGLE, bodies=(-1, 0), motion=MotionType.CONSTANT_SPEED, params=(0.0, omega))]
     km = build([(M_CRANK, I_CRANK), (M_ROD, I_ROD), (M_SLIDER, I_SLIDER)], joints=joints, drivers=drivers,
                clearances=clearances, gravity=(0.0, 0.0))
-    # crank and rod collinear along +x, journal centred (seed §III.A)
+    # crank and rod collinear along +x, journal centred (Muvengei et al. §III.A)
     q0 = np.array([L_OA / 2, 0, 0, L_OA + L_AB / 2, 0, 0, L_OA + L_AB, 0, 0])
     w_rod = -omega * L_OA / L_AB
     qd0 = np.array([0, omega * L_OA / 2, omega, 0, omega * L_OA + w_rod * L_AB / 2, w_rod, 0, 0, 0])
@@ -158,13 +158,13 @@ def _slider_crank(omega, clearance_at_A, law, restitution, clearance, E=207e9):
 
 
 def slider_crank(omega=5000 * 2 * math.pi / 60):
-    """Seed slider-crank with ideal joints, crank driven at constant speed."""
+    """Muvengei et al.'s slider-crank with ideal joints, crank driven at constant speed."""
     return _slider_crank(omega, False, None, 0.0, 0.0)
 
 
 def slider_crank_clearance(omega=5000 * 2 * math.pi / 60, law=ContactLaw.LANKARANI_NIKRAVESH,
                            restitution=0.9, clearance=0.3e-3, E=207e9):
-    """Seed slider-crank with a revolute clearance joint at A (bearing on the crank)."""
+    """Muvengei et al.'s slider-crank with a revolute clearance joint at A (bearing on the crank)."""
     return _slider_crank(omega, True, law, restitution, clearance, E)
 
 

@@ -31,7 +31,7 @@ from planar_mbs.model import (
 )
 
 L = ContactLaw
-SIGMA_STEEL = (1 - 0.3 ** 2) / 207e9  # seed eq. 18: sigma = (1 - nu^2) / E
+SIGMA_STEEL = (1 - 0.3 ** 2) / 207e9  # Muvengei et al. eq. 18: sigma = (1 - nu^2) / E
 ALL_LAWS = list(ContactLaw)
 
 
@@ -46,9 +46,9 @@ def params(c=3e-4, RB=5e-3, length=0.02, K=1e10, n=1.5, ce=0.9, sigma_sum=2 * SI
 def published_force(law, p, d, dd, v_imp):
     """F of the K d^n laws as published (no shared code with the kernel)."""
     K_, n, ce = p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION]
-    if law == L.HERTZ:  # Hertz; seed eq. 17
+    if law == L.HERTZ:  # Hertz; Muvengei et al. eq. 17
         return K_ * d ** n
-    if law == L.LANKARANI_NIKRAVESH:  # seed eq. 21 (Lankarani & Nikravesh 1990)
+    if law == L.LANKARANI_NIKRAVESH:  # Muvengei et al. eq. 21 (Lankarani & Nikravesh 1990)
         F = K_ * d ** n * (1 + 3 * (1 - ce ** 2) / 4 * dd / v_imp)
     elif law == L.HUNT_CROSSLEY:  # Hunt & Crossley 1975: D = 3 K (1 - ce) / 2 / v(-) * d^n
         F = K_ * d ** n + 3 * K_ * (1 - ce) / (2 * v_imp) * d ** n * dd
@@ -62,9 +62,9 @@ def published_force(law, p, d, dd, v_imp):
 
 
 def published_penetration(law, p, F):
-    """delta(F) of the cylindrical laws (seed eqs. 22, 23), with h_k = (1 - nu_k^2)/(pi E_k)
-    (the original forms; the seed's sigma = (1 - nu^2)/E is pi h) and, for
-    Dubowsky-Freudenstein, h_1 + h_2 inside the logarithm (design.md §6)."""
+    """delta(F) of the cylindrical laws (Muvengei et al. eqs. 22, 23), with h_k = (1 - nu_k^2)/(pi E_k)
+    (the original forms; Muvengei et al.'s sigma = (1 - nu^2)/E is pi h) and, for
+    Dubowsky-Freudenstein, h_1 + h_2 inside the logarithm."""
     h = p[CP_SIGMA_SUM] / math.pi
     Lb, c, R1, R2 = p[CP_LENGTH], p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL]
     assert R1 - R2 == pytest.approx(c)
@@ -153,8 +153,8 @@ def test_cylindrical_branch_end_is_contact_solve(law):
     assert st == Status.CONTACT_SOLVE
     F, st = normal_force(int(law), p, d_end, 0.0, 1.0, 0.0)
     assert st == 0 and F == pytest.approx(F_end, rel=1e-12)
-    # the DF law's seed printing (sigma_1 - sigma_2 in the log) is undefined for equal materials;
-    # we use h_1 + h_2 (design.md §6): finite for the seed's steel-steel joint
+    # the DF law's printing in Muvengei et al. (sigma_1 - sigma_2 in the log) is undefined for equal materials;
+    # we use h_1 + h_2: finite for Muvengei et al.'s steel-steel joint
     assert np.isfinite(F_end) and F_end > 0
 
 
@@ -296,7 +296,7 @@ def test_elastic_laws_conserve_energy(law):
 
 
 def test_rk4_cylindrical_impact():
-    """The seed's fixed-step RK4 with located onsets: ESDU rebound within 1e-5 at h = 1e-7 s."""
+    """Muvengei et al.'s fixed-step RK4 with located onsets: ESDU rebound within 1e-5 at h = 1e-7 s."""
     c = K.cfg(integrator=Integrator.RK4, step=1e-7, output_step=1e-6)
     t, rows, y, stats, contact = impact(L.ESDU_78035, 1.0, method=c)
     assert -y[3] / V0 == pytest.approx(1.0, abs=1e-5)
@@ -448,7 +448,7 @@ def slider_crank_error(km, q0, qd0):
     assert st == Status.DONE
     ax = rows[:, 18 + 6]  # slider x'' (q'' block starts at 2 n = 18; slider is body 2)
     a_id = slider_acceleration_closed_form(t, OMEGA)
-    second = t >= PERIOD  # after the start-up impact's first revolution (seed §III)
+    second = t >= PERIOD  # after the start-up impact's first revolution (Muvengei et al. §III)
     return np.abs(ax[second] - a_id[second]).max() / np.abs(a_id).max()
 
 
@@ -456,7 +456,7 @@ def test_closed_form_matches_ideal_slider_crank():
     assert slider_crank_error(*K.slider_crank(OMEGA)) < 1e-6
 
 
-# Measured (DOPRI5 rtol 1e-8, seed slider-crank at 5000 rpm, clearance at A, steel, seed eq. 18
+# Measured (DOPRI5 rtol 1e-8, Muvengei et al.'s slider-crank at 5000 rpm, clearance at A, steel, Muvengei et al. eq. 18
 # stiffness, LN ce = 0.9): max |a - a_ideal| / max |a_ideal| over the second revolution
 # = 6.7e-2 at c = 10 um, 1.44e-3 at c = 1 um, 2.6e-4 at c = 0.1 um.
 IDEAL_LIMIT_BOUND = 2e-3

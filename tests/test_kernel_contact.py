@@ -100,7 +100,7 @@ def test_lankarani_nikravesh_rebound_matches_1d_integration(ce):
 
 
 def test_rk4_fixed_step_impact():
-    """The seed's way (fixed RK4 steps) with events: rebound speed close to impact speed."""
+    """Muvengei et al.'s way (fixed RK4 steps) with events: rebound speed close to impact speed."""
     from planar_mbs.model import Integrator
 
     c = K.cfg(integrator=Integrator.RK4, step=2e-7, output_step=1e-6)
@@ -118,7 +118,7 @@ def test_unknown_law_code_is_bad_input():
 
 
 def test_slider_crank_with_clearance_runs():
-    """Seed case: clearance at A, LN ce = 0.9, 2 crank revolutions at 5000 rpm."""
+    """Muvengei et al.'s case: clearance at A, LN ce = 0.9, 2 crank revolutions at 5000 rpm."""
     km, q0, qd0 = K.slider_crank_clearance()
     t_end = 2 * 60 / 5000
     c = K.cfg(rtol=1e-8, atol=1e-10, output_step=1e-5, step=1e-6)

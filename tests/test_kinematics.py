@@ -1,4 +1,4 @@
-"""Assembly of initial conditions (seed §III.A): Newton–Raphson onto the constraints."""
+"""Assembly of initial conditions (Muvengei et al. §III.A): Newton–Raphson onto the constraints."""
 from pathlib import Path
 
 import numpy as np

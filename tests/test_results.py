@@ -1,4 +1,4 @@
-"""HDF5 results: chunked writing, layout of design.md §4, read back."""
+"""HDF5 results: chunked writing, layout of docs/signals.md, read back."""
 import h5py
 import numpy as np
 

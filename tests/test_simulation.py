@@ -11,7 +11,7 @@ from planar_mbs.errors import SimulationError
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
-R, L = 0.05, 0.12  # crank and rod length of the seed (§III.A)
+R, L = 0.05, 0.12  # crank and rod length of Muvengei et al. (§III.A)
 M_CRANK, M_ROD, M_SLIDER = 0.30, 0.21, 0.14
 I_CRANK, I_ROD = 1e-5, 2.5e-4
 OMEGA = 5000 * 2 * np.pi / 60

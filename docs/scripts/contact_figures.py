@@ -2,8 +2,8 @@
 
     .venv/bin/python docs/scripts/contact_figures.py            # figures + table (markdown on stdout)
 
-A journal (0.2 kg) flies at 0.5 m/s into the seed's bearing (R_B = 5 mm, c = 0.3 mm,
-L = 20 mm, steel 207 GPa, stiffness of seed eq. 18), fixed to ground; no gravity.  The same
+A journal (0.2 kg) flies at 0.5 m/s into Muvengei et al.'s bearing (R_B = 5 mm, c = 0.3 mm,
+L = 20 mm, steel 207 GPa, stiffness of Muvengei et al. eq. 18), fixed to ground; no gravity.  The same
 .mbs text runs every law at restitution 0.9 and 0.5 (the text goes through the compiler and
 the compiled time loop, as `mbs run` does).  Writes docs/images/contact_hysteresis.png and
 prints the effective-restitution table (rebound / impact speed) with the exact value of the
@@ -74,7 +74,7 @@ class _Run:
 
 def run_free(model):
     """Run the compiled time loop from the model's own initial state.  (`simulate` would first
-    assemble the initial state with every clearance joint closed, as the seed starts its
+    assemble the initial state with every clearance joint closed, as Muvengei et al. starts its
     mechanisms, which stops a free journal; here the journal must fly into the wall.)"""
     from planar_mbs.kernel import advance, make_workspace, nobs
     from planar_mbs.model import N_STATS, ST_CONTACT_EVENTS, Status
@@ -122,7 +122,7 @@ def main():
         ax.set_ylim(bottom=0)
         ax.legend(fontsize=8, loc="upper left")
     axes[0].set_ylabel("normal force F [kN]")
-    fig.suptitle("Force against penetration over one impact: journal 0.2 kg at 0.5 m/s, seed bearing "
+    fig.suptitle("Force against penetration over one impact: journal 0.2 kg at 0.5 m/s, Muvengei et al.'s bearing "
                  "(R = 5 mm, c = 0.3 mm, L = 20 mm, steel)", fontsize=9)
     fig.tight_layout()
     out = ROOT / "docs" / "images" / "contact_hysteresis.png"

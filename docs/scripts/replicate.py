@@ -41,8 +41,8 @@ MODULI = {"GPa": "207GPa", "MPa": "207MPa"}
 REVOLUTIONS = 101  # 1 transient + 100 section points
 PER_REV_SERIES = 1440  # output samples per revolution of the runs whose time series are drawn
 PER_REV_BIF = 360
-SHOWN = (1, 5)  # revolutions drawn: "four cycles after the first" (seed §III.A)
-SEED_CLAIMS = {  # §III.C
+SHOWN = (1, 5)  # revolutions drawn: "four cycles after the first" (Muvengei et al. §III.A)
+PAPER_CLAIMS = {  # §III.C
     "A": {"800rpm": "chaotic", "1200rpm": "quasi-periodic", "2500rpm": "quasi-periodic", "5000rpm": "periodic"},
     "B": {"800rpm": "periodic", "1200rpm": "quasi-periodic", "2500rpm": "quasi-periodic", "5000rpm": "chaotic"},
 }
@@ -243,16 +243,16 @@ def peaks(path: Path, joint: str, from_rev: int = 1) -> dict[str, dict[str, floa
 def tables(files: dict, laws: list[str], wall: float, figures: list[Path], fresh: bool = True) -> dict[str, str]:
     gen = {}
     # verdicts per speed
-    lines = ["| joint | E | speed | seed says | our verdict | K | λ per rev | D2 | recurrence | N | agrees with seed |",
+    lines = ["| joint | E | speed | paper says | our verdict | K | λ per rev | D2 | recurrence | N | agrees with paper |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     data = {"verdicts": [], "peaks": {}, "laws": {}}
     for (joint, tag), path in files["speeds"].items():
         for row, sec, v in sweep_sections(path):
             speed = row["values"]["speed"]
-            seed = SEED_CLAIMS[joint][speed]
-            ok = "yes" if v.verdict == seed else "no"
+            claim = PAPER_CLAIMS[joint][speed]
+            ok = "yes" if v.verdict == claim else "no"
             lam = "–" if v.lyapunov != v.lyapunov else f"{v.lyapunov:.2f}"
-            lines.append(f"| {joint} | {MODULI[tag]} | {speed} | {seed} | **{v.label()}** | {v.K:.2f} | {lam} | "
+            lines.append(f"| {joint} | {MODULI[tag]} | {speed} | {claim} | **{v.label()}** | {v.K:.2f} | {lam} | "
                          f"{v.dimension:.2f} | {v.recurrence:.1e} | {v.n_points} | {ok} |")
             data["verdicts"].append({"joint": joint, "E": MODULI[tag], "speed": speed, **v.as_dict()})
     gen["verdicts"] = "\n".join(lines)

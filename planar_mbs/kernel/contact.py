@@ -1,4 +1,4 @@
-"""Revolute clearance joints: kinematics (seed eqs. 3-12), normal force laws, friction.
+"""Revolute clearance joints: kinematics (Muvengei et al. eqs. 3-12), normal force laws, friction.
 
 Joint k joins the bearing body i (``clearance_body[k, 0]``) and the journal
 body j (``clearance_body[k, 1]``); ``clearance_point[k]`` holds the bearing and
@@ -33,7 +33,7 @@ Laws (``ContactLaw`` codes; docs/contact.md has the equations and references):
   ``3 (1 - ce^2)/4``, Hunt-Crossley ``3 (1 - ce)/2``, Flores ``8 (1 - ce)/(5 ce)``
   and Gonthier ``(1 - ce^2)/ce``;
 * the cylindrical laws, implicit in F: ``delta = A F (ln(B / F) + 1)`` with
-  ``h = (sigma_1 + sigma_2)/pi`` (sigma = (1 - nu^2)/E as in seed eq. 18),
+  ``h = (sigma_1 + sigma_2)/pi`` (sigma = (1 - nu^2)/E as in Muvengei et al. eq. 18),
   ``A = h / L`` and ``B = L^3 c / (h R_B R_J)`` (Dubowsky-Freudenstein, the
   sigma_1 + sigma_2 form) or ``B = 4 L c / h`` (ESDU-78035).  With x = F / B and
   s = delta / (A B): ``x (1 - ln x) = s``; this is monotone for 0 < x <= 1 and
@@ -105,7 +105,7 @@ def is_cylindrical(law):
 @kernel
 def damping_factor(law, ce):
     """chi of the dissipative laws F = K d^n (1 + chi d'/d'(-)); 0 for the elastic ones."""
-    if law == LANKARANI_NIKRAVESH:  # seed eq. 21 (Lankarani & Nikravesh 1990)
+    if law == LANKARANI_NIKRAVESH:  # Muvengei et al. eq. 21 (Lankarani & Nikravesh 1990)
         return 0.75 * (1.0 - ce * ce)
     if law == HUNT_CROSSLEY:  # Hunt & Crossley 1975 (lambda = 3 alpha K / 2, ce = 1 - alpha v)
         return 1.5 * (1.0 - ce)
@@ -190,7 +190,7 @@ def normal_force(law, p, delta, vn, v_impact, f_last):
         return B * x, st
     K = p[CP_STIFFNESS]
     dn = K * delta ** p[CP_EXPONENT]
-    if law == HERTZ:  # seed eq. 17
+    if law == HERTZ:  # Muvengei et al. eq. 17
         return dn, 0
     if law < 0 or law >= N_LAWS:
         return 0.0, BAD_INPUT

@@ -1,4 +1,4 @@
-"""Accelerations of the constrained system (seed eqs. 1-2, Nikravesh).
+"""Accelerations of the constrained system (Muvengei et al. eqs. 1-2, Nikravesh).
 
 ``M q'' + Cq^T lam = Qe``, ``Cq q'' = gamma - 2 alpha (Cq q' + Ct) - beta^2 C``.
 M is diagonal (``km.minv``), so with the Schur complement

@@ -13,7 +13,7 @@
   allocate (workspaces are made once in Python), and with the runtime on,
   every call between kernels increfs and decrefs each array of the ~25-array
   `KernelModel` and the workspace with atomic operations: measured 5.4 µs per
-  right-hand side of the seed slider-crank with it, 0.9 µs without.
+  right-hand side of Muvengei et al.'s slider-crank with it, 0.9 µs without.
 """
 from numba import njit
 
