@@ -187,11 +187,10 @@ def run(
 
 
 def _print_summary(res, out: Path) -> None:
-    import numpy as np
+    from planar_mbs.results import peak, row_count
 
     a = res.attrs
-    err = res.signals.get("system.position_error")
-    worst = float(np.max(err)) if err is not None and len(err) else float("nan")
+    worst = peak(res, "system.position_error") if "system.position_error" in res.signals else float("nan")
     con = _console()
     state = "finished" if a.get("complete") else f"stopped ({a.get('status', '?')})"
     con.print(f"[bold]{state}[/] at t = {a.get('t_reached', float('nan')):.6g} s → {out}")
@@ -200,7 +199,7 @@ def _print_summary(res, out: Path) -> None:
         f"rhs evaluations {a.get('n_rhs', 0):,}   contact events {a.get('n_contact_events', 0):,}"
     )
     con.print(f"  time-loop wall time {a.get('wall_time', 0.0):.3f} s   "
-              f"largest constraint error {worst:.3g}   outputs {len(res.time):,}")
+              f"largest constraint error {worst:.3g}   outputs {row_count(res):,}")
     for warning in a.get("warnings") or []:
         _console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
 

@@ -9,16 +9,25 @@ File layout::
         n_rhs, n_contact_events, n_outputs, settings (JSON)
 
 `ResultsWriter` appends chunks while the run goes and flushes after each, so a
-crash or Ctrl-C keeps what was computed.  h5py is imported only here.
+crash or Ctrl-C keeps what was computed.  Before each write it reserves the disk
+space the write needs (`reserve_space`): a full disk stops the run *between* two
+chunks with `DiskFull`, and the file stays readable up to the last whole chunk
+(HDF5 has no journal: a write that fails halfway leaves a file it cannot read).
+`FileResults` reads a written run back lazily, one signal at a time, so a run
+that streams to a file never holds all its rows in memory.  h5py is imported only here.
 """
 from __future__ import annotations
 
 import json
+import os
+import sys
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .errors import MbsError
 from .signals import Signal
 
 
@@ -53,6 +62,165 @@ class Results:
         return {k: self.attrs[k] for k in keys if k in self.attrs}
 
 
+class FileResults(Results):
+    """A run kept in a results file: `time` and each signal are read from the file when
+    asked for (and not kept), so the rows of a long run never all sit in memory."""
+
+    def __init__(self, path: str | Path, group: str, units: dict[str, str], attrs: dict):
+        self.path, self.group = Path(path), group.strip("/")
+        self.units, self.attrs = dict(units), dict(attrs)
+        self._time = None
+        self.signals = _FileSignals(self, list(self.units))
+
+    def _read(self, name: str) -> np.ndarray:
+        import h5py
+
+        with h5py.File(self.path, "r") as f:
+            return f[f"{self.group}/{name}" if self.group else name][()]
+
+    @property
+    def time(self) -> np.ndarray:
+        return self._read("time") if self._time is None else self._time
+
+    @time.setter
+    def time(self, value) -> None:
+        self._time = value
+
+    def peak(self, name: str) -> float:
+        """Largest finite value of a signal, read in slices (memory bounded); NaN if none."""
+        import h5py
+
+        entity, qty = name.rsplit(".", 1)
+        best = -np.inf
+        with h5py.File(self.path, "r") as f:
+            ds = f[f"{self.group}/signals/{entity}/{qty}" if self.group else f"signals/{entity}/{qty}"]
+            step = 1 << 20
+            for i in range(0, ds.shape[0], step):
+                x = ds[i:i + step]
+                x = x[np.isfinite(x)]
+                if len(x):
+                    best = max(best, float(x.max()))
+        return best if best > -np.inf else float("nan")
+
+
+class _FileSignals(Mapping):
+    """The signals of a `FileResults`, each read from the file on access."""
+
+    def __init__(self, owner: FileResults, names: list[str]):
+        self.owner, self.names = owner, names
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self.names:
+            raise KeyError(name)
+        entity, qty = name.rsplit(".", 1)
+        return self.owner._read(f"signals/{entity}/{qty}")
+
+    def __iter__(self):
+        return iter(self.names)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+
+def row_count(results: Results) -> int:
+    """Number of output rows of any `Results`, without reading them."""
+    if isinstance(results, FileResults):
+        import h5py
+
+        with h5py.File(results.path, "r") as f:
+            return int(f[f"{results.group}/time" if results.group else "time"].shape[0])
+    return len(results.time)
+
+
+def peak(results: Results, name: str) -> float:
+    """Largest finite value of a signal of any `Results` (NaN if it has none)."""
+    if isinstance(results, FileResults):
+        return results.peak(name)
+    x = np.asarray(results.signals[name])
+    x = x[np.isfinite(x)]
+    return float(x.max()) if len(x) else float("nan")
+
+
+# ---------------------------------------------------------------- disk space
+class DiskFull(MbsError):
+    """There is no room on the disk for the next chunk of results; nothing of it was written."""
+
+    exit_code = 3
+
+    def __init__(self, message: str):
+        self.message = message
+        super().__init__(message)
+
+
+_FALLOC_FL_KEEP_SIZE, _FALLOC_FL_PUNCH_HOLE = 0x01, 0x02
+_fallocate = None
+
+
+def _libc_fallocate():
+    """libc's fallocate(2) (it takes flags, unlike os.posix_fallocate), or None."""
+    global _fallocate
+    if _fallocate is None:
+        try:
+            import ctypes
+
+            fn = ctypes.CDLL(None, use_errno=True).fallocate
+            fn.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int64, ctypes.c_int64]
+            fn.restype = ctypes.c_int
+            _fallocate = fn
+        except (OSError, AttributeError):
+            _fallocate = False
+    return _fallocate or None
+
+
+def reserve_space(fd: int, nbytes: int, path: str | Path = "") -> int:
+    """Allocate ``nbytes`` of disk past the end of the file open as ``fd`` without changing its size
+    (fallocate with FALLOC_FL_KEEP_SIZE), so the writes that follow cannot run out of space halfway.
+    Raises `DiskFull` when the disk cannot hold them.  Where fallocate is not supported, compares
+    with the free space instead.  Returns the end of the reserved range."""
+    import ctypes
+
+    end = os.fstat(fd).st_size
+    fn = _libc_fallocate()
+    if fn is not None and fn(fd, _FALLOC_FL_KEEP_SIZE, end, int(nbytes)) == 0:
+        return end + int(nbytes)
+    err = ctypes.get_errno() if fn is not None else 0
+    if err not in (0, 28):  # not supported here (EOPNOTSUPP, ...): look at the free space instead
+        import shutil
+
+        try:
+            free = shutil.disk_usage(Path(path).parent if path else ".").free
+        except OSError:
+            return end
+        if free >= nbytes:
+            return end
+    need = _mb(nbytes)
+    raise DiskFull(f"the disk holding {path or 'the results file'} is full: the next {need} of results do not "
+                   "fit (No space left on device); free some space or write elsewhere (-o)")
+
+
+def release_reserve(fd: int, end: int) -> None:
+    """Give back what `reserve_space` allocated past the end of the file (best effort)."""
+    fn = _libc_fallocate()
+    try:
+        size = os.fstat(fd).st_size
+    except OSError:
+        return
+    if fn is not None and end > size:
+        fn(fd, _FALLOC_FL_PUNCH_HOLE | _FALLOC_FL_KEEP_SIZE, size, end - size)
+
+
+def _mb(nbytes: float) -> str:
+    return f"{nbytes / 1e6:.3g} MB" if nbytes >= 1e5 else f"{nbytes / 1e3:.3g} kB"
+
+
+def results_bytes(rows_before: int, n_rows: int, n_columns: int, chunk: int = 4096) -> int:
+    """Disk that appending ``n_rows`` rows after ``rows_before`` rows to ``n_columns`` chunked float64
+    datasets (time included) takes: the whole new chunks it starts in each dataset, and room for
+    HDF5's metadata (chunk index nodes, object headers)."""
+    new_chunks = -(-(rows_before + n_rows) // chunk) - (-(-rows_before // chunk))
+    return int(new_chunks * chunk * 8 * n_columns + n_columns * 2048 + (1 << 17))
+
+
 def _json_default(value):
     if isinstance(value, np.generic):
         return value.item()
@@ -79,13 +247,14 @@ def write_results(target, results: Results, group: str = "/", compression: str |
     if not isinstance(target, (h5py.File, h5py.Group)):
         with h5py.File(target, "a") as f:
             return write_results(f, results, group, compression)
+    chunk = ResultsWriter.CHUNK
     name = group.strip("/")
     if name and name in target:
         del target[name]
     g = target.require_group(name) if name else target
     opts = dict(compression=compression) if compression else {}
     n = len(results.time)
-    chunks = dict(chunks=(min(max(n, 1), ResultsWriter.CHUNK),)) if opts else {}
+    chunks = dict(chunks=(min(max(n, 1), chunk),)) if opts else {}
     ds = g.create_dataset("time", data=np.asarray(results.time, "f8"), **opts, **chunks)
     ds.attrs["unit"] = "s"
     for sig, values in results.signals.items():
@@ -129,13 +298,18 @@ class WriteLock:
             self.fd = -1
 
 
+WRITE_CHUNK_CACHE = 1 << 17  # bytes of HDF5 chunk cache per dataset when writing (4 chunks of 4096 rows)
+
+
 def open_for_writing(path: Path, mode: str):
     """(h5py.File, WriteLock) for a writer; raises `ResultsBusy` or OSError."""
     import h5py
 
     lock = WriteLock(path)
     try:
-        return h5py.File(path, mode, locking=False), lock
+        # a small chunk cache: HDF5's default (1 MiB per dataset) keeps growing with the rows
+        # written (measured: all of them), which would make memory grow with t_end
+        return h5py.File(path, mode, locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE), lock
     except BaseException:
         lock.release()
         raise
@@ -163,42 +337,91 @@ class ResultsWriter:
             err = MbsError(f"cannot write {self.path}: {exc}")
             err.exit_code = 2
             raise err from None
-        if group.strip("/") and group.strip("/") in self.file:
-            del self.file[group.strip("/")]
-        self.group = self.file.require_group(group) if group.strip("/") else self.file
-        self.n = 0
-        opts = dict(shape=(0,), maxshape=(None,), dtype="f8", chunks=(self.CHUNK,))
-        self.time = self.group.create_dataset("time", **opts)
-        self.time.attrs["unit"] = "s"
-        self.datasets = []
-        for sig in table:
-            ds = self.group.create_dataset(f"signals/{sig.entity}/{sig.quantity}", **opts)
-            ds.attrs["unit"] = sig.unit
-            self.datasets.append(ds)
-        self.set_attrs(dict(attrs, complete=False, status="running"))
-        self.file.flush()
+        self.reserved = 0
+        self.broken = False
+        self.t_last = 0.0  # time of the last row written
+        try:
+            self._reserve(len(json.dumps(attrs, default=_json_default)) + results_bytes(0, 0, len(table) + 1))
+            if group.strip("/") and group.strip("/") in self.file:
+                del self.file[group.strip("/")]
+            self.group = self.file.require_group(group) if group.strip("/") else self.file
+            self.n = 0
+            opts = dict(shape=(0,), maxshape=(None,), dtype="f8", chunks=(self.CHUNK,))
+            self.time = self.group.create_dataset("time", **opts)
+            self.time.attrs["unit"] = "s"
+            self.datasets = []
+            for sig in table:
+                ds = self.group.create_dataset(f"signals/{sig.entity}/{sig.quantity}", **opts)
+                ds.attrs["unit"] = sig.unit
+                self.datasets.append(ds)
+            self.set_attrs(dict(attrs, complete=False, status="running"))
+            self.file.flush()
+        except BaseException:
+            self.broken = not isinstance(sys.exc_info()[1], DiskFull)
+            self.close()
+            raise
+
+    def _reserve(self, nbytes: int) -> None:
+        self.reserved = max(self.reserved, reserve_space(self.lock.fd, nbytes, self.path))
 
     def set_attrs(self, attrs: dict) -> None:
         set_attrs(self.group, attrs)
 
     def append(self, t: np.ndarray, rows: np.ndarray) -> None:
+        """Write the rows after the ones already in the file.  When the disk cannot hold them all,
+        writes as many whole chunks of them as fit and raises `DiskFull`; a piece is written
+        whole or not at all (`ResultsWriteError` if a write fails anyway)."""
+        try:
+            self._append(t, rows)
+            return
+        except ResultsWriteError:
+            raise
+        except DiskFull:
+            pass
+        for i in range(0, len(t), self.CHUNK):  # what fits, chunk by chunk; DiskFull at the first that does not
+            self._append(t[i:i + self.CHUNK], rows[i:i + self.CHUNK])
+
+    def _append(self, t: np.ndarray, rows: np.ndarray) -> None:
         n = len(t)
         if n == 0:
             return
+        self._reserve(results_bytes(self.n, n, len(self.datasets) + 1, self.CHUNK))
         end = self.n + n
-        self.time.resize((end,))
-        self.time[self.n:end] = t
-        for sig, ds in zip(self.table, self.datasets):
-            ds.resize((end,))
-            ds[self.n:end] = sig.extract(rows)
+        try:
+            self.time.resize((end,))
+            self.time[self.n:end] = t
+            for sig, ds in zip(self.table, self.datasets):
+                ds.resize((end,))
+                ds[self.n:end] = sig.extract(rows)
+            self.file.flush()
+        except (OSError, RuntimeError) as exc:
+            self.broken = True
+            raise ResultsWriteError(f"cannot write {self.path}: {exc}") from None
         self.n = end
-        self.file.flush()
+        self.t_last = float(t[-1])
 
     def close(self, attrs: dict | None = None) -> None:
-        if attrs:
-            self.set_attrs(attrs)
-        self.file.close()
-        self.lock.release()
+        """Store the final attributes (when there is room) and close the file."""
+        if self.lock.fd < 0:
+            return
+        try:
+            if attrs and not self.broken:
+                try:
+                    self._reserve(len(json.dumps(attrs, default=_json_default)) + (1 << 16))
+                    self.set_attrs(attrs)
+                except DiskFull:
+                    pass  # the file keeps status "running", complete = False: still readable
+            try:
+                self.file.close()
+            except (OSError, RuntimeError):
+                pass
+        finally:
+            release_reserve(self.lock.fd, self.reserved)
+            self.lock.release()
+
+
+class ResultsWriteError(DiskFull):
+    """A write to the results file failed (an I/O error, a disk that filled past the reservation)."""
 
 
 def read_results(path: str | Path) -> Results:

@@ -7,7 +7,10 @@ The time loop lives in numba (`kernel.advance`); this module only slices the
 run into chunks aligned with the output grid, hands each chunk's rows to the
 HDF5 writer and the progress callback, and turns integer statuses into
 messages.  A failed run raises `SimulationError` and keeps everything computed
-up to the failure (in memory and in the file, marked incomplete).
+up to the failure (in memory and in the file, marked incomplete).  With an output
+file the rows are only in the file (memory stays bounded however long the run):
+the returned `Results` reads them back on access; a full disk stops the run
+between two chunks with everything before them readable.
 """
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ from .model import (
     Status,
     observation_size,
 )
-from .results import Results, ResultsWriter
+from .results import DiskFull, FileResults, Results, ResultsWriter
 from .signals import signal_table
 
 BUFFER_ROWS = 2048  # observation rows per chunk handed back by the kernel (at most)
@@ -151,25 +154,33 @@ def _row_owner(model: Model, row: int) -> str:
     return ""
 
 
-def _physics_warnings(model: Model, signals: dict[str, np.ndarray]) -> list[str]:
+def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     """Results that finished but are not physical: a journal that sank into its bearing
     deeper than the radial clearance (too soft a contact for that clearance, e.g. a
-    stiffness of 1e6 N/m^1.5 or a clearance of 1 µm with steel)."""
+    stiffness of 1e6 N/m^1.5 or a clearance of 1 µm with steel).  ``deepest`` holds
+    the largest penetration of each clearance joint over the run (`_deepest`)."""
     from .model import CP_CLEARANCE
 
     warnings = []
     for c, name in enumerate(model.clearance_names):
-        pen = signals.get(f"{name}.penetration")
         clearance = float(model.kernel.clearance_param[c, CP_CLEARANCE])
-        if pen is None or not len(pen):
-            continue
-        deepest = float(np.nanmax(pen))
-        if deepest > clearance:
+        deepest_c = deepest.get(f"{name}.penetration", -np.inf)
+        if deepest_c > clearance:
             warnings.append(
-                f"clearance joint `{name}`: the journal sank {deepest * 1e6:.3g} µm into the bearing, more than "
+                f"clearance joint `{name}`: the journal sank {deepest_c * 1e6:.3g} µm into the bearing, more than "
                 f"the clearance ({clearance * 1e6:.3g} µm); the contact is too soft for this clearance and "
                 "the results are not physical (raise the stiffness or the clearance)")
     return warnings
+
+
+def _deepest(table, rows: np.ndarray, deepest: dict[str, float]) -> None:
+    """Update the largest penetration of each clearance joint with a chunk of rows."""
+    for s in table:
+        if s.quantity == "penetration":
+            x = s.extract(rows)
+            x = x[np.isfinite(x)]
+            if len(x):
+                deepest[s.name] = max(deepest.get(s.name, -np.inf), float(x.max()))
 
 
 def select_signals(table, wanted):
@@ -237,12 +248,17 @@ def simulate(
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},
     }
     writer = ResultsWriter(output, table, attrs) if output is not None else None
-    times, blocks = [], []
+    times, blocks = [], []  # all rows, kept only without an output file
     pending_t, pending_rows = [], []
+    deepest: dict[str, float] = {}
+    disk_full: list[DiskFull] = []
 
     def flush():
-        if writer and pending_t:
-            writer.append(np.concatenate(pending_t), np.concatenate(pending_rows))
+        if writer and pending_t and not disk_full:
+            try:
+                writer.append(np.concatenate(pending_t), np.concatenate(pending_rows))
+            except DiskFull as exc:
+                disk_full.append(exc)
         pending_t.clear()
         pending_rows.clear()
 
@@ -265,28 +281,34 @@ def simulate(
                 now = _time.perf_counter()
                 wall += now - start
                 if n:
-                    times.append(out_t[:n].copy())
-                    blocks.append(out[:n].copy() if cols is None else out[:n, cols])
+                    chunk_t = out_t[:n].copy()
+                    chunk = out[:n].copy() if cols is None else out[:n, cols]
+                    _deepest(table, chunk, deepest)
                     if writer:
-                        pending_t.append(times[-1])
-                        pending_rows.append(blocks[-1])
+                        pending_t.append(chunk_t)
+                        pending_rows.append(chunk)
                         n_pending += n
                         if n_pending >= FLUSH_ROWS or now - last_flush >= FLUSH_SECONDS:
                             flush()
                             n_pending = 0
                             last_flush = _time.perf_counter()
+                    else:
+                        times.append(chunk_t)
+                        blocks.append(chunk)
                 if progress:
                     progress(float(clock[0]), t_end)
-                if status != Status.BUFFER_FULL:
+                if status != Status.BUFFER_FULL or disk_full:
                     break
         finally:
             flush()
-            finished = status == Status.DONE and clock[0] >= t_end
+            finished = status == Status.DONE and clock[0] >= t_end and not disk_full
             interrupted = received[0] if received and not finished else 0
-            rows = np.concatenate(blocks) if blocks else np.zeros((0, nobs if cols is None else len(cols)))
-            t_all = np.concatenate(times) if times else np.zeros(0)
-            complete = status == Status.DONE and not interrupted
-            if interrupted:
+            complete = status == Status.DONE and not interrupted and not disk_full
+            t_kept = float(clock[0])
+            if disk_full:
+                t_kept = writer.t_last
+                message = f"{disk_full[0].message}; stopped at t = {t_kept:.9g} s"
+            elif interrupted:
                 message = f"interrupted ({signal.Signals(interrupted).name}) at t = {clock[0]:.9g} s"
             elif complete:
                 message = "finished"
@@ -296,9 +318,9 @@ def simulate(
                     message += _near_singular(model, y, float(clock[0]), np.concatenate([q, qd]))
             run_attrs = {
                 "complete": complete,
-                "status": "interrupted" if interrupted else Status(status).name.lower(),
+                "status": "disk_full" if disk_full else "interrupted" if interrupted else Status(status).name.lower(),
                 "message": message,
-                "t_reached": float(clock[0]),
+                "t_reached": t_kept,
                 "wall_time": wall,
                 "n_steps": int(stats[ST_STEPS]),
                 "n_rejected": int(stats[ST_REJECTED]),
@@ -306,18 +328,19 @@ def simulate(
                 "n_contact_events": int(stats[ST_CONTACT_EVENTS]),
                 "n_outputs": int(stats[ST_OUTPUTS]),
             }
-            named = {s.name: s.extract(rows) for s in table}
-            run_attrs["warnings"] = _physics_warnings(model, named)
+            run_attrs["warnings"] = _physics_warnings(model, deepest)
             if writer:
                 writer.close(run_attrs)
-    results = Results(
-        time=t_all,
-        signals=named,
-        units={s.name: s.unit for s in table},
-        attrs={**attrs, **run_attrs},
-    )
+    units = {s.name: s.unit for s in table}
+    if writer:
+        results = FileResults(writer.path, "/", units, {**attrs, **run_attrs})
+    else:
+        rows = np.concatenate(blocks) if blocks else np.zeros((0, nobs if cols is None else len(cols)))
+        results = Results(time=np.concatenate(times) if times else np.zeros(0),
+                          signals={s.name: s.extract(rows) for s in table}, units=units,
+                          attrs={**attrs, **run_attrs})
     if interrupted:
         raise RunInterrupted(interrupted, results)
     if not complete:
-        raise SimulationError(message, time=float(clock[0]), results=results)
+        raise SimulationError(message, time=t_kept, results=results)
     return results

@@ -1,0 +1,95 @@
+"""A disk that fills up during `mbs run` or `mbs sweep`: a clean stop (exit 3, a message naming the
+full disk, no traceback), and a results file that HDF5 still reads, holding exactly the rows computed
+before the stop (checked against the same run kept in memory), and a sweep that resumes once there
+is room again.
+
+The disk is a real size-limited tmpfs mounted for the test (we run as root in CI); where mounting is
+not permitted, the same checks run with the disk-space reservation made to fail instead (ENOSPC
+injected at the write, as the disk would)."""
+from __future__ import annotations
+
+import contextlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+MODEL = ROOT / "models" / "slider_crank_clearance_a.mbs"
+MBS = [str(Path(sys.executable).parent / "mbs")]
+
+
+@contextlib.contextmanager
+def small_disk(where: Path, size: str):
+    """A tmpfs of `size` mounted at `where`; yields False (nothing mounted) where that is not allowed."""
+    where.mkdir(parents=True, exist_ok=True)
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        subprocess.run(["umount", "-l", str(where)], capture_output=True)
+
+
+def _mbs(*args, cwd=None, env=None, timeout=600):
+    return subprocess.run([*MBS, *map(str, args)], capture_output=True, text=True, cwd=cwd, env=env,
+                          timeout=timeout)
+
+
+def _inject_env(tmp_path: Path, budget: int) -> dict:
+    """Environment for the fallback without mount: a sitecustomize that makes `reserve_space` fail with
+    ENOSPC once the bytes reserved so far would pass `budget`, as a disk of that size would."""
+    site = tmp_path / "site"
+    site.mkdir(exist_ok=True)
+    (site / "sitecustomize.py").write_text(
+        "import planar_mbs.results as R\n"
+        "_orig, _used = R.reserve_space, [0]\n"
+        "def _disk(fd, nbytes, path=''):\n"
+        f"    if _used[0] + nbytes > {budget}:\n"
+        "        raise R.DiskFull(f'the disk holding {path} is full: injected ENOSPC')\n"
+        "    _used[0] += nbytes\n"
+        "    return _orig(fd, nbytes, path)\n"
+        "R.reserve_space = _disk\n")
+    return {**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+
+
+def test_run_stops_cleanly_and_keeps_a_readable_prefix(tmp_path):
+    from planar_mbs import load_model, simulate
+
+    disk = tmp_path / "disk"
+    with small_disk(disk, "4m") as mounted:
+        env = None if mounted else _inject_env(tmp_path, 4 << 20)
+        out = disk / "a.h5"
+        r = _mbs("run", MODEL, "-o", out, "--t-end", "0.2s", "-q", env=env)
+        assert r.returncode == 3, r.stdout + r.stderr
+        text = r.stdout + r.stderr
+        assert "Traceback" not in text
+        assert "is full" in text and "kept in" in text
+        with h5py.File(out, "r") as f:  # HDF5 reads it: every dataset has the same number of rows
+            t = f["time"][()]
+            assert f.attrs["complete"] == False  # noqa: E712  (numpy bool)
+            vx = f["signals/slider/vx"][()]
+            force = f["signals/A/contact_force"][()]
+            lengths = {ds.shape[0] for ds in (f[f"signals/{e}/{q}"] for e in f["signals"] for q in f["signals"][e])}
+            assert lengths == {len(t)}
+    assert 0 < len(t) < 20001  # some rows, not all of them
+    ref = simulate(load_model(MODEL), t_end=0.2)  # the same run, in memory
+    np.testing.assert_array_equal(t, ref.time[:len(t)])
+    np.testing.assert_array_equal(vx, ref["slider.vx"][:len(t)])
+    np.testing.assert_array_equal(force, ref["A.contact_force"][:len(t)])
+
+
+def test_full_disk_before_the_first_row_is_a_clean_error(tmp_path):
+    disk = tmp_path / "disk"
+    with small_disk(disk, "64k") as mounted:
+        env = None if mounted else _inject_env(tmp_path, 64 << 10)
+        r = _mbs("run", MODEL, "-o", disk / "a.h5", "--t-end", "0.01s", "-q", env=env)
+        assert r.returncode in (2, 3), r.stdout + r.stderr
+        assert "Traceback" not in r.stdout + r.stderr
