@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import catalog
 from . import units as U
 from .errors import ModelError, did_you_mean
 from .evaluate import (  # noqa: F401  the evaluator's names stay importable from planar_mbs.compile
@@ -26,10 +27,10 @@ from .evaluate import (  # noqa: F401  the evaluator's names stay importable fro
 )
 from .model import (
     CONTACT_LAW_NAMES, CP_CLEARANCE, CP_EXPONENT, CP_FRICTION, CP_FRICTION_V0, CP_LENGTH,
-    CP_FRICTION_V1, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS, CYLINDRICAL_LAWS,
-    DISSIPATIVE_LAWS, JOINT_ROWS, JP_LENGTH,
+    CP_FRICTION_V1, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS,
+    JOINT_ROWS, JP_LENGTH,
     JP_PHI0, N_CLEARANCE_PARAM, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM, ContactLaw,
-    DriverType, ForceType, Integrator, JointType, KernelModel, Model, MotionType, Settings,
+    INTEGRATOR_NAMES, DriverType, ForceType, Integrator, JointType, KernelModel, Model, MotionType, Settings,
     SourceRef,
 )
 from .parse import KEYWORDS, decode_model, parse_expression, parse_model
@@ -73,13 +74,8 @@ BODY_FIELDS = {"mass": "kg", "inertia": "kg*m^2", "position": "(x, y) of the cen
                "shape": "bar(length, width) | box(width, height) | circle(radius)"}
 MATERIAL_FIELDS = {"E": "Young's modulus, e.g. 207 GPa", "nu": "Poisson's ratio, e.g. 0.3",
                    "density": "e.g. 7800 kg/m^3"}
-JOINT_FIELDS = {
-    "revolute": {},
-    "translational": {"axis": "sliding axis (ux, uy) in the first body's frame",
-                      "angle": "relative angle kept (default: from the initial pose)"},
-    "weld": {"angle": "relative angle kept (default: from the initial pose)"},
-    "revolute_revolute": {"length": "link length (default: from the initial pose)"},
-    "revolute_translational": {"axis": "line direction (ux, uy) in the first body's frame"},
+JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
+    **{spec.name: dict(spec.fields) for spec in catalog.JOINTS},
     "clearance_revolute": {
         "clearance": "radial clearance c = R_B - R_J", "bearing_radius": "R_B", "journal_radius": "R_J",
         "length": "bearing length", "material": "material of both parts",
@@ -90,11 +86,9 @@ JOINT_FIELDS = {
         "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
         "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)"},
 }
-JOINT_TYPES = {"revolute": JointType.REVOLUTE, "translational": JointType.TRANSLATIONAL,
-               "weld": JointType.WELD, "revolute_revolute": JointType.REVOLUTE_REVOLUTE,
-               "revolute_translational": JointType.REVOLUTE_TRANSLATIONAL}
+JOINT_TYPES = {spec.name: JointType(spec.code) for spec in catalog.JOINTS}
 LAWS = {name: law for law, name in CONTACT_LAW_NAMES.items()}
-IMPLEMENTED_LAWS = set(ContactLaw)
+LAW_SETTINGS = frozenset(key for g in catalog.LAW_GROUPS for key in g.takes)  # a law's call arguments
 DRIVER_KINDS = ("rotation", "translation")
 DRIVER_FIELDS = {"speed": "constant speed", "motion": "ramp(...) | harmonic(...) | polynomial(...)",
                  "relative_to": "reference body (default ground)", "axis": "axis (ux, uy) (translation)",
@@ -109,7 +103,7 @@ FORCE_FIELDS = {
     "rotational_spring_damper": {"stiffness": "N*m/rad", "damping": "N*m*s/rad",
                                  "angle": "free angle (default: initial)", "actuator": "constant torque"},
 }
-SIM_FIELDS = {"t_end": "end time", "integrator": "rk4 | dopri5 | dop853", "rtol": "relative tolerance",
+SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalog.INTEGRATORS)), "rtol": "relative tolerance",
               "atol": "absolute tolerance", "step": "RK4 step / first trial step", "h_min": "smallest step",
               "h_max": "largest step", "output_step": "time between outputs",
               "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
@@ -450,11 +444,12 @@ class Compiler:
         a["joint_type"][k] = int(jt)
         a["joint_body"][k] = (bi, bj)
         a["joint_point"][k] = (pi, pj)
-        if jt in (JointType.TRANSLATIONAL, JointType.REVOLUTE_TRANSLATIONAL):
+        takes = catalog.JOINTS[int(jt)].fields  # filled by name (catalog.JointSpec)
+        if "axis" in takes:
             a["joint_axis"][k] = self._unit_axis(f, "axis")
-        if jt in (JointType.TRANSLATIONAL, JointType.WELD):
+        if "angle" in takes:
             a["joint_param"][k, JP_PHI0] = f.scalar("angle", U.ANGLE, self._angle0(bj) - self._angle0(bi))
-        if jt == JointType.REVOLUTE_REVOLUTE:
+        if "length" in takes:
             default = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
             length = f.scalar("length", U.LENGTH, default)
             if not length > 0:
@@ -499,12 +494,12 @@ class Compiler:
         label = f"clearance joint `{st.name}`"
         bi, pi, bj, pj = self._two_refs(st, label)
         law_call = None
-        f = self._fields(st, label, JOINT_FIELDS["clearance_revolute"], c)
+        f = self._fields(st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT], c)
         if f.has("law"):
             lv = self.ev.value(f.expr("law"))
             if isinstance(lv, CallVal):  # law = lankarani_nikravesh(restitution = 0.9)
                 law_call = lv.call
-                allowed = {"restitution", "stiffness", "exponent"}
+                allowed = LAW_SETTINGS  # the chosen law's group checks them below
                 extra = []
                 for kw in law_call.kwargs:
                     if kw.name not in allowed:
@@ -513,10 +508,11 @@ class Compiler:
                     extra.append(Field(kw.name, kw.value, kw.pos))
                 if law_call.args:
                     raise law_call.pos.error("contact law arguments are named, e.g. `restitution = 0.9`")
-                f = Fields(self.ev, st, label, JOINT_FIELDS["clearance_revolute"],
+                f = Fields(self.ev, st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT],
                            tuple(Field(kw.name, kw.value, kw.pos) for kw in c.kwargs) + tuple(extra))
         name = f.symbol("law", list(LAWS))
         law = LAWS[name]
+        group = catalog.law(name).group
         # radii: any two of clearance, bearing_radius, journal_radius
         given = {key: f.scalar(key, U.LENGTH, positive=True)
                  for key in ("clearance", "bearing_radius", "journal_radius") if f.has(key)}
@@ -557,13 +553,15 @@ class Compiler:
         elif f.has("bearing_material"):
             sigma_sum = self._sigma(*self._material(f, "bearing_material")) + \
                 self._sigma(*self._material(f, "journal_material"))
-        if law in CYLINDRICAL_LAWS:
+        for key in sorted(LAW_SETTINGS - set(group.takes)):  # settings the law's group does not read
+            if f.has(key):
+                why = (": its compliance comes from the materials, the bearing length and the radii"
+                       if group.compliance == "materials" else f" (a {group.name} law)")
+                other = next(s.name for s in catalog.LAWS if key in s.group.takes)
+                raise f.expr(key).pos.error(f"law {name} takes no `{key}`{why}",
+                                            hint=f"remove it, or use a law that takes it, such as {other}")
+        if group.compliance == "materials":
             # implicit cylindrical laws (Muvengei et al. eqs. 22, 23): compliance from sigma, L and the radii
-            for key in ("stiffness", "exponent"):
-                if f.has(key):
-                    raise f.expr(key).pos.error(
-                        f"law {name} takes no `{key}`: its compliance comes from the materials, "
-                        "the bearing length and the radii", hint="remove it, or use a K d^n law such as hertz")
             if not length > 0:
                 raise (st.name_pos or st.pos).error(f"law {name} of {label} needs the bearing `length`",
                                                     hint="e.g. `length = 20 mm`")
@@ -572,7 +570,7 @@ class Compiler:
                     f"law {name} of {label} needs `material` (or `bearing_material` + `journal_material`)",
                     hint="e.g. `material = steel` with `material steel { E = 207 GPa  nu = 0.3 }`")
         exponent = f.scalar("exponent", U.NUMBER, 1.5, positive=True)
-        if law in CYLINDRICAL_LAWS:
+        if group.compliance == "materials":
             stiffness = hertz_stiffness(rb, rj, sigma_sum)  # not used by the law; kept for reference
         elif f.has("stiffness"):
             stiffness = f.scalar("stiffness", U.contact_stiffness(exponent), positive=True)
@@ -585,7 +583,7 @@ class Compiler:
                 raise f.expr("exponent").pos.error(
                     "the default stiffness (Muvengei et al. eq. 18) holds for exponent 1.5; give `stiffness` too")
             stiffness = hertz_stiffness(rb, rj, sigma_sum)
-        if law in DISSIPATIVE_LAWS or f.has("restitution"):
+        if "restitution" in group.needs or f.has("restitution"):
             ce = f.scalar("restitution", U.NUMBER)
             if not 0 < ce <= 1:
                 raise f.expr("restitution").pos.error(
@@ -737,7 +735,8 @@ class Compiler:
             return s
         f = self._fields(st, "`simulate`", SIM_FIELDS)
         s.t_end = f.scalar("t_end", U.TIME, s.t_end, positive=True)
-        s.integrator = Integrator[f.symbol("integrator", ["rk4", "dopri5", "dop853"], s.integrator.name.lower()).upper()]
+        name = f.symbol("integrator", catalog.names(catalog.INTEGRATORS), INTEGRATOR_NAMES[s.integrator])
+        s.integrator = Integrator(catalog.integrator(name).code)
         s.rtol = f.scalar("rtol", U.NUMBER, s.rtol, positive=True)
         s.atol = f.scalar("atol", U.NUMBER, s.atol, positive=True)
         s.step = f.scalar("step", U.TIME, s.step, positive=True)

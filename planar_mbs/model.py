@@ -30,18 +30,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-
-class JointType(IntEnum):
-    """Ideal joints; the comment gives the constraint rows, ``P = r + A s``."""
-
-    REVOLUTE = 0  # 2 rows: P_i - P_j = 0
-    TRANSLATIONAL = 1  # 2 rows: phi_j - phi_i - phi0 = 0;  n_i . (P_j - P_i) = 0
-    WELD = 2  # 3 rows: P_i - P_j = 0;  phi_j - phi_i - phi0 = 0
-    REVOLUTE_REVOLUTE = 3  # 1 row: ((P_j - P_i).(P_j - P_i) - L^2) / 2 = 0
-    REVOLUTE_TRANSLATIONAL = 4  # 1 row: n_i . (P_j - P_i) = 0
+from . import catalog
 
 
-JOINT_ROWS = np.array([2, 2, 3, 1, 1], dtype=np.int64)
+# Ideal joints, contact laws and integrators are described once in `catalog`; the enums and
+# tables below are derived from it (a new one is a formula in the kernel plus its description).
+JointType = IntEnum("JointType", {s.enum: s.code for s in catalog.JOINTS}, module=__name__)
+JointType.__doc__ = "Ideal joints (catalog.JOINTS: rows and equations, P = r + A s)."
+JOINT_ROWS = np.array([s.rows for s in catalog.JOINTS], dtype=np.int64)
+JOINT_NAMES = {JointType(s.code): s.name for s in catalog.JOINTS}
 
 # joint_param columns
 JP_PHI0 = 0  # relative angle phi_j - phi_i kept by translational and weld joints
@@ -68,20 +65,9 @@ class MotionType(IntEnum):
 N_MOTION_PARAM = 8
 
 
-class ContactLaw(IntEnum):
-    """Normal contact-force laws of a clearance joint (Muvengei et al. §II.C, contact.md)."""
-
-    HERTZ = 0  # F = K d^n                                       (Muvengei et al. eq. 17)
-    LANKARANI_NIKRAVESH = 1  # F = K d^n (1 + 3(1-ce^2)/4 d'/d'-)  (Muvengei et al. eq. 21)
-    DUBOWSKY_FREUDENSTEIN = 2  # implicit, cylindrical            (Muvengei et al. eq. 22, sigma1+sigma2 form)
-    ESDU_78035 = 3  # implicit, cylindrical                         (Muvengei et al. eq. 23)
-    HUNT_CROSSLEY = 4  # F = K d^n (1 + 3(1-ce)/2 d'/d'-)          (Hunt & Crossley 1975)
-    FLORES = 5  # F = K d^n (1 + 8(1-ce)/(5 ce) d'/d'-)                (Flores et al. 2011)
-    GONTHIER = 6  # F = K d^n (1 + (1-ce^2)/ce d'/d'-)                 (Gonthier et al. 2004)
-
-
-CONTACT_LAW_NAMES = {law: law.name.lower() for law in ContactLaw}
-CONTACT_LAW_NAMES[ContactLaw.ESDU_78035] = "esdu78035"
+ContactLaw = IntEnum("ContactLaw", {s.enum: s.code for s in catalog.LAWS}, module=__name__)
+ContactLaw.__doc__ = "Normal contact-force laws of a clearance joint (catalog.LAWS, contact.md)."
+CONTACT_LAW_NAMES = {ContactLaw(s.code): s.name for s in catalog.LAWS}
 
 # clearance_param columns
 CP_CLEARANCE = 0  # radial clearance c = R_B - R_J  [m]
@@ -97,11 +83,10 @@ CP_FRICTION_V0 = 9  # slip speed below which friction is off (Ambrosio's v0) [m/
 CP_FRICTION_V1 = 10  # slip speed from which full Coulomb friction acts (Ambrosio's v1) [m/s]
 N_CLEARANCE_PARAM = 12
 
-# ContactLaw groups (contact.md): dissipative laws F = K d^n (1 + chi(ce) d'/d'(-)) need the
-# impact velocity; the cylindrical laws are implicit in F and use sigma, L and the radii
-DISSIPATIVE_LAWS = frozenset({ContactLaw.LANKARANI_NIKRAVESH, ContactLaw.HUNT_CROSSLEY, ContactLaw.FLORES,
-                              ContactLaw.GONTHIER})
-CYLINDRICAL_LAWS = frozenset({ContactLaw.DUBOWSKY_FREUDENSTEIN, ContactLaw.ESDU_78035})
+# ContactLaw groups (catalog.LAW_GROUPS, contact.md): dissipative laws F = K d^n (1 + chi(ce) d'/d'(-))
+# need the impact velocity; the cylindrical laws are implicit in F and use sigma, L and the radii
+DISSIPATIVE_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.dissipative)
+CYLINDRICAL_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.cylindrical)
 
 
 class ForceType(IntEnum):
@@ -114,10 +99,9 @@ class ForceType(IntEnum):
 N_FORCE_PARAM = 4
 
 
-class Integrator(IntEnum):
-    RK4 = 0
-    DOPRI5 = 1
-    DOP853 = 2
+Integrator = IntEnum("Integrator", {s.enum: s.code for s in catalog.INTEGRATORS}, module=__name__)
+Integrator.__doc__ = "Time integrators (catalog.INTEGRATORS)."
+INTEGRATOR_NAMES = {Integrator(s.code): s.name for s in catalog.INTEGRATORS}
 
 
 # cfg: float64 settings array handed to the time loop

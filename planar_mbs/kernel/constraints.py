@@ -25,7 +25,7 @@ import math
 import numpy as np
 from .jit import kernel
 
-from ..model import DriverType, JointType, MotionType
+from ..model import JOINT_ROWS, DriverType, JointType, MotionType
 
 REVOLUTE = int(JointType.REVOLUTE)
 TRANSLATIONAL = int(JointType.TRANSLATIONAL)
@@ -41,8 +41,8 @@ RAMP = int(MotionType.RAMP)
 HARMONIC = int(MotionType.HARMONIC)
 POLYNOMIAL = int(MotionType.POLYNOMIAL)
 
-# rows per joint type, frozen by numba as a constant array
-_JOINT_ROWS = np.array([2, 2, 3, 1, 1], dtype=np.int64)
+# rows per joint type (catalog.JOINTS), frozen by numba as a constant array
+_JOINT_ROWS = np.ascontiguousarray(JOINT_ROWS)
 
 
 @kernel

@@ -49,6 +49,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from .. import catalog
 from .jit import kernel
 
 from ..model import (
@@ -77,7 +80,9 @@ ESDU_78035 = int(ContactLaw.ESDU_78035)
 HUNT_CROSSLEY = int(ContactLaw.HUNT_CROSSLEY)
 FLORES = int(ContactLaw.FLORES)
 GONTHIER = int(ContactLaw.GONTHIER)
-N_LAWS = 7
+N_LAWS = len(catalog.LAWS)
+# per law code: 1 = implicit cylindrical law (catalog group "cylindrical")
+CYLINDRICAL = np.array([1 if s.cylindrical else 0 for s in catalog.LAWS], dtype=np.int64)
 CONTACT_SOLVE = int(Status.CONTACT_SOLVE)
 BAD_INPUT = int(Status.BAD_INPUT)
 
@@ -99,7 +104,7 @@ def law_supported(law):
 
 @kernel
 def is_cylindrical(law):
-    return law == DUBOWSKY_FREUDENSTEIN or law == ESDU_78035
+    return 0 <= law < N_LAWS and CYLINDRICAL[law] == 1
 
 
 @kernel
@@ -184,7 +189,7 @@ def normal_force(law, p, delta, vn, v_impact, f_last):
     """Normal force F >= 0 of a law at penetration delta > 0, normal velocity vn
     (> 0 approaching), impact velocity v_impact and (implicit laws) the last force
     f_last; returns (F, status)."""
-    if law == DUBOWSKY_FREUDENSTEIN or law == ESDU_78035:
+    if is_cylindrical(law):
         A, B = cylinder_scales(law, p)
         x, st = cylinder_solve(delta / (A * B), f_last / B)
         return B * x, st
@@ -205,7 +210,7 @@ def normal_force(law, p, delta, vn, v_impact, f_last):
 def elastic_energy(law, p, delta, f_last):
     """Energy stored in the contact spring at penetration delta > 0: K delta^(n+1)/(n+1),
     or for the cylindrical laws int F d delta = A F^2 (1 + 2 ln(B/F)) / 4 at F(delta)."""
-    if law == DUBOWSKY_FREUDENSTEIN or law == ESDU_78035:
+    if is_cylindrical(law):
         A, B = cylinder_scales(law, p)
         x, st = cylinder_solve(delta / (A * B), f_last / B)
         F = B * x
@@ -285,7 +290,7 @@ def clearance_force(km, k, q, qd, cs, contact):
     F, st = normal_force(law, p, delta, vn, contact[k, 1], contact[k, 2])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, aix, aiy, ajx, ajy
-    if law == DUBOWSKY_FREUDENSTEIN or law == ESDU_78035:
+    if is_cylindrical(law):
         contact[k, 2] = F
     Ft = -friction_coefficient(p, vt) * F
     return F, Ft, nx, ny, vt, 0, aix, aiy, ajx, ajy
