@@ -17,11 +17,14 @@ from typing import Annotated, Optional
 
 import typer
 
+from planar_mbs import catalog
+
 from .common import ExitCode, parse_sets
 from .common import console as _console
 from .common import fail as _fail
 from .common import quantity as _quantity
 
+_INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
 EPILOG = ("Exit codes: 0 success · 2 bad model or usage · 3 the simulation failed (results kept) · "
           "130/143 interrupted by Ctrl-C/SIGTERM (results kept).")
 
@@ -50,10 +53,17 @@ SetOpt = Annotated[
 ]
 
 
-@app.command()
+_CHECK_HELP = (
+    "Compile a model and print its bodies, coordinates, constraints, degrees of freedom and clearance "
+    "joints (or its errors, with file:line:col).\n\n"
+    f"Joint types: {', '.join(catalog.names(catalog.JOINTS) + [catalog.CLEARANCE_JOINT])}.\n\n"
+    f"Contact laws: {', '.join(catalog.names(catalog.LAWS))}.\n\n"
+    f"Integrators: {', '.join(catalog.names(catalog.INTEGRATORS))}.")
+
+
+@app.command(help=_CHECK_HELP)
 def check(model: ModelArg, set_: SetOpt = None) -> None:
-    """Compile a model and print its bodies, coordinates, constraints, degrees of freedom
-    and clearance joints (or its errors, with file:line:col)."""
+    """Compile a model and print it (help text: _CHECK_HELP, from the catalog)."""
     from planar_mbs import load_model
     from planar_mbs.errors import MbsError
     from planar_mbs.kinematics import assemble
@@ -70,9 +80,7 @@ def _print_model(m) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from planar_mbs.model import CONTACT_LAW_NAMES, CP_CLEARANCE, CP_STIFFNESS, JOINT_ROWS, ContactLaw, JointType
-
-    CYLINDRICAL = (ContactLaw.DUBOWSKY_FREUDENSTEIN, ContactLaw.ESDU_78035)  # implicit in F: no K
+    from planar_mbs.model import CP_CLEARANCE, CP_STIFFNESS
     con = _console()
     k = m.kernel
     con.print(f"[bold]{m.source_path}[/]: {m.nbody} bodies, {m.ncoord} coordinates, "
@@ -92,8 +100,8 @@ def _print_model(m) -> None:
     joints = table("ideal joints and drivers", "joint", "type", "bodies", "rows")
     for j, name in enumerate(m.joint_names):
         i1, i2 = k.joint_body[j]
-        joints.add_row(name, JointType(int(k.joint_type[j])).name.lower(),
-                       f"{_body(m, i1)} – {_body(m, i2)}", str(JOINT_ROWS[k.joint_type[j]]))
+        spec = catalog.JOINTS[int(k.joint_type[j])]
+        joints.add_row(name, spec.name, f"{_body(m, i1)} – {_body(m, i2)}", str(spec.rows))
     for d, name in enumerate(m.driver_names):
         i1, i2 = k.driver_body[d]
         joints.add_row(name, "driver", f"{_body(m, i1)} – {_body(m, i2)}", "1")
@@ -103,10 +111,11 @@ def _print_model(m) -> None:
                    "K [N/m^n]")
         for c, name in enumerate(m.clearance_names):
             i1, i2 = k.clearance_body[c]
+            law = catalog.LAWS[int(k.clearance_law[c])]
             cl.add_row(name, f"{_body(m, i1)} – {_body(m, i2)}",
                        f"{k.clearance_param[c, CP_CLEARANCE] * 1e3:g}",
-                       CONTACT_LAW_NAMES[ContactLaw(int(k.clearance_law[c]))],
-                       "—" if int(k.clearance_law[c]) in CYLINDRICAL else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}")
+                       law.name, "—" if law.group.compliance == "materials"  # no K of F = K d^n
+                       else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}")
         con.print(cl)
 
 
@@ -122,8 +131,7 @@ def run(
     set_: SetOpt = None,
     t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time, with units (\"0.06 s\", 60ms).",
                      show_default=False)] = None,
-    integrator: Annotated[Optional[str], typer.Option(help="rk4 (fixed step), dopri5 or dop853 (adaptive, "
-                          "event-located contacts).", show_default=False)] = None,
+    integrator: Annotated[Optional[str], typer.Option(help=_INTEGRATOR_HELP, show_default=False)] = None,
     rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance of the adaptive integrator.",
                     show_default=False)] = None,
     step: Annotated[Optional[str], typer.Option(help="Fixed step of rk4 (first trial step of dopri5), with units "
@@ -145,6 +153,7 @@ def run(
     """
     from planar_mbs import load_model, simulate
     from planar_mbs.errors import MbsError, ModelError, SimulationError
+    from planar_mbs.simulation import integrator_of
 
     out = output or Path(model.stem + ".h5")
     try:
@@ -155,9 +164,8 @@ def run(
             rtol=rtol,
             integrator=integrator,
         )
-        if integrator is not None and integrator.lower() not in ("rk4", "dopri5", "dop853"):
-            raise ModelError(f"unknown integrator `{integrator}`", "--integrator",
-                             hint="choose rk4, dopri5 or dop853")
+        if integrator is not None:
+            integrator_of(integrator, "--integrator")
         if rerun_signals not in ("envelope", "full"):
             raise ModelError(f"unknown --rerun-signals `{rerun_signals}`", "--rerun-signals",
                              hint="choose envelope or full")

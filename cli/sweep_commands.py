@@ -14,6 +14,8 @@ from typing import Annotated, Optional
 
 import typer
 
+from planar_mbs import catalog
+
 from .common import ExitCode
 from .common import console as _console
 from .common import fail as _fail
@@ -98,7 +100,8 @@ def sweep(
         "Poincaré section is sampled without interpolation).", min=1, show_default=False)] = None,
     output_step: Annotated[Optional[str], typer.Option("--output-step", help="Output step with units.",
                                                        show_default=False)] = None,
-    integrator: Annotated[Optional[str], typer.Option(help="rk4, dopri5 or dop853.", show_default=False)] = None,
+    integrator: Annotated[Optional[str], typer.Option(help=catalog.choices(catalog.INTEGRATORS) + ".",
+                                                      show_default=False)] = None,
     rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance.", show_default=False)] = None,
     keep: Annotated[Optional[str], typer.Option(
         "--keep", help="Comma-separated signals to store per case [default: all].", show_default=False)] = None,
@@ -126,12 +129,13 @@ def sweep(
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
     from planar_mbs.errors import MbsError, ModelError
+    from planar_mbs.simulation import integrator_of
     from planar_mbs.sweep import parse_param, run_sweep
 
     try:
         axes = [parse_param(p) for p in param]
-        if integrator is not None and integrator.lower() not in ("rk4", "dopri5", "dop853"):
-            raise ModelError(f"unknown integrator `{integrator}`", "--integrator", hint="choose rk4, dopri5 or dop853")
+        if integrator is not None:
+            integrator_of(integrator, "--integrator")
         settings = {k: v for k, v in dict(
             t_end=_quantity(t_end, "time", "--t-end"), output_step=_quantity(output_step, "time", "--output-step"),
             rtol=rtol, integrator=integrator.lower() if integrator else None).items() if v is not None}

@@ -210,6 +210,8 @@ def check() -> None:
         assert len({s.enum for s in table}) == len(table), "enum names must be unique"
     for s in JOINTS:
         assert s.rows >= 1 and s.draw in ("pin", "link", "slide")
+        assert s.draw != "slide" or "axis" in s.fields, "a sliding joint is drawn along its axis"
+        assert set(s.fields) <= {"axis", "angle", "length"}, "the compiler fills axis, angle and length"
     for s in INTEGRATORS:
         assert 0 <= s.end_stage < s.stages
 
@@ -226,11 +228,11 @@ def _code(words) -> str:
 
 def docs_lists() -> dict[str, str]:
     """The generated blocks of docs/language.md, by key."""
-    joints = "\n".join(f"| `{s.example or s.name + '(a (p), b (p))'}` | {s.rows} | "
+    joints = "\n".join(f"| `{s.example or s.name + '(a (p), b (p))'}` | {s.rows} | {s.equations} | "
                        + ("; ".join(f"`{k}`: {v}" for k, v in s.fields.items()) or "—") + " |" for s in JOINTS)
     return {
-        "joints": "| type | rows | settings |\n| --- | --- | --- |\n" + joints
-                  + f"\n| `{CLEARANCE_JOINT}(a (p), b (p)) {{ ... }}` | 0 | a force element, below |",
+        "joints": "| type | rows | equations (P = r + A s) | settings |\n| --- | --- | --- | --- |\n" + joints
+                  + f"\n| `{CLEARANCE_JOINT}(a (p), b (p)) {{ ... }}` | 0 | — | a force element, below |",
         "laws": "| law | group | normal force | reference |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.name}` | {s.group.name} | {s.formula} | {s.reference} |" for s in LAWS),
         "law_groups": "\n".join(

@@ -324,7 +324,10 @@ def _time_column(rr, t: np.ndarray):
 
 
 def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: RecordingInfo) -> None:
-    from .model import CP_CLEARANCE, CP_R_BEARING, CP_R_JOURNAL, JointType
+    from . import catalog
+    from .model import CP_CLEARANCE, CP_R_BEARING, CP_R_JOURNAL
+
+    draw = [catalog.JOINTS[int(t)].draw for t in model.kernel.joint_type]  # pin | link | slide
 
     k = model.kernel
     names = model.body_names
@@ -345,7 +348,7 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
     for j in range(model.njoint):
         for side in (0, 1):
             b = int(k.joint_body[j, side])
-            if b >= 0 and int(k.joint_type[j]) != JointType.TRANSLATIONAL:
+            if b >= 0 and draw[j] != "slide":
                 body_points[b].append((f"joint{j}", k.joint_point[j, side]))
     journal_of: dict[tuple[int, int], int] = {}
     for c in range(model.nclearance):
@@ -385,7 +388,7 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
     # bodies
     slider_axis: dict[int, int] = {}  # body drawn as a box along the axis of this translational joint
     for j in range(model.njoint):
-        if int(k.joint_type[j]) == JointType.TRANSLATIONAL:
+        if draw[j] == "slide":
             bi, bj = int(k.joint_body[j, 0]), int(k.joint_body[j, 1])
             slider_axis.setdefault(bj if bj >= 0 else bi, j)
     for b, name in enumerate(names):
@@ -456,8 +459,7 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
     pins, ground_pts, guides = [], [], []
     for j in range(model.njoint):
         bi, bj = int(k.joint_body[j, 0]), int(k.joint_body[j, 1])
-        jt = int(k.joint_type[j])
-        if jt == JointType.TRANSLATIONAL:
+        if draw[j] == "slide":
             if bi < 0 or bj < 0:
                 g_side, s_body = (0, bj) if bi < 0 else (1, bi)
                 p0 = np.asarray(k.joint_point[j, g_side], dtype=float)
@@ -469,7 +471,7 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
                 below = float(((xs - p0) @ nrm).min()) - 0.5 * 0.08 * size
                 guides.append([p0 + lo * ax + below * nrm, p0 + hi * ax + below * nrm])
             continue
-        if jt in (JointType.REVOLUTE_REVOLUTE,):
+        if draw[j] == "link":  # a massless link: its points join the outlines, no pin
             continue
         pins.append(_global(pose, bi, k.joint_point[j, 0], idx) if bi >= 0 else
                     _global(pose, bj, k.joint_point[j, 1], idx))

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import catalog
 from .model import (
     CS_E,
     CS_EX,
@@ -42,8 +43,8 @@ CLEARANCE_QUANTITIES = [
     ("impact_velocity", "m/s", CS_IMPACT_VELOCITY),
 ]
 FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "m/s", CS_SLIP)]
-# joints whose reaction includes a moment (they lock the relative rotation)
-MOMENT_JOINTS = (JointType.TRANSLATIONAL, JointType.WELD)
+# joints whose reaction includes a moment (they lock the relative rotation; catalog.JointSpec.moment)
+MOMENT_JOINTS = tuple(JointType(s.code) for s in catalog.JOINTS if s.moment)
 
 
 @dataclass(frozen=True)

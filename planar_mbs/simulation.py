@@ -84,8 +84,22 @@ def run_settings(model: Model, **changes) -> Settings:
     """The model's `simulate` settings with the given fields replaced (None = keep)."""
     changes = {k: v for k, v in changes.items() if v is not None}
     if isinstance(changes.get("integrator"), str):
-        changes["integrator"] = Integrator[changes["integrator"].upper()]
+        changes["integrator"] = integrator_of(changes["integrator"])
     return dataclasses.replace(model.settings, **changes)
+
+
+def integrator_of(name: str, where: str = "integrator") -> Integrator:
+    """The integrator called `name` (catalog.INTEGRATORS); a ModelError naming the valid ones
+    (and the closest) otherwise.  `where` labels the error (e.g. "--integrator")."""
+    from . import catalog
+    from .errors import ModelError, did_you_mean
+
+    names = catalog.names(catalog.INTEGRATORS)
+    if str(name).lower() not in names:
+        hint = did_you_mean(str(name).lower(), names)
+        raise ModelError(f"unknown integrator `{name}`", where,
+                         hint=(hint + " " if hint else "") + "choose " + catalog.choices(catalog.INTEGRATORS))
+    return Integrator(catalog.integrator(name).code)
 
 
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,

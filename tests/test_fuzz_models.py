@@ -18,6 +18,7 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from planar_mbs import catalog
 from planar_mbs.compile import compile_text
 from planar_mbs.errors import ModelError
 from planar_mbs.kinematics import assemble
@@ -36,11 +37,10 @@ FUZZ = settings(
 KEYWORDS = ["param", "material", "body", "joint", "driver", "force", "gravity", "simulate", "include",
             "override"]
 NAMES = ["crank", "rod", "slider", "ground", "steel", "speed", "clearance", "law", "x", "pi", "system",
-         "revolute", "translational", "weld", "revolute_revolute", "revolute_translational",
-         "clearance_revolute", "rotation", "translation", "constant", "torque", "spring_damper",
-         "rotational_spring_damper", "ramp", "harmonic", "polynomial", "bar", "box", "circle", "sqrt",
-         "sin", "atan2", "hertz", "lankarani_nikravesh", "flores", "gonthier", "esdu78035", "rk4",
-         "dopri5", "dop853", "mass", "inertia", "position", "angle", "velocity", "omega", "shape", "axis",
+         *catalog.names(catalog.JOINTS), catalog.CLEARANCE_JOINT, *catalog.names(catalog.LAWS),
+         *catalog.names(catalog.INTEGRATORS), "rotation", "translation", "constant", "torque",
+         "spring_damper", "rotational_spring_damper", "ramp", "harmonic", "polynomial", "bar", "box", "circle",
+         "sqrt", "sin", "atan2", "mass", "inertia", "position", "angle", "velocity", "omega", "shape", "axis",
          "length", "E", "nu", "bearing_radius", "journal_radius", "restitution", "stiffness", "exponent",
          "friction", "t_end", "integrator", "rtol", "step", "max_steps", "relative_to", "motion", "nan",
          "inf"]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from planar_mbs import catalog
 from planar_mbs.compile import compile_text
 from planar_mbs.parse import parse_statements
 
@@ -45,12 +46,19 @@ def test_example(kind, body):
 def test_every_keyword_and_element_type_is_documented():
     text = DOC.read_text(encoding="utf-8")
     words = ["param", "material", "body", "joint", "driver", "force", "gravity", "simulate", "include",
-             "override", "revolute", "translational", "weld", "revolute_revolute", "revolute_translational",
-             "clearance_revolute", "rotation", "translation", "ramp", "harmonic", "polynomial", "constant",
+             "override", *catalog.names(catalog.JOINTS), catalog.CLEARANCE_JOINT,
+             "rotation", "translation", "ramp", "harmonic", "polynomial", "constant",
              "torque", "spring_damper", "rotational_spring_damper", "bar", "box", "circle", "relative_to",
-             "initial", "hertz", "lankarani_nikravesh", "dubowsky_freudenstein", "esdu78035", "hunt_crossley",
-             "flores", "gonthier", "rk4", "dopri5", "dop853", "projection", "max_steps", "h_min", "h_max",
+             "initial", *catalog.names(catalog.LAWS), *catalog.names(catalog.INTEGRATORS),
+             "projection", "max_steps", "h_min", "h_max",
              "alpha", "beta", "output_step", "friction", "exponent", "stiffness", "restitution",
              "bearing_material", "journal_material", "journal_radius", "bearing_radius", "velocity", "omega"]
     missing = [w for w in words if f"`{w}" not in text and f"{w}(" not in text and f"{w} " not in text]
     assert not missing
+
+
+def test_generated_lists_match_the_catalog():
+    """The joint, law and integrator tables of language.md are the catalog's
+    (regenerate them with `python -m planar_mbs.catalog --docs`)."""
+    blocks = catalog.doc_blocks(DOC.read_text(encoding="utf-8"))
+    assert blocks == catalog.docs_lists(), "run `python -m planar_mbs.catalog --docs`"

@@ -33,6 +33,7 @@ import math
 import numpy as np
 from .jit import kernel
 
+from .. import catalog
 from ..model import CFG_ATOL, CFG_RTOL
 from .dynamics import rhs
 
@@ -216,11 +217,12 @@ SAFETY = 0.9
 FAC_MIN = 0.2
 FAC_MAX = 10.0
 
-RK4_CODE = 0
-DOPRI5_CODE = 1
-DOP853_CODE = 2
+# method codes and buffer rows from catalog.INTEGRATORS
+RK4_CODE = catalog.integrator("rk4").code
+DOPRI5_CODE = catalog.integrator("dopri5").code
+DOP853_CODE = catalog.integrator("dop853").code
 # row of ws.K holding f at the end of the last step (FSAL), per method code
-END_STAGE = np.array([4, 6, 12], dtype=np.int64)
+END_STAGE = np.array([s.end_stage for s in catalog.INTEGRATORS], dtype=np.int64)
 
 
 @kernel

@@ -5,7 +5,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import catalog
 from ..model import JOINT_ROWS, N_STATS, KernelModel, observation_size
+
+
+# stage and dense-output buffer rows: the most any integrator uses (catalog.INTEGRATORS)
+N_STAGES = max(s.stages for s in catalog.INTEGRATORS)
+N_DENSE_ROWS = max(1, max(s.dense_rows for s in catalog.INTEGRATORS))
 
 
 class Workspace(NamedTuple):
@@ -23,8 +29,8 @@ class Workspace(NamedTuple):
     b: np.ndarray  # (m,) right side / scratch of the Schur system
     Qe: np.ndarray  # (n,) applied forces
     qdd: np.ndarray  # (n,) accelerations
-    K: np.ndarray  # (16, 2n) stage derivatives; K[0] = f(ya), K[END_STAGE[method]] = f(yb)
-    F: np.ndarray  # (7, 2n) DOP853 dense-output coefficients of the last step
+    K: np.ndarray  # (N_STAGES, 2n) stage derivatives; K[0] = f(ya), K[END_STAGE[method]] = f(yb)
+    F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output coefficients of the last step (DOP853)
     f: np.ndarray  # (2n,) derivative at the current state (the next step's k1)
     ya: np.ndarray  # (2n,) state at the start of the last step
     yb: np.ndarray  # (2n,) state at the end of the last step
@@ -102,7 +108,7 @@ def make_workspace(km: KernelModel) -> Workspace:
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
         S=np.zeros((m, m)), sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
-        Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((16, N)), F=np.zeros((7, N)), f=np.zeros(N),
+        Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
     )
