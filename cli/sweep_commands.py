@@ -104,7 +104,8 @@ def sweep(
                                                       show_default=False)] = None,
     rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance.", show_default=False)] = None,
     keep: Annotated[Optional[str], typer.Option(
-        "--keep", help="Comma-separated signals to store per case [default: all].", show_default=False)] = None,
+        "--keep", help="Comma-separated signals to store per case; an entity name (slider) keeps all its "
+        "signals [default: all].", show_default=False)] = None,
     poincare: PoincareOpt = None,
     period: PeriodOpt = None,
     angle: AngleOpt = None,

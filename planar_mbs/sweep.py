@@ -258,11 +258,13 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
         try:
             section = poincare_section(res, signals, model=model, **opts)
             verdict = classify(section)
-        except (AnalysisError, KeyError) as err:
+        except AnalysisError as err:  # signal names were checked by `check_cases`: no KeyError here
             message += f"; no Poincaré section: {err}"
     if spec.keep is not None and res is not None:
-        res.signals = {k: v for k, v in res.signals.items() if k in spec.keep}
-        res.units = {k: v for k, v in res.units.items() if k in spec.keep}
+        # the run keeps every signal (the section may need others than --keep); store only the kept ones
+        kept = kept_signals(model, spec.keep)
+        res.signals = {k: v for k, v in res.signals.items() if k in kept}
+        res.units = {k: v for k, v in res.units.items() if k in kept}
     if res is not None:
         res.attrs.update(case=spec.index, case_key=spec.key, case_values=spec.values)
     return CaseOutcome(spec.index, spec.key, dict(spec.values), status, message, res, section, verdict,
@@ -363,14 +365,51 @@ def plan(model_path, axes: Sequence[Axis], sets=None, settings=None, revolutions
             for k, values in enumerate(expand(axes))]
 
 
+def kept_signals(model, keep: Sequence[str]) -> set[str]:
+    """The full signal names `keep` asks for: signal names as they are, entities (``slider``)
+    expanded to all their signals.  A name that is neither raises ModelError (labelled
+    ``--keep``) with the closest names."""
+    from .signals import signal_table
+    from .simulation import select_signals
+
+    try:
+        table, _ = select_signals(signal_table(model), list(keep))
+    except ModelError as err:
+        raise ModelError(err.message, "--keep", hint="signal names are `entity.quantity` (mbs plot FILE --list "
+                         "shows them); an entity name keeps all its signals") from None
+    return {s.name for s in table}
+
+
+def check_section(model, section: dict | None) -> None:
+    """The Poincaré section's signals and clock body exist in `model` (ModelError otherwise)."""
+    from .errors import did_you_mean
+    from .signals import signal_table
+
+    if not section:
+        return
+    names = {s.name for s in signal_table(model)}
+    for name in section.get("signals") or ():
+        if name not in names:
+            raise ModelError(f"no signal `{name}` for the Poincaré section", "--poincare",
+                             hint=did_you_mean(name, sorted(names)) or "signal names are `entity.quantity`")
+    clock = section.get("clock")
+    if clock is not None and clock not in model.body_names:
+        raise ModelError(f"no body `{clock}` for the section's clock", "--clock",
+                         hint=did_you_mean(clock, model.body_names) or "bodies: " + ", ".join(model.body_names))
+
+
 def check_cases(specs: Sequence[CaseSpec]) -> None:
-    """Compile every case once in the parent, so a bad value stops the sweep before it starts."""
+    """Compile every case once in the parent, so a bad value, a misspelt `--keep` signal or a
+    section signal the model lacks stops the sweep before it starts."""
     from . import load_model
 
     for spec in specs:
         try:
             m = load_model(spec.model_path, **{**spec.sets, **spec.values})
             case_settings(m, spec)
+            if spec.keep is not None:
+                kept_signals(m, spec.keep)
+            check_section(m, spec.section)
         except ModelError as err:
             where = ", ".join(f"{k}={v}" for k, v in spec.values.items())
             raise ModelError(f"case {spec.index} ({where}): {err.message}", err.file, err.line, err.column,

@@ -146,6 +146,25 @@ def test_keep_restricts_the_stored_signals(tmp_path):
     assert set(read_results(f"{out}:/cases/0").signals) == {"slider.vx", "crank_speed.torque"}
 
 
+def test_keep_expands_an_entity_and_refuses_a_typo(tmp_path):
+    from planar_mbs import load_model
+    from planar_mbs.errors import ModelError
+    from planar_mbs.signals import signal_table
+
+    out = tmp_path / "s.h5"
+    run_sweep(IDEAL, [parse_param("speed=600rpm")], out, revolutions=3, per_rev=12, jobs=1,
+              keep=["slider", "crank_speed.torque"])
+    expected = {s.name for s in signal_table(load_model(IDEAL)) if s.entity == "slider"} | {"crank_speed.torque"}
+    assert set(read_results(f"{out}:/cases/0").signals) == expected and "slider.ax" in expected
+    with pytest.raises(ModelError, match="no signal or entity `slider.vxx`.*`slider.vx`"):
+        run_sweep(IDEAL, [parse_param("speed=600rpm")], tmp_path / "t.h5", revolutions=3, per_rev=12, jobs=1,
+                  keep=["slider.vxx"])
+    assert not (tmp_path / "t.h5").exists()
+    with pytest.raises(ModelError, match="no signal `slider.axx` for the Poincaré section"):
+        run_sweep(IDEAL, [parse_param("speed=600rpm")], tmp_path / "u.h5", revolutions=3, per_rev=12, jobs=1,
+                  section={"signals": ["slider.vx", "slider.axx"]})
+
+
 # ---------------------------------------------------------------- CLI
 def _app():
     from planar_mbs.cli.sweep_commands import analyze, sweep
