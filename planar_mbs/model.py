@@ -141,12 +141,34 @@ ST_OUTPUTS = 4
 ST_INFO = 5  # status detail: constraint row, clearance joint or body index involved
 N_STATS = 8
 
-# clearance-joint signal columns of the observation row
+# ---- the observation row: one definition, written by kernel.loop.observe, read by signals.signal_table.
+# Blocks in order (`observation_layout` gives their first columns): q, q', q'' (3 nbody each), joint
+# reactions (N_JOINT_SIGNALS per ideal joint), driver efforts, driver powers (one per driver),
+# clearance signals (N_CLEARANCE_SIGNALS per clearance joint), system signals (N_SYSTEM_SIGNALS).
+JS_FX, JS_FY, JS_MOMENT = 0, 1, 2  # reaction on the joint's second body (moment about its joint point)
+N_JOINT_SIGNALS = 3
 CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
 CS_IN_CONTACT, CS_IMPACT_VELOCITY, CS_FRICTION, CS_SLIP = 7, 8, 9, 10
 # CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T
 N_CLEARANCE_SIGNALS = 11
-N_SYSTEM_SIGNALS = 4  # kinetic, potential, position error, velocity error
+SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 0, 1, 2, 3
+N_SYSTEM_SIGNALS = 4
+# indices into `observation_layout`'s tuple
+OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_SYSTEM, OB_SIZE = range(9)
+
+
+def observation_layout(nbody, njoint, ndriver, nclearance):
+    """First column of each block of the observation row, and the row size, as a tuple indexed
+    by OB_*.  Plain integer arithmetic: the kernels compile this same function (`kernel.loop`)."""
+    q = 0
+    qd = q + 3 * nbody
+    qdd = qd + 3 * nbody
+    joint = qdd + 3 * nbody
+    effort = joint + N_JOINT_SIGNALS * njoint
+    power = effort + ndriver
+    clearance = power + ndriver
+    system = clearance + N_CLEARANCE_SIGNALS * nclearance
+    return q, qd, qdd, joint, effort, power, clearance, system, system + N_SYSTEM_SIGNALS
 
 
 class KernelModel(NamedTuple):
@@ -180,9 +202,8 @@ class KernelModel(NamedTuple):
 
 
 def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int) -> int:
-    """Columns of one observation row: q, q', q'', joint reactions (fx, fy, moment),
-    driver efforts, driver powers, clearance signals, system signals."""
-    return 9 * nbody + 3 * njoint + 2 * ndriver + N_CLEARANCE_SIGNALS * nclearance + N_SYSTEM_SIGNALS
+    """Columns of one observation row (`observation_layout`)."""
+    return observation_layout(nbody, njoint, ndriver, nclearance)[OB_SIZE]
 
 
 @dataclass(frozen=True)

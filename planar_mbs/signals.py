@@ -2,7 +2,7 @@
 
 One table serves the HDF5 file, the CLI, plots and the Python
 API.  The kernel's `observe` fills rows in the layout of
-`model.observation_size`; `signal_table` says which column (or which
+`model.observation_layout`; `signal_table` says which column (or which
 combination of columns) each named signal is.
 """
 from __future__ import annotations
@@ -25,10 +25,27 @@ from .model import (
     CS_PENETRATION,
     CS_SLIP,
     CP_FRICTION,
+    JS_FX,
+    JS_FY,
+    JS_MOMENT,
     N_CLEARANCE_SIGNALS,
+    N_JOINT_SIGNALS,
+    OB_CLEARANCE,
+    OB_EFFORT,
+    OB_JOINT,
+    OB_POWER,
+    OB_Q,
+    OB_QD,
+    OB_QDD,
+    OB_SYSTEM,
+    SYS_KINETIC,
+    SYS_POSITION_ERROR,
+    SYS_POTENTIAL,
+    SYS_VELOCITY_ERROR,
     DriverType,
     JointType,
     Model,
+    observation_layout,
 )
 
 BODY_QUANTITIES = [
@@ -72,43 +89,41 @@ class Signal:
 
 
 def signal_table(model: Model) -> list[Signal]:
-    """Every signal the model produces, in observation-row order."""
-    nb, nj, nd, nc = model.nbody, model.njoint, model.ndriver, model.nclearance
+    """Every signal the model produces, in observation-row order (`model.observation_layout`)."""
+    nb = model.nbody
     k = model.kernel
+    lay = observation_layout(nb, model.njoint, model.ndriver, model.nclearance)
     table: list[Signal] = []
     for b, name in enumerate(model.body_names):
         for block, (qty, unit) in enumerate(BODY_QUANTITIES):
             part, comp = divmod(block, 3)  # q, qd, qdd blocks of 3 nb columns
-            table.append(Signal(name, qty, unit, (part * 3 * nb + 3 * b + comp,)))
-    base = 9 * nb
+            table.append(Signal(name, qty, unit, (lay[(OB_Q, OB_QD, OB_QDD)[part]] + 3 * b + comp,)))
     for j, name in enumerate(model.joint_names):
-        c = base + 3 * j
+        c = lay[OB_JOINT] + N_JOINT_SIGNALS * j
         table += [
-            Signal(name, "fx", "N", (c,)),
-            Signal(name, "fy", "N", (c + 1,)),
-            Signal(name, "force", "N", (c, c + 1), "hypot"),
+            Signal(name, "fx", "N", (c + JS_FX,)),
+            Signal(name, "fy", "N", (c + JS_FY,)),
+            Signal(name, "force", "N", (c + JS_FX, c + JS_FY), "hypot"),
         ]
         if JointType(int(k.joint_type[j])) in MOMENT_JOINTS:
-            table.append(Signal(name, "moment", "N*m", (c + 2,)))
-    base += 3 * nj
+            table.append(Signal(name, "moment", "N*m", (c + JS_MOMENT,)))
     for d, name in enumerate(model.driver_names):
         angle = int(k.driver_type[d]) == DriverType.ANGLE
         effort = ("torque", "N*m") if angle else ("force", "N")
-        table.append(Signal(name, effort[0], effort[1], (base + d,)))
-        table.append(Signal(name, "power", "W", (base + nd + d,)))
-    base += 2 * nd
+        table.append(Signal(name, effort[0], effort[1], (lay[OB_EFFORT] + d,)))
+        table.append(Signal(name, "power", "W", (lay[OB_POWER] + d,)))
     for c, name in enumerate(model.clearance_names):
-        col = base + N_CLEARANCE_SIGNALS * c
+        col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * c
         quantities = list(CLEARANCE_QUANTITIES)
         if k.clearance_param[c, CP_FRICTION] > 0:
             quantities += FRICTION_QUANTITIES
         table += [Signal(name, q, u, (col + off,)) for q, u, off in quantities]
-    base += N_CLEARANCE_SIGNALS * nc
+    s = lay[OB_SYSTEM]
     table += [
-        Signal("system", "kinetic_energy", "J", (base,)),
-        Signal("system", "potential_energy", "J", (base + 1,)),
-        Signal("system", "total_energy", "J", (base, base + 1), "sum"),
-        Signal("system", "position_error", "1", (base + 2,)),
-        Signal("system", "velocity_error", "1", (base + 3,)),
+        Signal("system", "kinetic_energy", "J", (s + SYS_KINETIC,)),
+        Signal("system", "potential_energy", "J", (s + SYS_POTENTIAL,)),
+        Signal("system", "total_energy", "J", (s + SYS_KINETIC, s + SYS_POTENTIAL), "sum"),
+        Signal("system", "position_error", "1", (s + SYS_POSITION_ERROR,)),
+        Signal("system", "velocity_error", "1", (s + SYS_VELOCITY_ERROR,)),
     ]
     return table
