@@ -357,8 +357,10 @@ def orbit_figure(results: "Results", joint: str):
 def is_sweep(path: str | Path) -> bool:
     import h5py
 
+    from .results import SIGNALS
+
     with h5py.File(path, "r") as f:
-        return "cases" in f and "signals" not in f
+        return "cases" in f and SIGNALS not in f
 
 
 def sweep_cases(path: str | Path) -> list[tuple[str, "Results"]]:

@@ -1,6 +1,7 @@
 """Results of a run: named signals in memory and in one HDF5 file.
 
-File layout::
+File layout (defined once: `TIME`, `SIGNALS`, `UNIT`, `signal_path`, `create_run_datasets`,
+shared by `ResultsWriter`, `write_results`, `read_results` and `FileResults`)::
 
     /time                         (n,)  s
     /signals/<entity>/<quantity>  (n,)  attribute `unit`
@@ -80,7 +81,7 @@ class FileResults(Results):
 
     @property
     def time(self) -> np.ndarray:
-        return self._read("time") if self._time is None else self._time
+        return self._read(TIME) if self._time is None else self._time
 
     @time.setter
     def time(self, value) -> None:
@@ -90,10 +91,9 @@ class FileResults(Results):
         """Largest finite value of a signal, read in slices (memory bounded); NaN if none."""
         import h5py
 
-        entity, qty = name.rsplit(".", 1)
         best = -np.inf
         with h5py.File(self.path, "r") as f:
-            ds = f[f"{self.group}/signals/{entity}/{qty}" if self.group else f"signals/{entity}/{qty}"]
+            ds = f[_in_group(self.group, signal_path(name))]
             step = 1 << 20
             for i in range(0, ds.shape[0], step):
                 x = ds[i:i + step]
@@ -112,8 +112,7 @@ class _FileSignals(Mapping):
     def __getitem__(self, name: str) -> np.ndarray:
         if name not in self.names:
             raise KeyError(name)
-        entity, qty = name.rsplit(".", 1)
-        return self.owner._read(f"signals/{entity}/{qty}")
+        return self.owner._read(signal_path(name))
 
     def __iter__(self):
         return iter(self.names)
@@ -128,7 +127,7 @@ def row_count(results: Results) -> int:
         import h5py
 
         with h5py.File(results.path, "r") as f:
-            return int(f[f"{results.group}/time" if results.group else "time"].shape[0])
+            return int(f[_in_group(results.group, TIME)].shape[0])
     return len(results.time)
 
 
@@ -221,6 +220,44 @@ def results_bytes(rows_before: int, n_rows: int, n_columns: int, chunk: int = 40
     return int(new_chunks * chunk * 8 * n_columns + n_columns * 2048 + (1 << 17))
 
 
+# ---------------------------------------------------------------- the file layout (one definition)
+TIME = "time"  # dataset of the output times
+SIGNALS = "signals"  # group of the signals: SIGNALS/<entity>/<quantity>
+UNIT = "unit"  # attribute of every dataset
+JSON_ATTRS = ("parameters", "settings", "warnings")  # attributes stored as JSON text
+
+
+def signal_path(name: str) -> str:
+    """Dataset path of signal ``entity.quantity`` inside a run's group."""
+    entity, quantity = name.rsplit(".", 1)
+    return f"{SIGNALS}/{entity}/{quantity}"
+
+
+def _in_group(group: str, path: str) -> str:
+    return f"{group}/{path}" if group else path
+
+
+def create_run_datasets(g, names_units, data=None, **opts) -> tuple:
+    """Create the time dataset and one dataset per signal in group ``g`` (the layout every
+    writer uses); ``names_units`` is a list of (name, unit), ``data`` None (empty and growable)
+    or (time, [values, ...]).  Returns (time dataset, [signal datasets])."""
+    if data is None:
+        opts = dict(shape=(0,), maxshape=(None,), dtype="f8", **opts)
+        values = [None] * len(names_units)
+        time = g.create_dataset(TIME, **opts)
+    else:
+        values = [np.asarray(v, "f8") for v in data[1]]
+        time = g.create_dataset(TIME, data=np.asarray(data[0], "f8"), **opts)
+    time.attrs[UNIT] = "s"
+    datasets = []
+    for (name, unit), v in zip(names_units, values):
+        ds = g.create_dataset(signal_path(name), **opts) if v is None else \
+            g.create_dataset(signal_path(name), data=v, **opts)
+        ds.attrs[UNIT] = unit
+        datasets.append(ds)
+    return time, datasets
+
+
 def _json_default(value):
     if isinstance(value, np.generic):
         return value.item()
@@ -255,12 +292,8 @@ def write_results(target, results: Results, group: str = "/", compression: str |
     opts = dict(compression=compression) if compression else {}
     n = len(results.time)
     chunks = dict(chunks=(min(max(n, 1), chunk),)) if opts else {}
-    ds = g.create_dataset("time", data=np.asarray(results.time, "f8"), **opts, **chunks)
-    ds.attrs["unit"] = "s"
-    for sig, values in results.signals.items():
-        entity, qty = sig.rsplit(".", 1)
-        ds = g.create_dataset(f"signals/{entity}/{qty}", data=np.asarray(values, "f8"), **opts, **chunks)
-        ds.attrs["unit"] = results.units.get(sig, "")
+    create_run_datasets(g, [(name, results.units.get(name, "")) for name in results.signals],
+                        (results.time, list(results.signals.values())), **opts, **chunks)
     set_attrs(g, results.attrs)
 
 
@@ -346,14 +379,8 @@ class ResultsWriter:
                 del self.file[group.strip("/")]
             self.group = self.file.require_group(group) if group.strip("/") else self.file
             self.n = 0
-            opts = dict(shape=(0,), maxshape=(None,), dtype="f8", chunks=(self.CHUNK,))
-            self.time = self.group.create_dataset("time", **opts)
-            self.time.attrs["unit"] = "s"
-            self.datasets = []
-            for sig in table:
-                ds = self.group.create_dataset(f"signals/{sig.entity}/{sig.quantity}", **opts)
-                ds.attrs["unit"] = sig.unit
-                self.datasets.append(ds)
+            self.time, self.datasets = create_run_datasets(self.group, [(sig.name, sig.unit) for sig in table],
+                                                           chunks=(self.CHUNK,))
             self.set_attrs(dict(attrs, complete=False, status="running"))
             self.file.flush()
         except BaseException:
@@ -434,19 +461,19 @@ def read_results(path: str | Path) -> Results:
         path, group = path.split(":", 1)
     with h5py.File(path, "r") as f:
         g = f[group]
-        time = g["time"][()]
+        time = g[TIME][()]
         signals, units = {}, {}
-        for entity, grp in g["signals"].items():
+        for entity, grp in g[SIGNALS].items():
             for qty, ds in grp.items():
                 signals[f"{entity}.{qty}"] = ds[()]
-                units[f"{entity}.{qty}"] = ds.attrs.get("unit", "")
+                units[f"{entity}.{qty}"] = ds.attrs.get(UNIT, "")
         attrs = {}
         for key, value in g.attrs.items():
             if isinstance(value, bytes):
                 value = value.decode()
             if isinstance(value, np.generic):
                 value = value.item()
-            if key in ("parameters", "settings", "warnings") and isinstance(value, str) and value:
+            if key in JSON_ATTRS and isinstance(value, str) and value:
                 value = json.loads(value)
             attrs[key] = value
     return Results(time=time, signals=signals, units=units, attrs=attrs)
