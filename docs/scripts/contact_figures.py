@@ -20,6 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from planar_mbs import catalog  # noqa: E402
 from planar_mbs.compile import compile_text  # noqa: E402
 from planar_mbs.kernel.contact import damping_factor  # noqa: E402
 from planar_mbs.model import CONTACT_LAW_NAMES, ContactLaw  # noqa: E402
@@ -37,11 +38,7 @@ joint J = clearance_revolute(ground (0, 0), journal (0, 0)) {{
 }}
 simulate {{ t_end = {t_end} s  integrator = dopri5  rtol = 1e-10  atol = 1e-14  output_step = {dt} s }}
 """
-LABELS = {
-    ContactLaw.HERTZ: "Hertz", ContactLaw.LANKARANI_NIKRAVESH: "Lankarani–Nikravesh",
-    ContactLaw.DUBOWSKY_FREUDENSTEIN: "Dubowsky–Freudenstein", ContactLaw.ESDU_78035: "ESDU-78035",
-    ContactLaw.HUNT_CROSSLEY: "Hunt–Crossley", ContactLaw.FLORES: "Flores et al.", ContactLaw.GONTHIER: "Gonthier et al.",
-}
+LABELS = {ContactLaw(spec.code): spec.title for spec in catalog.LAWS}
 STYLE = {
     ContactLaw.HERTZ: ("k", "-"), ContactLaw.DUBOWSKY_FREUDENSTEIN: ("0.45", "--"), ContactLaw.ESDU_78035: ("0.65", ":"),
     ContactLaw.LANKARANI_NIKRAVESH: ("tab:blue", "-"), ContactLaw.HUNT_CROSSLEY: ("tab:orange", "-"),
@@ -113,7 +110,7 @@ def main():
     for ax, ce in zip(axes, (0.9, 0.5)):
         for law in ContactLaw:
             d, F, e = one_impact(law, ce)
-            color, ls = STYLE[law]
+            color, ls = STYLE.get(law, (f"C{int(law) % 10}", "-."))  # a law added later: a default style
             ax.plot(d * 1e6, F * 1e-3, color=color, ls=ls, lw=1.4, label=f"{LABELS[law]} (e = {e:.3f})")
         ax.set_title(f"one impact, restitution $c_e$ = {ce}")
         ax.set_xlabel("penetration δ [µm]")
