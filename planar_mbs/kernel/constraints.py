@@ -25,13 +25,15 @@ import math
 import numpy as np
 from .jit import kernel
 
-from ..model import JOINT_ROWS, DriverType, JointType, MotionType
+from ..model import JOINT_ROWS, DriverType, JointType, MotionType, Status
 
 REVOLUTE = int(JointType.REVOLUTE)
 TRANSLATIONAL = int(JointType.TRANSLATIONAL)
 WELD = int(JointType.WELD)
 REVOLUTE_REVOLUTE = int(JointType.REVOLUTE_REVOLUTE)
 REVOLUTE_TRANSLATIONAL = int(JointType.REVOLUTE_TRANSLATIONAL)
+
+BAD_INPUT = int(Status.BAD_INPUT)
 
 ANGLE = int(DriverType.ANGLE)
 POSITION = int(DriverType.POSITION)
@@ -138,7 +140,7 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
     Row r involves at most two bodies, ``rowbody[r] = (i, j)`` of its joint or
     driver (`row_bodies`); ``J[r, 0]`` is dC_r/dq_i and ``J[r, 1]`` dC_r/dq_j
     (zero for ground).  ``gamma`` is the right side of ``Cq q'' = gamma`` (no
-    Baumgarte terms).  Returns 0 (Status.DONE) or 7 (Status.BAD_INPUT) for an
+    Baumgarte terms).  Returns 0 (Status.DONE) or Status.BAD_INPUT for an
     unknown type code."""
     m = C.shape[0]
     for r in range(m):
@@ -204,7 +206,7 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
             add_point_jac(J, r, 0, bi, aix, aiy, dx, dy, -1.0)
             gamma[r] = -(ddx * ddx + ddy * ddy + dx * (gjx - gix) + dy * (gjy - giy))
         else:
-            return 7
+            return BAD_INPUT
     nd = km.driver_type.shape[0]
     for d in range(nd):
         r = km.driver_row[d]
@@ -230,7 +232,7 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
             C[r] = g - f
             gamma[r] = gg + fdd
         else:
-            return 7
+            return BAD_INPUT
         Ct[r] = -fd
     return 0
 

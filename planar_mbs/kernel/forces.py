@@ -20,8 +20,10 @@ import math
 
 from .jit import kernel
 
-from ..model import ForceType
+from ..model import ForceType, Status
 from .constraints import body_state, point_cs, point_state
+
+BAD_INPUT = int(Status.BAD_INPUT)
 
 CONSTANT_FORCE = int(ForceType.CONSTANT_FORCE)
 CONSTANT_TORQUE = int(ForceType.CONSTANT_TORQUE)
@@ -86,7 +88,7 @@ def applied_forces(km, q, qd, cs, Qe):
             if bi >= 0:
                 Qe[3 * bi + 2] += T
         else:
-            return 7
+            return BAD_INPUT
     return 0
 
 

@@ -34,7 +34,7 @@ import numpy as np
 from .jit import kernel
 
 from .. import catalog
-from ..model import CFG_ATOL, CFG_RTOL
+from ..model import CFG_ATOL, CFG_RTOL, Status
 from .dynamics import rhs
 
 RK4_C = np.array([0.0, 0.5, 0.5, 1.0])
@@ -213,6 +213,8 @@ DP8_D[3, 13] = 96.32455395918828
 DP8_D[3, 14] = -39.17726167561544
 DP8_D[3, 15] = -149.72683625798564
 
+NONFINITE = int(Status.NONFINITE)
+
 SAFETY = 0.9
 FAC_MIN = 0.2
 FAC_MAX = 10.0
@@ -228,7 +230,7 @@ END_STAGE = np.array([s.end_stage for s in catalog.INTEGRATORS], dtype=np.int64)
 @kernel
 def rk4_step(km, cfg, t, y, h, contact, ws, stats):
     """One RK4 step from (t, y) with k1 = ws.f; result in ws.yb, f(yb) in ws.K[4].
-    Stages in ws.K[0..3]. Returns a Status code (NONFINITE = 3 on NaN/inf)."""
+    Stages in ws.K[0..3]. Returns a Status code (NONFINITE on NaN/inf)."""
     N = y.shape[0]
     K = ws.K
     for i in range(N):
@@ -249,7 +251,7 @@ def rk4_step(km, cfg, t, y, h, contact, ws, stats):
         return st
     for i in range(N):
         if not (math.isfinite(ws.yb[i]) and math.isfinite(K[4, i])):
-            return 3
+            return NONFINITE
     return 0
 
 
