@@ -402,11 +402,12 @@ def check_cases(specs: Sequence[CaseSpec]) -> None:
     """Compile every case once in the parent, so a bad value, a misspelt `--keep` signal or a
     section signal the model lacks stops the sweep before it starts."""
     from . import load_model
+    from .simulation import run_settings
 
     for spec in specs:
         try:
             m = load_model(spec.model_path, **{**spec.sets, **spec.values})
-            case_settings(m, spec)
+            run_settings(m, **case_settings(m, spec))  # e.g. an unknown integrator name
             if spec.keep is not None:
                 kept_signals(m, spec.keep)
             check_section(m, spec.section)

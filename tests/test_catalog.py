@@ -68,6 +68,20 @@ def test_unknown_names_are_refused_with_the_choices():
         catalog.law("hertzz")
 
 
+def test_the_library_refuses_an_unknown_integrator_with_the_choices(tmp_path):
+    import planar_mbs as mbs
+    from planar_mbs.sweep import parse_param, run_sweep
+
+    model = mbs.load_model(ROOT / "models" / "slider_crank.mbs")
+    with pytest.raises(ModelError, match="unknown integrator `dopri4`") as info:
+        mbs.simulate(model, integrator="dopri4")
+    assert "did you mean `dopri5`" in info.value.hint and "rk4, dopri5 or dop853" in info.value.hint
+    with pytest.raises(ModelError, match="unknown integrator `rk5`"):
+        run_sweep(ROOT / "models" / "slider_crank.mbs", [parse_param("speed=600rpm")], tmp_path / "s.h5",
+                  settings={"integrator": "rk5"}, jobs=1)
+    assert mbs.simulate(model, integrator="DOP853", t_end=1e-3).attrs["complete"]
+
+
 # ------------------------------------------------------------ adding from the descriptions alone
 DUMMY_LAW = ('    LawSpec(len(LAWS) + 0, "SOFT_DUMMY", "soft_dummy", "Soft dummy", ELASTIC, "F = K d^n", "test"),\n')
 DUMMY_JOINT = ('    JointSpec(5, "PIN_DUMMY", "pin_dummy", 2, "P_i - P_j = 0", {}, example="pin_dummy(a (p), b (p))"),\n')
