@@ -395,7 +395,7 @@ def plot_divergence(sec):
     plt.close(fig)
 
 
-SECTIONS = ["rhs", "wp_ideal", "wp_pendulum", "wp_clearance", "ratios", "startup", "skip", "scaling", "stress"]
+SECTIONS = ["rhs", "wp_ideal", "wp_pendulum", "wp_clearance", "ratios", "startup", "skip", "scaling", "stress", "process"]
 
 
 def main() -> None:
@@ -424,6 +424,10 @@ def main() -> None:
             data[sec] = section_wp_clearance()
         elif sec == "ratios":
             data[sec] = section_ratios(data)
+        elif sec == "process":
+            import process
+
+            data[sec] = process.section_process()
         else:
             data[sec] = getattr(extra_sections, f"section_{sec}")()
         data.setdefault("section_seconds", {})[sec] = time.perf_counter() - t0

@@ -1,0 +1,271 @@
+"""The whole process as users feel it: start-up, sweeps on two cores, output cost, a 40-link chain.
+
+Every target is a *ratio* of two times measured in this one run (the machine is shared,
+absolute seconds move from run to run; the ratios much less):
+
+    .venv/bin/python benchmarks/process.py            # prints the table, stores docs/benchmarks_data.json "process"
+    .venv/bin/python benchmarks/run.py --only process  # the same, and rewrites docs/benchmarks.md
+
+Commands are run as separate processes, interleaved round by round (so a burst of load hits
+all of them alike), and each time is the median over the rounds.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+PY = sys.executable
+MBS = str(Path(PY).with_name("mbs"))
+DATA = ROOT / "docs" / "benchmarks_data.json"
+RPM5000 = 5000 * 2 * math.pi / 60
+REV = 2 * math.pi / RPM5000
+
+
+def wall(cmd, cwd=None, env=None) -> float:
+    """Wall-clock seconds of one process; raises with its stderr if it fails."""
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, env=env)
+    dt = time.perf_counter() - t0
+    if out.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({out.returncode}):\n{out.stderr[-3000:]}")
+    return dt
+
+
+def interleaved(cmds: dict[str, list], rounds: int, cwd=None) -> dict[str, float]:
+    """Median wall time of each command, run round-robin ``rounds`` times after one warm-up each."""
+    for cmd in cmds.values():
+        wall(cmd, cwd=cwd)
+    times = {k: [] for k in cmds}
+    for _ in range(rounds):
+        for k, cmd in cmds.items():
+            times[k].append(wall(cmd, cwd=cwd))
+    return {k: statistics.median(v) for k, v in times.items()}
+
+
+def exudyn_available() -> bool:
+    return subprocess.run([PY, "-c", "import exudyn"], capture_output=True).returncode == 0
+
+
+# ---------------------------------------------------------------- start-up
+def scipy_problem(tmp: Path) -> Path:
+    """The scipy baseline's input: parameters and assembled initial state of the clearance model
+    (rtol 1e-6, atol 1e-9, 5 revolutions, outputs every 10 µs: the model file's own settings)."""
+    out = subprocess.run([PY, "-c", f"""
+import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r})
+import numpy as np, planar_mbs as mbs, slider_crank_equations as E
+from planar_mbs.kinematics import assemble
+m = mbs.load_model({str(MODELS / 'slider_crank_clearance_a.mbs')!r})
+q, qd = assemble(m)
+np.savez({str(tmp / 'problem.npz')!r}, p=E.parameters(m), y0=np.concatenate([q, qd]))
+"""], capture_output=True, text=True)
+    if out.returncode:
+        raise RuntimeError(out.stderr[-3000:])
+    return tmp / "problem.npz"
+
+
+def startup(tmp: Path, rounds: int = 7) -> dict:
+    clearance = str(MODELS / "slider_crank_clearance_a.mbs")
+    cmds = {
+        "import numpy": [PY, "-c", "import numpy"],
+        "import numba": [PY, "-c", "import numba"],
+        "mbs --help": [MBS, "--help"],
+        "mbs check": [MBS, "check", clearance],
+        "mbs run slider_crank": [MBS, "run", str(MODELS / "slider_crank.mbs"), "-q", "-o", str(tmp / "sc.h5")],
+        "mbs run clearance A 5 rev": [MBS, "run", clearance, "-q", "-o", str(tmp / "a.h5")],
+        "scipy baseline clearance A 5 rev": [PY, str(ROOT / "benchmarks" / "scipy_baseline.py"), "--problem",
+                                             str(scipy_problem(tmp)), "--rtol", "1e-6", "--revolutions", "5",
+                                             "-o", str(tmp / "scipy.npz")],
+    }
+    if exudyn_available():
+        cmds["exudyn slider_crank"] = [PY, str(ROOT / "benchmarks" / "exudyn_slider_crank.py")]
+    t = interleaved(cmds, rounds)
+    errors = {}
+    if "exudyn slider_crank" in t:
+        out = subprocess.run(cmds["exudyn slider_crank"] + ["--error"], capture_output=True, text=True)
+        errors["exudyn slider_crank"] = float(out.stdout.strip().splitlines()[-1])
+        errors["mbs run slider_crank"] = slider_error(tmp / "sc.h5")
+    ratios = {
+        "mbs check / import numpy": (t["mbs check"] / t["import numpy"], 2.0, "≤"),
+        "mbs --help / import numpy": (t["mbs --help"] / t["import numpy"], 1.5, "≤"),
+        "mbs run slider_crank / import numba": (t["mbs run slider_crank"] / t["import numba"], 1.5, "≤"),
+        "scipy baseline / mbs run (clearance A, 5 rev, whole process)":
+            (t["scipy baseline clearance A 5 rev"] / t["mbs run clearance A 5 rev"], None, "≥"),
+    }
+    if "exudyn slider_crank" in t:
+        ratios["exudyn / mbs run (slider_crank, whole process)"] = (
+            t["exudyn slider_crank"] / t["mbs run slider_crank"], None, "≥")
+    return dict(times=t, ratios={k: dict(ratio=r, target=g, sense=s) for k, (r, g, s) in ratios.items()},
+                rounds=rounds, errors=errors)
+
+
+def slider_error(path: Path) -> float:
+    """max |slider.x - closed form| of an `mbs run models/slider_crank.mbs` results file [m]."""
+    import numpy as np
+
+    import planar_mbs as mbs
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from exudyn_slider_crank import closed_form_x
+
+    r = mbs.read_results(path)
+    return float(np.max(np.abs(r["slider.x"] - closed_form_x(r.time))))
+
+
+# ---------------------------------------------------------------- sweeps
+def sweep(tmp: Path, rounds: int = 2) -> dict:
+    """8 cases of the clearance slider-crank (speeds 4000..5000 rpm, 10 revolutions each)."""
+    base = [MBS, "sweep", str(MODELS / "slider_crank_clearance_a.mbs"), "-P", "speed=4000rpm..5000rpm:8",
+            "-n", "10", "--rtol", "1e-6", "--overwrite"]
+    times = {"-j 1": [], "-j 2": []}
+    for r in range(rounds):
+        for j in ("1", "2"):
+            times[f"-j {j}"].append(wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}_{r}.h5")]))
+    t = {k: statistics.median(v) for k, v in times.items()}
+    return dict(times=t, speedup=t["-j 1"] / t["-j 2"], target=1.6, cases=8, rounds=rounds)
+
+
+# ---------------------------------------------------------------- in-process: time loop vs scipy, output rows
+def loop_vs_scipy() -> dict:
+    """Clearance slider-crank A, 5000 rpm, 5 revolutions, rtol 1e-6 (atol 1e-9), outputs every 10 µs: our
+    time loop (DOPRI5) against `scipy_baseline.run` (RK45), best of three each."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import numpy as np
+
+    import planar_mbs as mbs
+    import scipy_baseline
+    import slider_crank_equations as E
+    from planar_mbs.kinematics import assemble
+
+    model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
+    t_end, dt = 5 * REV, 10e-6
+    ours = min(mbs.simulate(model, t_end=t_end, output_step=dt, rtol=1e-6, atol=1e-9,
+                            integrator="dopri5").attrs["wall_time"] for _ in range(3))
+    q, qd = assemble(model)
+    y0, p = np.concatenate([q, qd]), E.parameters(model)
+    grid = np.arange(0.0, t_end * (1 + 1e-12), dt)
+    theirs = min(scipy_baseline.run(y0, p, t_end, grid, method="RK45", rtol=1e-6, atol=1e-9)[2] for _ in range(3))
+    return dict(ours=ours, scipy=theirs, ratio=theirs / ours, target=100.0)
+
+
+def output_rows(tmp: Path) -> dict:
+    """What one output row costs: the ideal slider-crank, 5 revolutions, outputs every 1 µs (30 001 rows)
+    against one row at the end; in the time loop (observation) and in total with an HDF5 file."""
+    import planar_mbs as mbs
+
+    model = mbs.load_model(MODELS / "slider_crank.mbs")
+    t_end = 5 * REV
+
+    def best(**kw):
+        out = math.inf, math.inf
+        for _ in range(3):
+            t0 = time.perf_counter()
+            r = mbs.simulate(model, t_end=t_end, **kw)
+            out = min(out[0], r.attrs["wall_time"]), min(out[1], time.perf_counter() - t0)
+        return out, len(r.time), len(r.signals)
+
+    (loop_few, tot_few), _, _ = best(output_step=t_end)
+    (loop_many, _), rows, nsig = best(output_step=1e-6)
+    (_, tot_file), _, _ = best(output_step=1e-6, output=tmp / "rows.h5")
+    (_, tot_file_few), _, _ = best(output_step=t_end, output=tmp / "rows_few.h5")
+    return dict(rows=rows, signals=nsig, loop_us=(loop_many - loop_few) / rows * 1e6,
+                total_us=((tot_file - tot_file_few) / rows) * 1e6, target_us=1.0)
+
+
+# ---------------------------------------------------------------- a 40-link chain as a whole process
+def chain_text(n: int, length: float = 0.1, mass: float = 0.1) -> str:
+    """A pendulum of n uniform bars hinged in series, released horizontal, under gravity."""
+    lines = [f"# {n}-link pendulum chain (benchmark)", "gravity (0, -9.81 m/s^2)"]
+    inertia = mass * length * length / 12
+    for i in range(n):
+        lines.append(f"body b{i} {{ mass = {mass} kg  inertia = {inertia!r} kg*m^2  "
+                     f"position = ({length * (i + 0.5)!r}, 0) }}")
+    lines.append(f"joint j0 = revolute(ground (0, 0), b0 ({-length / 2!r}, 0))")
+    for i in range(1, n):
+        lines.append(f"joint j{i} = revolute(b{i - 1} ({length / 2!r}, 0), b{i} ({-length / 2!r}, 0))")
+    lines.append("simulate { t_end = 0.5 s  integrator = dopri5  rtol = 1e-6  atol = 1e-9  output_step = 1 ms }")
+    return "\n".join(lines) + "\n"
+
+
+CHAIN_PHASES = r"""
+import time, sys
+T0 = time.perf_counter(); laps = {}
+def lap(k, t=[T0]):
+    now = time.perf_counter(); laps[k] = now - t[0]; t[0] = now
+import planar_mbs as mbs
+from planar_mbs import simulation, results, kernel
+lap("start-up (imports)")
+m = mbs.load_model(sys.argv[1])
+from planar_mbs.kinematics import assemble
+assemble(m)
+lap("compile (parse, compile, assemble)")
+r = mbs.simulate(m)
+lap("first simulate (kernel cache load, loop)")
+loop = r.attrs["wall_time"]
+t0 = time.perf_counter(); r = mbs.simulate(m); mem = time.perf_counter() - t0
+t0 = time.perf_counter(); r = mbs.simulate(m, output=sys.argv[2]); fil = time.perf_counter() - t0
+laps["loop"] = r.attrs["wall_time"]
+laps["writing"] = max(fil - mem, 0.0)
+laps["process"] = time.perf_counter() - T0
+print(repr(laps))
+"""
+
+
+def chain40(tmp: Path, n: int = 40) -> dict:
+    path = tmp / f"chain{n}.mbs"
+    path.write_text(chain_text(n))
+    out = subprocess.run([PY, "-c", CHAIN_PHASES, str(path), str(tmp / "chain.h5")], capture_output=True, text=True)
+    if out.returncode:
+        raise RuntimeError(out.stderr[-3000:])
+    laps = eval(out.stdout.strip().splitlines()[-1])  # noqa: S307 - our own dict literal
+    import h5py
+
+    with h5py.File(tmp / "chain.h5", "r") as f:
+        nobj = []
+        f.visit(nobj.append)
+    laps["hdf5 objects"] = len(nobj)
+    laps["whole process `mbs run`"] = wall([MBS, "run", str(path), "-q", "-o", str(tmp / "chain_cli.h5")])
+    return laps
+
+
+def section_process() -> dict:
+    tmp = Path(tempfile.mkdtemp(prefix="mbs_bench_"))
+    out = {}
+    for name, fn in (("startup", lambda: startup(tmp)), ("sweep", lambda: sweep(tmp)),
+                     ("loop_vs_scipy", loop_vs_scipy), ("output", lambda: output_rows(tmp)),
+                     ("chain40", lambda: chain40(tmp))):
+        t0 = time.perf_counter()
+        out[name] = fn()
+        print(f"  {name} ({time.perf_counter() - t0:.0f} s): {json.dumps(out[name], default=str)}", flush=True)
+    out["date"] = time.strftime("%Y-%m-%d %H:%M")
+    out["load"] = os.getloadavg()
+    return out
+
+
+def main() -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--no-store", action="store_true", help="print only; leave docs/benchmarks_data.json alone")
+    args = ap.parse_args()
+    res = section_process()
+    if not args.no_store:
+        data = json.loads(DATA.read_text()) if DATA.exists() else {}
+        data["process"] = res
+        DATA.write_text(json.dumps(data, indent=1))
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import report
+
+    print("\n".join(report.process_table(res)))
+
+
+if __name__ == "__main__":
+    main()
