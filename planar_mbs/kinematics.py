@@ -60,12 +60,19 @@ def assembly_kernel(model: Model) -> tuple[KernelModel, list[str]]:
 
 
 def _evaluate(km: KernelModel, q, qd, t, m):
-    from .kernel import constraint_eval
+    """C, Cq, Ct at (q, q', t) from the constraint kernels' source run as plain Python
+    (`planar_mbs.pykernel`): assembly, and so `mbs check`, loads no numba.  A division by
+    zero gives non-finite values (as the compiled kernels' numpy error model does)."""
+    from .pykernel.constraints import constraint_eval
 
     n = len(q)
     C, Ct, gamma = np.zeros(m), np.zeros(m), np.zeros(m)
     Cq = np.zeros((m, n))
-    constraint_eval(km, q, qd, t, C, Cq, Ct, gamma)
+    with np.errstate(all="ignore"):
+        try:
+            constraint_eval(km, q, qd, t, C, Cq, Ct, gamma)
+        except ZeroDivisionError:
+            C[:] = np.nan
     return C, Cq, Ct
 
 

@@ -55,12 +55,67 @@ def test_unknown_unit_did_you_mean():
     assert "`mm`" in e.value.hint
 
 
-def test_unit_factors_left_to_right():
+def _pint_si(text):
+    """(SI scale, {dimension: exponent}) of a unit text according to pint (the authority)."""
     ureg = U.registry()
-    assert U.parse_unit("kg*m^2") == ureg.kilogram * ureg.meter ** 2
-    assert U.parse_unit("m/s^2") == ureg.meter / ureg.second ** 2
-    assert U.parse_unit("N*m*s/rad") == ureg.newton * ureg.meter * ureg.second / ureg.radian
-    assert U.parse_unit("1/s") == 1 / ureg.second
+    base = ureg.Quantity(1.0, ureg.parse_units(text)).to_base_units()
+    return base.magnitude, {k: float(v) for k, v in base.dimensionality.items()}
+
+
+def _ours(unit):
+    return unit.scale, {d: e for d, e in zip(U.DIMENSIONS, unit.dimensionality) if e}
+
+
+@pytest.mark.parametrize("name", sorted(U.TABLE))
+def test_every_unit_of_our_table_is_pints(name):
+    """Our table resolves units without importing pint; each entry must be what pint says."""
+    scale, dims = _pint_si(name)
+    got_scale, got_dims = _ours(U.parse_unit(name))
+    assert got_scale == pytest.approx(scale, rel=1e-14)
+    assert got_dims == dims
+
+
+@pytest.mark.parametrize("text, pint_text", [
+    ("kg*m^2", "kg*m**2"), ("m/s^2", "m/s**2"), ("N*m*s/rad", "N*m*s/rad"), ("1/s", "1/s"),
+    ("N/m^1.5", "N/m**1.5"), ("kg/m^3", "kg/m**3"), ("rev/min", "rev/min"), ("mm/ms", "mm/ms"),
+])
+def test_unit_factors_left_to_right_as_pint(text, pint_text):
+    scale, dims = _pint_si(pint_text)
+    got_scale, got_dims = _ours(U.parse_unit(text))
+    assert got_scale == pytest.approx(scale, rel=1e-14)
+    assert got_dims == dims
+
+
+def test_a_unit_outside_the_table_comes_from_pint():
+    assert "inch" not in U.TABLE
+    assert U.to_si(U.quantity(2, "inch"), False, U.LENGTH, "2 inch") == pytest.approx(0.0508, rel=1e-14)
+    assert U.to_si(U.quantity(1, "lbf"), False, U.FORCE, "1 lbf") == pytest.approx(4.4482216152605, rel=1e-12)
+
+
+def test_offset_units_are_refused():
+    with pytest.raises(U.UnitError):
+        U.parse_unit("degC")
+
+
+def test_arithmetic_keeps_units_and_converts_like_pint():
+    ureg = U.registry()
+    a, b = U.quantity(1, "m") + U.quantity(5, "mm"), ureg.Quantity(1, "m") + ureg.Quantity(5, "mm")
+    assert a.magnitude == pytest.approx(b.magnitude) and U.format_quantity(a) == "1.005 m"
+    t = U.quantity(2, "rev") / U.quantity(5000, "rpm")
+    assert U.to_si(t, False, U.TIME, "t") == pytest.approx(
+        (ureg.Quantity(2, "turn") / ureg.Quantity(5000, "rpm")).to("s").magnitude, rel=1e-14)
+    assert (U.quantity(3, "m") ** 2).dimensionality == U.parse_unit("m^2").dimensionality
+
+
+def test_compiling_a_model_imports_no_pint():
+    import subprocess
+    import sys
+
+    code = ("import sys, planar_mbs as m; m.load_model('models/slider_crank_clearance_a.mbs', speed='3000 rpm'); "
+            "print('pint' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=__import__("pathlib").Path(__file__).resolve().parents[1])
+    assert out.stdout.strip() == "False"
 
 
 def test_describe_and_format():
