@@ -64,63 +64,11 @@ _CHECK_HELP = (
 @app.command(help=_CHECK_HELP)
 def check(model: ModelArg, set_: SetOpt = None) -> None:
     """Compile a model and print it (help text: _CHECK_HELP, from the catalog)."""
-    from planar_mbs import load_model
-    from planar_mbs.errors import MbsError
-    from planar_mbs.kinematics import assemble
+    from .check_command import check_model
 
-    try:
-        m = load_model(model, **parse_sets(set_ or []))
-        assemble(m)
-    except MbsError as err:
-        _fail(err)
-    _print_model(m)
-
-
-def _print_model(m) -> None:
-    from rich.markup import escape
-    from rich.table import Table
-
-    from planar_mbs.model import CP_CLEARANCE, CP_STIFFNESS
-    con = _console()
-    k = m.kernel
-    con.print(f"[bold]{m.source_path}[/]: {m.nbody} bodies, {m.ncoord} coordinates, "
-              f"{m.nconstraint} constraints, {m.dof} degrees of freedom "
-              f"({m.nclearance} clearance joint{'s' if m.nclearance != 1 else ''})")
-
-    def table(title, *columns):
-        t = Table(title=title, title_justify="left")
-        for c in columns:
-            t.add_column(escape(c), overflow="fold", min_width=len(c))  # "[kg]" is not markup
-        return t
-
-    bodies = table("bodies", "body", "mass [kg]", "inertia [kg m²]")
-    for b, name in enumerate(m.body_names):
-        bodies.add_row(name, f"{k.body_mass[b]:g}", f"{k.body_inertia[b]:g}")
-    con.print(bodies)
-    joints = table("ideal joints and drivers", "joint", "type", "bodies", "rows")
-    for j, name in enumerate(m.joint_names):
-        i1, i2 = k.joint_body[j]
-        spec = catalog.JOINTS[int(k.joint_type[j])]
-        joints.add_row(name, spec.name, f"{_body(m, i1)} – {_body(m, i2)}", str(spec.rows))
-    for d, name in enumerate(m.driver_names):
-        i1, i2 = k.driver_body[d]
-        joints.add_row(name, "driver", f"{_body(m, i1)} – {_body(m, i2)}", "1")
-    con.print(joints)
-    if m.nclearance:
-        cl = table("clearance joints", "clearance joint", "bearing – journal", "clearance [mm]", "law",
-                   "K [N/m^n]")
-        for c, name in enumerate(m.clearance_names):
-            i1, i2 = k.clearance_body[c]
-            law = catalog.LAWS[int(k.clearance_law[c])]
-            cl.add_row(name, f"{_body(m, i1)} – {_body(m, i2)}",
-                       f"{k.clearance_param[c, CP_CLEARANCE] * 1e3:g}",
-                       law.name, "—" if law.group.compliance == "materials"  # no K of F = K d^n
-                       else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}")
-        con.print(cl)
-
-
-def _body(m, i: int) -> str:
-    return "ground" if i < 0 else m.body_names[i]
+    code = check_model(model, set_ or [])
+    if code:
+        raise typer.Exit(code)
 
 
 @app.command()

@@ -1,11 +1,9 @@
 """What every `mbs` command shares: the exit codes, the console, user-facing errors,
-`--set` pairs and values with units.  Imports only typer; the rest loads on use."""
+`--set` pairs and values with units.  Imports nothing heavy (typer only in `fail`); the rest loads on use."""
 from __future__ import annotations
 
 from enum import IntEnum
 from typing import Optional
-
-import typer
 
 
 class ExitCode(IntEnum):
@@ -25,13 +23,20 @@ def console(stderr: bool = False):
     return Console(stderr=stderr, highlight=False, width=width)
 
 
-def fail(err) -> None:
-    """Print a user-facing error (never a traceback) and exit with its code."""
+def fail_code(err) -> int:
+    """Print a user-facing error (never a traceback); return its exit code."""
     from planar_mbs.errors import MbsError
 
     code = err.exit_code if isinstance(err, MbsError) else ExitCode.BAD_MODEL
     console(stderr=True).print(str(err), markup=False, soft_wrap=True)  # never re-wrap: the caret must stay aligned
-    raise typer.Exit(code)
+    return int(code)
+
+
+def fail(err) -> None:
+    """Print a user-facing error (never a traceback) and exit with its code."""
+    import typer
+
+    raise typer.Exit(fail_code(err))
 
 
 def parse_sets(sets: list[str]) -> dict[str, str]:

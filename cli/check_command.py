@@ -1,0 +1,73 @@
+"""`mbs check`: compile a model, assemble its initial pose and print what it is made of.
+
+Imports neither typer nor numba: `entry.main` runs a plain `mbs check MODEL [--set NAME=VALUE]...`
+through `check_model` directly (typer's argument handling loads pydantic, which alone costs more than
+compiling a model), and the typer command `check` calls the same function.
+"""
+from __future__ import annotations
+
+from planar_mbs import catalog
+
+from .common import console, fail_code, parse_sets
+
+
+def check_model(model, sets: list[str]) -> int:
+    """Check one model; print its summary or its errors (with file:line:col).  Returns the exit code."""
+    from planar_mbs import load_model
+    from planar_mbs.errors import MbsError
+    from planar_mbs.kinematics import assemble
+
+    try:
+        m = load_model(model, **parse_sets(sets))
+        assemble(m)
+    except MbsError as err:
+        return fail_code(err)
+    _print_model(m)
+    return 0
+
+
+def _print_model(m) -> None:
+    from rich.markup import escape
+    from rich.table import Table
+
+    from planar_mbs.model import CP_CLEARANCE, CP_STIFFNESS
+    con = console()
+    k = m.kernel
+    con.print(f"[bold]{m.source_path}[/]: {m.nbody} bodies, {m.ncoord} coordinates, "
+              f"{m.nconstraint} constraints, {m.dof} degrees of freedom "
+              f"({m.nclearance} clearance joint{'s' if m.nclearance != 1 else ''})")
+
+    def table(title, *columns):
+        t = Table(title=title, title_justify="left")
+        for c in columns:
+            t.add_column(escape(c), overflow="fold", min_width=len(c))  # "[kg]" is not markup
+        return t
+
+    bodies = table("bodies", "body", "mass [kg]", "inertia [kg m²]")
+    for b, name in enumerate(m.body_names):
+        bodies.add_row(name, f"{k.body_mass[b]:g}", f"{k.body_inertia[b]:g}")
+    con.print(bodies)
+    joints = table("ideal joints and drivers", "joint", "type", "bodies", "rows")
+    for j, name in enumerate(m.joint_names):
+        i1, i2 = k.joint_body[j]
+        spec = catalog.JOINTS[int(k.joint_type[j])]
+        joints.add_row(name, spec.name, f"{_body(m, i1)} – {_body(m, i2)}", str(spec.rows))
+    for d, name in enumerate(m.driver_names):
+        i1, i2 = k.driver_body[d]
+        joints.add_row(name, "driver", f"{_body(m, i1)} – {_body(m, i2)}", "1")
+    con.print(joints)
+    if m.nclearance:
+        cl = table("clearance joints", "clearance joint", "bearing – journal", "clearance [mm]", "law",
+                   "K [N/m^n]")
+        for c, name in enumerate(m.clearance_names):
+            i1, i2 = k.clearance_body[c]
+            law = catalog.LAWS[int(k.clearance_law[c])]
+            cl.add_row(name, f"{_body(m, i1)} – {_body(m, i2)}",
+                       f"{k.clearance_param[c, CP_CLEARANCE] * 1e3:g}",
+                       law.name, "—" if law.group.compliance == "materials"  # no K of F = K d^n
+                       else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}")
+        con.print(cl)
+
+
+def _body(m, i: int) -> str:
+    return "ground" if i < 0 else m.body_names[i]
