@@ -1,0 +1,41 @@
+"""Imported once by a sweep's forkserver (multiprocessing's preload, see `sweep.default_executor`).
+
+Everything a case needs is loaded here, before any worker exists: numba, the kernels and their
+compiled code (read from numba's cache by one short run of a small model), the analysis.  Each
+worker is then a fork of this process and starts running cases at once, instead of paying that
+start-up (most of a second to seconds) itself.  BLAS is kept to one thread per process: the
+dense solves of one case are small, and two workers on two cores must not each start a pool.
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+WARM_MODEL = """
+body crank { mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (0.025, 0) }
+joint O = revolute(ground (0, 0), crank (-0.025, 0))
+driver d = rotation(crank, speed = 100 rpm)
+"""
+
+
+def warm_up() -> None:
+    """Load the compiled kernels into this process (1 ms of a driven crank: every model runs the same
+    compiled entry points, one signature for all) and the modules a case imports.  Also usable for long-lived dask workers: ``client.run(warm_up)``."""
+    from . import analysis, simulate  # noqa: F401
+    from .compile import compile_text
+
+    simulate(compile_text(WARM_MODEL, "<warm-up>"), t_end=1e-3)
+
+
+
+def kernels_loaded() -> bool:
+    """True in a process where the time loop's compiled code is already in memory (tests)."""
+    import sys
+
+    kernel = sys.modules.get("planar_mbs.kernel")
+    return kernel is not None and bool(kernel.advance.overloads)
+
+
+warm_up()
