@@ -4,10 +4,17 @@ A plain ``mbs check MODEL [--set NAME=VALUE]...`` runs `check_command.check_mode
 typer: typer's argument handling imports pydantic, which costs more than parsing, compiling and
 assembling a model.  Every other command line (another command, ``--help``, any other option, a
 mistake) goes unchanged to the typer app in `app`, which owns usage, help and errors.
+
+BLAS runs on one thread in this process (unless the user set it): its solves here are small dense
+ones (assembly, Poincaré analysis), for which starting a thread pool per core costs more than it saves.
 """
 from __future__ import annotations
 
+import os
 import sys
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 
 def plain_check(argv: list[str]):

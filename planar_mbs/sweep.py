@@ -12,7 +12,7 @@ File layout (each case is laid out exactly as the file of one run, see results.p
     /                    attrs: kind = "sweep", config (JSON: model fingerprint, --set values,
                          settings, section options, ...), model_source, model_path, version,
                          params (JSON: [[name, [values...]], ...] in command order)
-    /cases/<k>/time, /cases/<k>/signals/<entity>/<quantity>, attrs of a run
+    /cases/<k>/time, /cases/<k>/signals/<entity>, attrs of a run
                          + case (k), case_key, case_values (JSON)
     /cases/<k>/poincare  the Poincaré section of the case and its verdict (analysis.py)
     /cases_table/        one row per case: index, key, status, one column per parameter (the

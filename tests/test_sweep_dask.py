@@ -61,7 +61,7 @@ def _cases(path):
     with h5py.File(path, "r") as f:
         for k, g in f["cases"].items():
             key = g.attrs["case_key"]
-            out[key] = {name: g[f"signals/{name}"][()] for name in ("slider/vx", "A/contact_force")}
+            out[key] = {f"{e}.{q}": g[f"signals/{e}"][q] for e, q in (("slider", "vx"), ("A", "contact_force"))}
             out[key]["time"] = g["time"][()]
     return out
 

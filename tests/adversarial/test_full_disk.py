@@ -75,9 +75,9 @@ def test_run_stops_cleanly_and_keeps_a_readable_prefix(tmp_path):
         with h5py.File(out, "r") as f:  # HDF5 reads it: every dataset has the same number of rows
             t = f["time"][()]
             assert f.attrs["complete"] == False  # noqa: E712  (numpy bool)
-            vx = f["signals/slider/vx"][()]
-            force = f["signals/A/contact_force"][()]
-            lengths = {ds.shape[0] for ds in (f[f"signals/{e}/{q}"] for e in f["signals"] for q in f["signals"][e])}
+            vx = f["signals/slider"]["vx"]
+            force = f["signals/A"]["contact_force"]
+            lengths = {f[f"signals/{e}"].shape[0] for e in f["signals"]}
             assert lengths == {len(t)}
     assert 0 < len(t) < 20001  # some rows, not all of them
     ref = simulate(load_model(MODEL), t_end=0.2)  # the same run, in memory
