@@ -36,6 +36,7 @@ from .jit import kernel
 from .. import catalog
 from ..model import CFG_ATOL, CFG_RTOL, Status
 from .dynamics import rhs
+from .workspace import DN_H, DN_TA, FL_DENSE_METHOD, FL_DENSE_READY
 
 RK4_C = np.array([0.0, 0.5, 0.5, 1.0])
 RK4_A = np.array([
@@ -337,18 +338,18 @@ def dop853_attempt(km, cfg, t, y, h, contact, ws, stats):
 @kernel
 def dop853_finish(km, cfg, t, h, contact, ws, stats):
     """FSAL stage of an accepted DOP853 step: K[12] = f(t + h, yb)."""
-    ws.flags[3] = 0  # the dense output of this step is not prepared yet
+    ws.flags[FL_DENSE_READY] = 0  # the dense output of this step is not prepared yet
     return rhs(km, cfg, t + h, ws.yb, contact, ws, stats, ws.K[12])
 
 
 @kernel
 def dop853_dense_prepare(km, cfg, contact, ws, stats):
     """Three extra stages and the coefficients ws.F of DOP853's 7th-order dense
-    output for the last accepted step (once per step; ws.flags[3] = ready)."""
-    if ws.flags[3] == 1:
+    output for the last accepted step (once per step; ws.flags[FL_DENSE_READY] = ready)."""
+    if ws.flags[FL_DENSE_READY] == 1:
         return 0
-    ta = ws.dense[0]
-    h = ws.dense[1]
+    ta = ws.dense[DN_TA]
+    h = ws.dense[DN_H]
     N = ws.ya.shape[0]
     K = ws.K
     for s in range(13, 16):
@@ -371,7 +372,7 @@ def dop853_dense_prepare(km, cfg, contact, ws, stats):
             for j in range(16):
                 acc += DP8_D[r, j] * K[j, i]
             F[3 + r, i] = h * acc
-    ws.flags[3] = 1
+    ws.flags[FL_DENSE_READY] = 1
     return 0
 
 
@@ -379,7 +380,7 @@ def dop853_dense_prepare(km, cfg, contact, ws, stats):
 def hermite_eval(ws, theta, out, kend):
     """Cubic Hermite interpolant of the last step from ya, yb, K[0] = f(ya) and
     K[kend] = f(yb): 4th order, no extra stage (event screening of DOP853)."""
-    h = ws.dense[1]
+    h = ws.dense[DN_H]
     th = theta
     h00 = (2.0 * th - 3.0) * th * th + 1.0
     h10 = ((th - 2.0) * th + 1.0) * th
@@ -434,13 +435,13 @@ def initial_step(km, cfg, t, y, contact, ws, stats, hmax, order):
 def dense_eval(ws, theta, out):
     """Dense output of the last accepted step at t = ta + theta h (ws.dense[0:2]),
     from ws.ya, ws.yb, ws.K (DOP853: ws.F, see `dop853_dense_prepare`); method
-    code in ws.flags[2]."""
-    h = ws.dense[1]
+    code in ws.flags[FL_DENSE_METHOD]."""
+    h = ws.dense[DN_H]
     N = out.shape[0]
     K = ws.K
-    if ws.flags[2] == RK4_CODE:
+    if ws.flags[FL_DENSE_METHOD] == RK4_CODE:
         hermite_eval(ws, theta, out, 4)
-    elif ws.flags[2] == DOP853_CODE:
+    elif ws.flags[FL_DENSE_METHOD] == DOP853_CODE:
         # Hairer's contd8 (needs dop853_dense_prepare): alternating theta / (1 - theta) factors
         x = theta
         x1 = 1.0 - theta

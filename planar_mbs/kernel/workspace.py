@@ -14,6 +14,21 @@ N_STAGES = max(s.stages for s in catalog.INTEGRATORS)
 N_DENSE_ROWS = max(1, max(s.dense_rows for s in catalog.INTEGRATORS))
 
 
+# ws.flags slots (int64) -- the time loop's state between steps and calls
+FL_PENDING_OUTPUTS = 0  # 1: outputs of the last accepted step still to be written
+FL_SWITCH_JOINT = 1  # clearance joint whose contact mode switches at the end of the last step (-1: none)
+FL_DENSE_METHOD = 2  # integrator code of the stored dense output
+FL_DENSE_READY = 3  # 1: DOP853's dense output of the last step is prepared (ws.F)
+N_FLAGS = 8
+# ws.dense slots (float64)
+DN_TA = 0  # start of the last accepted step
+DN_H = 1  # its size
+DN_T_END = 2  # end of its kept part (an event cuts it)
+DN_FINAL_SAMPLE = 3  # time of the last off-grid final sample (NaN: none)
+DN_ERR_OLD = 4  # error of the last accepted step (PI controller)
+N_DENSE = 8
+
+
 class Workspace(NamedTuple):
     C: np.ndarray  # (m,) constraint values
     J: np.ndarray  # (m, 2, 3) row-sparse Jacobian: J[r, a] = dC_r / dq of body rowbody[r, a]
@@ -37,9 +52,8 @@ class Workspace(NamedTuple):
     ys: np.ndarray  # (2n,) stage argument / scratch
     yt: np.ndarray  # (2n,) dense-output scratch
     gs: np.ndarray  # (nclearance, 5) event function samples
-    dense: np.ndarray  # (8,) float: [ta, h, t_end_of_segment, final_sample_time, ...]
-    flags: np.ndarray  # (8,) int: [pending outputs, pending switch joint, method of dense,
-    #                                  DOP853 dense output prepared, ...]
+    dense: np.ndarray  # (N_DENSE,) float, slots DN_*
+    flags: np.ndarray  # (N_FLAGS,) int, slots FL_*
     sstats: np.ndarray  # (N_STATS,) scratch counters for `observe`
 
 
@@ -100,10 +114,10 @@ def make_workspace(km: KernelModel) -> Workspace:
     N = 2 * n
     rowbody = row_bodies(km)
     first, lastrow = envelope(rowbody)
-    flags = np.zeros(8, dtype=np.int64)
-    flags[1] = -1
-    dense = np.zeros(8)
-    dense[3] = np.nan
+    flags = np.zeros(N_FLAGS, dtype=np.int64)
+    flags[FL_SWITCH_JOINT] = -1
+    dense = np.zeros(N_DENSE)
+    dense[DN_FINAL_SAMPLE] = np.nan
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
