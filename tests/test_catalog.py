@@ -173,3 +173,10 @@ def test_an_added_law_joint_and_integrator_appear_in_the_generated_docs(extended
     added = [line for line in text.splitlines() if line not in before]
     assert len(added) == 4 and all("dummy" in line for line in added), added  # 3 rows + the group line
     assert np.all([line in text.splitlines() for line in before if "elastic (`hertz`)" not in line])
+
+
+def test_contact_md_describes_every_law():
+    """docs/contact.md's table (equations, parameters, where each law holds) has a row per law."""
+    text = (ROOT / "docs" / "contact.md").read_text(encoding="utf-8")
+    rows = {line.split("|")[1].strip().strip("`") for line in text.splitlines() if line.startswith("| `")}
+    assert set(catalog.names(catalog.LAWS)) <= rows
