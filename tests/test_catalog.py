@@ -150,6 +150,19 @@ def test_an_added_law_joint_and_integrator_are_accepted_by_mbs_check(extended):
         compile_text(MODEL)
 
 
+def test_the_kernel_constants_of_the_copy_follow_its_catalog(extended):
+    """No hand-kept count: the copy's kernel knows one law, joint type and integrator more."""
+    env = {**os.environ, "PYTHONPATH": str(extended), "NUMBA_CACHE_DIR": str(extended / "numba_cache")}
+    code = ("from planar_mbs.kernel import contact, constraints, integrators; from planar_mbs import model; "
+            "print(contact.N_LAWS, len(constraints._JOINT_ROWS), len(integrators.END_STAGE), "
+            "len(model.ContactLaw), len(model.JointType), len(model.Integrator), "
+            "bool(contact.is_cylindrical.py_func(contact.N_LAWS - 1)))")
+    r = subprocess.run([sys.executable, "-c", code], cwd=extended, env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    nl, nj, ni = len(catalog.LAWS) + 1, len(catalog.JOINTS) + 1, len(catalog.INTEGRATORS) + 1
+    assert r.stdout.split() == [str(nl), str(nj), str(ni), str(nl), str(nj), str(ni), "False"]
+
+
 def test_an_added_law_joint_and_integrator_are_listed_in_help(extended):
     check = _mbs(extended, "check", "--help").stdout
     for name in ("soft_dummy", "pin_dummy", "euler_dummy"):
