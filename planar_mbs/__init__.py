@@ -1,12 +1,16 @@
 """planar_mbs: planar multibody dynamics with revolute clearance joints.
 
-The Python API mirrors the command line::
+The Python API mirrors the command line (docs/python_api.md)::
 
     import planar_mbs as mbs
     model = mbs.load_model("models/slider_crank_clearance_a.mbs", speed="2500 rpm")
-    res = mbs.simulate(model, output="a.h5")
-    res["slider.vx"], res.time
+    res = mbs.simulate(model, t_end="20 ms", output="a.h5")   # settings with units, as on the CLI
+    res["slider.vx"], res.time, res.to_dataframe()
     mbs.read_results("a.h5")
+
+    model = mbs.compile_text(text)               # a model from a string
+    sim = mbs.Simulation(model)                  # step by step, for notebooks and controllers
+    sim.step("1 ms"); sim.run_until("10 ms", callback=...)
 
 Heavy modules (numba kernels, h5py) load on first use, so `import planar_mbs`
 and `mbs --help` stay fast.
@@ -14,22 +18,65 @@ and `mbs --help` stay fast.
 from __future__ import annotations
 
 __version__ = "0.1.0"
-__all__ = ["load_model", "simulate", "read_results", "__version__"]
+__all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results", "__version__"]
+
+
+def _python_error(err, overrides: dict, func: str):
+    """A `--set`-worded override error re-worded for a Python keyword argument."""
+    import re
+
+    from .errors import ModelError
+
+    if not isinstance(err, ModelError) or err.file != "--set":
+        return err
+    m = re.search(r"`--set (\w+)(?:=\.\.\.)?`", err.message)
+    name = m.group(1) if m else next((k for k, v in overrides.items()
+                                      if err.source_line and str(v).strip() == err.source_line.strip()), None)
+    message = re.sub(r"^`--set (\w+)(?:=\.\.\.)?`: ", "", err.message)
+    message = re.sub(r"`--set (\w+)(?:=\.\.\.)?`", r"`\1=`", message)
+    place = f"{func}({name}=...)" if name else f"{func}(...)"
+    shown = f" (`{name}={overrides[name]!r}`)" if name in overrides and m is None else ""
+    hint = err.hint if err.hint != "docs/language.md describes every statement, field and unit" else ""
+    return ModelError(message + shown, place, hint=hint)
 
 
 def load_model(path, **overrides):
     """Parse and compile a `.mbs` file; keyword arguments override its `param`s
     (values are text with units, e.g. ``speed="2500 rpm"``, ``law="hertz"``)."""
     from .compile import load_model as _load
+    from .errors import ModelError
 
-    return _load(path, {k: str(v) for k, v in overrides.items()})
+    overrides = {k: str(v) for k, v in overrides.items()}
+    try:
+        return _load(path, overrides)
+    except ModelError as err:
+        raise _python_error(err, overrides, "load_model") from None
 
 
-def simulate(model, output=None, progress=None, **settings):
-    """Run a compiled model; see `planar_mbs.simulation.simulate`."""
+def compile_text(text, path="<string>", **overrides):
+    """Parse and compile model text held in a string (``path`` names it in error messages and
+    resolves its includes); keyword arguments override its `param`s, as in `load_model`."""
+    from .compile import compile_text as _compile
+    from .errors import ModelError
+
+    overrides = {k: str(v) for k, v in overrides.items()}
+    try:
+        return _compile(text, str(path), overrides)
+    except ModelError as err:
+        raise _python_error(err, overrides, "compile_text") from None
+
+
+def simulate(model, output=None, progress=None, signals=None, **settings):
+    """Run a compiled model to its end time and return its `Results`.
+
+    ``settings`` replace fields of the model's `simulate` block, as SI numbers or as text with
+    units (``t_end="1 s"``, ``output_step="10 us"``, ``integrator="dop853"``, ``rtol=1e-8``);
+    ``revolutions=5`` and ``per_rev=360`` count in periods of the crank's driver.  ``output``
+    writes an HDF5 file as the run goes; ``signals`` keeps only the named signals or entities;
+    ``progress(t, t_end)`` is called after each chunk.  See `planar_mbs.simulation.simulate`."""
     from .simulation import simulate as _simulate
 
-    return _simulate(model, output=output, progress=progress, **settings)
+    return _simulate(model, output=output, progress=progress, signals=signals, **settings)
 
 
 def read_results(path):
@@ -37,3 +84,11 @@ def read_results(path):
     from .results import read_results as _read
 
     return _read(path)
+
+
+def __getattr__(name):  # Simulation loads the numba kernels: only on first use
+    if name == "Simulation":
+        from .simulation import Simulation
+
+        return Simulation
+    raise AttributeError(f"module 'planar_mbs' has no attribute {name!r}")

@@ -109,6 +109,18 @@ class Results:
         keys = ("wall_time", "n_steps", "n_rejected", "n_rhs", "n_contact_events", "n_outputs")
         return {k: self.attrs[k] for k in keys if k in self.attrs}
 
+    def to_dataframe(self, signals=None):
+        """A pandas DataFrame: one column per signal (all, or those named in ``signals``), indexed
+        by time in seconds; the units are in ``df.attrs["units"]``.  Needs pandas (not a
+        dependency of planar_mbs: ``pip install pandas``)."""
+        import pandas as pd
+
+        names = list(self.signals) if signals is None else list(signals)
+        df = pd.DataFrame({name: self[name] for name in names},
+                          index=pd.Index(np.asarray(self.time), name="time"))
+        df.attrs["units"] = {name: self.units.get(name, "") for name in names}
+        return df
+
 
 class FileResults(Results):
     """A run kept in a results file: `time` and each signal are read from the file when

@@ -80,11 +80,78 @@ def _deferred_interrupts():
             signal.signal(sig, handler)
 
 
-def run_settings(model: Model, **changes) -> Settings:
-    """The model's `simulate` settings with the given fields replaced (None = keep)."""
-    changes = {k: v for k, v in changes.items() if v is not None}
-    if isinstance(changes.get("integrator"), str):
-        changes["integrator"] = integrator_of(changes["integrator"])
+# settings given as text take the units the CLI takes: t_end="1 s", step="1 us", alpha="5 1/s"
+_TIME_SETTINGS = ("t_end", "step", "h_min", "h_max", "output_step")
+_RATE_SETTINGS = ("alpha", "beta")
+
+
+def _setting(model: Model, name: str, value):
+    """One `simulate` setting in SI from a number or from text with units (as on the command line)."""
+    from .errors import ModelError, did_you_mean
+    from .units import parse_quantity
+
+    fields = [f.name for f in dataclasses.fields(Settings)]
+    where = f"simulate({name}=...)"
+    if name not in fields:
+        raise ModelError(f"unknown setting `{name}`", where,
+                         hint=did_you_mean(name, fields + ["revolutions", "per_rev"]) or
+                         "settings: " + ", ".join(fields + ["revolutions", "per_rev"]))
+    if name == "integrator":
+        return value if isinstance(value, Integrator) else integrator_of(value, where)
+    if name == "projection":
+        if isinstance(value, str):
+            if value.strip().lower() not in ("on", "off", "true", "false"):
+                raise ModelError(f"`projection` is on or off, not `{value}`", where, hint="e.g. projection=\"on\"")
+            return value.strip().lower() in ("on", "true")
+        return bool(value)
+    if isinstance(value, str):
+        try:
+            if name in _TIME_SETTINGS:
+                return parse_quantity(value, "time", where=where)
+            if name in _RATE_SETTINGS:
+                return parse_quantity(value, "angular_velocity", where=where)
+            value = float(value)
+        except ValueError:
+            raise ModelError(f"`{name}` takes a number, not `{value}`", where, hint="e.g. rtol=1e-8") from None
+    if name == "max_steps":
+        return int(value)
+    return float(value)
+
+
+def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Settings:
+    """The model's `simulate` settings with the given fields replaced (None = keep).
+
+    Values are SI numbers or text with units, as on the command line (``t_end="1 s"``,
+    ``output_step="10 us"``, ``integrator="dop853"``).  ``revolutions`` sets t_end and
+    ``per_rev`` the output step from the period of the model's constant-speed rotation driver
+    (the crank)."""
+    from .errors import ModelError
+
+    changes = {k: _setting(model, k, v) for k, v in changes.items() if v is not None}
+    if revolutions is not None or per_rev is not None:
+        from .analysis import driver_period
+
+        found = driver_period(model)
+        what = "revolutions" if revolutions is not None else "per_rev"
+        if found is None:
+            raise ModelError(f"`{what}` needs a rotation driver at constant speed (the crank)", model.source_path,
+                             hint="give the end time (t_end) and the output step instead")
+        if revolutions is not None and "t_end" in changes:
+            raise ModelError("give the end time or a number of revolutions, not both", model.source_path,
+                             hint="drop one of them")
+        if per_rev is not None and "output_step" in changes:
+            raise ModelError("give the output step or the samples per revolution, not both", model.source_path,
+                             hint="drop one of them")
+        if revolutions is not None:
+            if not float(revolutions) > 0:
+                raise ModelError(f"the number of revolutions must be positive, not {revolutions}",
+                                 model.source_path, hint="e.g. 5 revolutions")
+            changes["t_end"] = float(revolutions) * found[0]
+        if per_rev is not None:
+            if not int(per_rev) >= 1:
+                raise ModelError(f"samples per revolution must be at least 1, not {per_rev}", model.source_path,
+                                 hint="e.g. 360 per revolution")
+            changes["output_step"] = found[0] / int(per_rev)
     return dataclasses.replace(model.settings, **changes)
 
 
@@ -358,3 +425,206 @@ def simulate(
     if not complete:
         raise SimulationError(message, time=t_kept, results=results)
     return results
+
+
+class Simulation:
+    """A run driven step by step, for notebooks and controllers::
+
+        sim = Simulation(model, t_end="0.1 s")      # settings as in `simulate`, with units
+        sim.step("1 ms")                            # advance by a time span ...
+        sim.run_until("20 ms", callback=show)       # ... or up to a time; show(sim) after each chunk
+        sim.latest("slider.vx"), sim["slider.vx"], sim.time, sim.state
+        sim.set_load("motor", 0.3)                  # a controller: change a force element, SI
+        res = sim.run()                             # on to t_end; `Results`, as `simulate` returns
+
+    The same compiled time loop as `simulate` (`kernel.advance`), called with ``t_stop`` at the
+    end of each step: outputs stay on the model's output grid, plus one sample at the end of a
+    step that falls between two grid points (so `latest` is the state at `t`).  Ctrl-C stops
+    a step between two chunks (`RunInterrupted`, with the results so far); a numerical failure
+    raises `SimulationError`.  ``output`` writes an HDF5 file as the run goes; `close` (or
+    `run`, or leaving a ``with`` block) marks it complete or not.
+    """
+
+    def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
+                 **settings_changes):
+        from .kernel import advance, make_workspace
+
+        self.model = model
+        self.settings = run_settings(model, **settings_changes)
+        self.t_end = self.settings.t_end
+        q, qd = assemble(model)
+        self._y0 = np.concatenate([q, qd])
+        self._km = model.kernel._replace(force_param=model.kernel.force_param.copy())  # set_load: this run only
+        self._cfg = self.settings.cfg()
+        self._y = self._y0.copy()
+        self._clock = np.zeros(3)
+        self._contact = np.zeros((model.nclearance, 3))
+        self._stats = np.zeros(N_STATS, dtype=np.int64)
+        self._ws = make_workspace(self._km)
+        nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
+        self._out_t, self._out = np.zeros(BUFFER_ROWS), np.zeros((BUFFER_ROWS, nobs))
+        self._table, self._cols = signal_table(model), None
+        if signals is not None:
+            self._table, self._cols = select_signals(self._table, list(signals))
+        self._where = {s.name: s for s in self._table}
+        self._times: list[np.ndarray] = []
+        self._blocks: list[np.ndarray] = []
+        self._wall = 0.0
+        self._status = int(Status.DONE)
+        self._failure = ""
+        advance(self._km, self._cfg, self._y.copy(), self._clock.copy(), self._contact.copy(),  # compile first
+                self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
+        self._ws = make_workspace(self._km)
+        self._attrs = {
+            "model_source": model.source_text, "model_path": model.source_path, "parameters": model.parameters,
+            "version": __version__,
+            "settings": {f.name: getattr(self.settings, f.name) for f in dataclasses.fields(self.settings)},
+        }
+        self._writer = ResultsWriter(output, self._table, self._attrs) if output is not None else None
+        self.output = output
+
+    # ---------------------------------------------------------------- driving
+    @property
+    def t(self) -> float:
+        """Simulated time reached, in seconds (between two chunks of a `run_until` the integrator
+        may be up to one step ahead of the last sample handed back)."""
+        return float(self._clock[0])
+
+    def step(self, dt) -> "Simulation":
+        """Advance by `dt` (seconds, or text with units such as ``"1 ms"``)."""
+        return self.run_until(self.t + _seconds(dt, "dt"))
+
+    def run_until(self, t, callback: Callable[["Simulation"], object] | None = None) -> "Simulation":
+        """Advance to time `t` (seconds or text with units).  ``callback(sim)`` runs after every
+        chunk the time loop hands back (about 200 per run: a live plot, a progress line);
+        if it returns True the run stops there, before `t`."""
+        from .kernel import advance
+
+        t_stop = _seconds(t, "t")
+        if self._failure:
+            raise SimulationError(self._failure, time=self.t, results=self.results())
+        dto = self.settings.output_step
+        n_grid = int(math.floor(max(self.t_end, t_stop) / dto * (1 + 1e-12)))
+        cap = max(1, min(BUFFER_ROWS, math.ceil((n_grid + 1) / PROGRESS_SLICES)))
+        if t_stop < self.t:
+            return self
+        with _deferred_interrupts() as received:
+            while not received:  # until DONE: a long step may have outputs still to hand back
+                start = _time.perf_counter()
+                status, n = advance(self._km, self._cfg, self._y, self._clock, self._contact, self._stats,
+                                    self._ws, t_stop, self._out_t[:cap], self._out[:cap])
+                self._wall += _time.perf_counter() - start
+                self._status = int(status)
+                if n:
+                    chunk_t = self._out_t[:n].copy()
+                    chunk = self._out[:n].copy() if self._cols is None else self._out[:n, self._cols]
+                    self._times.append(chunk_t)
+                    self._blocks.append(chunk)
+                    if self._writer:
+                        self._writer.append(chunk_t, chunk)
+                if status not in (Status.BUFFER_FULL, Status.DONE):
+                    self._failure = _failure_message(self.model, status, int(self._stats[ST_INFO]), self.t,
+                                                     self.settings, self._contact)
+                    raise SimulationError(self._failure, time=self.t, results=self.results())
+                if callback is not None and callback(self) is True:
+                    break
+                if status == Status.DONE:
+                    break
+        if received:
+            raise RunInterrupted(received[0], self.results())
+        return self
+
+    def run(self, callback: Callable[["Simulation"], object] | None = None):
+        """Advance to ``t_end`` and close; returns the `Results` (as `simulate` does)."""
+        self.run_until(self.t_end, callback)
+        return self.close()
+
+    def set_load(self, name: str, value) -> None:
+        """Change a force element for the rest of the run (SI): the torque of a `torque`, the
+        (fx, fy) of a `constant` force, the actuator of a spring-damper."""
+        from .errors import ModelError, did_you_mean
+        from .model import ForceType
+
+        if name not in self.model.force_names:
+            raise ModelError(f"no force element `{name}`", "set_load",
+                             hint=did_you_mean(name, self.model.force_names) or
+                             "forces: " + (", ".join(self.model.force_names) or "none"))
+        k = self.model.force_names.index(name)
+        kind = int(self._km.force_type[k])
+        if kind == ForceType.CONSTANT_FORCE:
+            self._km.force_param[k, :2] = np.asarray(value, dtype=float)
+        elif kind == ForceType.CONSTANT_TORQUE:
+            self._km.force_param[k, 0] = float(value)
+        else:  # spring-dampers: the actuator force or torque
+            self._km.force_param[k, 3] = float(value)
+
+    # ---------------------------------------------------------------- reading
+    @property
+    def time(self) -> np.ndarray:
+        """Output times so far."""
+        return np.concatenate(self._times) if self._times else np.zeros(0)
+
+    def _rows(self) -> np.ndarray:
+        width = self._out.shape[1] if self._cols is None else len(self._cols)
+        return np.concatenate(self._blocks) if self._blocks else np.zeros((0, width))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """A signal's samples so far (as `Results`)."""
+        if name not in self._where:
+            from .errors import did_you_mean
+
+            hint = did_you_mean(name, self._where)
+            raise KeyError(f"no signal {name!r}" + (f"; {hint}" if hint else ""))
+        return self._where[name].extract(self._rows())
+
+    def latest(self, name: str) -> float:
+        """A signal's last sample (at `t` after a step)."""
+        if not self._blocks:
+            raise KeyError("no samples yet: step first")
+        if name not in self._where:
+            self[name]  # raises the KeyError with a hint
+        return float(self._where[name].extract(self._blocks[-1][-1:])[0])
+
+    @property
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the coordinates q (x, y, phi per body) and velocities q' at `t`."""
+        n = self.model.ncoord
+        return self._y[:n].copy(), self._y[n:].copy()
+
+    def results(self) -> Results:
+        """Everything so far as `Results` (marked complete once `t_end` is reached)."""
+        rows = self._rows()
+        done = self.t >= self.t_end and not self._failure
+        attrs = {
+            **self._attrs, "complete": done, "status": "done" if done else ("failed" if self._failure else "running"),
+            "message": self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s"),
+            "t_reached": self.t, "wall_time": self._wall, "n_steps": int(self._stats[ST_STEPS]),
+            "n_rejected": int(self._stats[ST_REJECTED]), "n_rhs": int(self._stats[ST_RHS]),
+            "n_contact_events": int(self._stats[ST_CONTACT_EVENTS]), "n_outputs": int(self._stats[ST_OUTPUTS]),
+        }
+        return Results(time=self.time, signals={s.name: s.extract(rows) for s in self._table},
+                       units={s.name: s.unit for s in self._table}, attrs=attrs)
+
+    def close(self) -> Results:
+        """Finish the output file (if any) and return the `Results` so far."""
+        res = self.results()
+        if self._writer is not None:
+            self._writer.close({k: res.attrs[k] for k in res.attrs if k not in self._attrs})
+            self._writer = None
+        return res
+
+    def __enter__(self) -> "Simulation":
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        self.close()
+        return False
+
+
+def _seconds(value, name: str) -> float:
+    """A time in seconds from a number or from text with units (``"1 ms"``)."""
+    if isinstance(value, str):
+        from .units import parse_quantity
+
+        return parse_quantity(value, "time", where=f"{name}=")
+    return float(value)
