@@ -45,6 +45,22 @@ app = typer.Typer(
 )
 
 
+def _version(value: bool) -> None:
+    if value:
+        from planar_mbs import __version__
+
+        print(f"mbs (planar_mbs) {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[bool, typer.Option("--version", help="Print the version and exit.", callback=_version,
+                                          is_eager=True)] = False,
+) -> None:
+    """planar_mbs: planar multibody dynamics with revolute clearance joints."""
+
+
 ModelArg = Annotated[Path, typer.Argument(help="The .mbs model file.", show_default=False)]
 SetOpt = Annotated[
     Optional[list[str]],
@@ -74,22 +90,33 @@ def check(model: ModelArg, set_: SetOpt = None) -> None:
 @app.command()
 def run(
     model: ModelArg,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="HDF5 results file "
-                      "[default: <model name>.h5 in the current directory].", show_default=False)] = None,
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="HDF5 results file.",
+        show_default="results/<model name>.h5, with the --set values in the name")] = None,
     set_: SetOpt = None,
     t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time, with units (\"0.06 s\", 60ms).",
-                     show_default=False)] = None,
-    integrator: Annotated[Optional[str], typer.Option(help=_INTEGRATOR_HELP, show_default=False)] = None,
+                     show_default="the model's simulate block")] = None,
+    revolutions: Annotated[Optional[float], typer.Option(
+        "--revolutions", "-n", help="End time as a number of periods of the crank's driver (instead of --t-end).",
+        show_default=False)] = None,
+    output_step: Annotated[Optional[str], typer.Option(
+        "--output-step", help="Time between stored samples, with units (100us); a coarser step keeps files small.",
+        show_default="the model's simulate block")] = None,
+    per_rev: Annotated[Optional[int], typer.Option(
+        "--per-rev", help="Stored samples per period of the crank's driver (instead of --output-step).", min=1,
+        show_default=False)] = None,
+    integrator: Annotated[Optional[str], typer.Option(help=_INTEGRATOR_HELP,
+                          show_default="the model's simulate block, else dopri5")] = None,
     rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance of the adaptive integrator.",
-                    show_default=False)] = None,
+                    show_default="the model's simulate block, else 1e-6")] = None,
     step: Annotated[Optional[str], typer.Option(help="Fixed step of rk4 (first trial step of dopri5), with units "
-                    "(1us).", show_default=False)] = None,
+                    "(1us).", show_default="the model's simulate block, else 1us")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     rerun: Annotated[Optional[Path], typer.Option("--rerun", help="Also write a rerun recording of the run "
                      "(.rrd): the moving mechanism, forces, every signal.", show_default=False)] = None,
     magnify: Annotated[float, typer.Option(help="Clearance magnification in the rerun drawing.", min=0.0)] = 10.0,
-    fps: Annotated[Optional[float], typer.Option(help="rerun frames per simulated second (default: 90 per "
-                   "revolution of the driven body).", show_default=False)] = None,
+    fps: Annotated[Optional[float], typer.Option(help="rerun frames per simulated second.",
+                   show_default="90 per revolution of the driven body")] = None,
     view_: Annotated[bool, typer.Option("--view", help="Open the rerun viewer on the recording.")] = False,
     rerun_signals: Annotated[str, typer.Option("--rerun-signals", help="envelope: per frame the first, smallest "
                              "and largest sample of each signal (peaks kept); full: every output sample.")]
@@ -97,26 +124,45 @@ def run(
 ) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
-    Example: mbs run models/slider_crank_clearance_a.mbs -o a.h5 --set speed=2500rpm --set law=hertz
+    Example: mbs run models/slider_crank_clearance_a.mbs --revolutions 60 --per-rev 720 --set speed=2500rpm
     """
-    from planar_mbs import load_model, simulate
+    from planar_mbs import simulate
+    from planar_mbs.compile import load_model
     from planar_mbs.errors import MbsError, ModelError, SimulationError
     from planar_mbs.simulation import integrator_of
 
-    out = output or Path(model.stem + ".h5")
+    sets = {}
+    out = output
     try:
-        m = load_model(model, **parse_sets(set_ or []))
+        sets = parse_sets(set_ or [])
+        out = output or default_output(model, sets)
+        m = load_model(model, sets)
         changes = dict(
             t_end=_quantity(t_end, "time", "--t-end"),
             step=_quantity(step, "time", "--step"),
+            output_step=_quantity(output_step, "time", "--output-step"),
             rtol=rtol,
             integrator=integrator,
         )
+        if t_end is not None and revolutions is not None:
+            raise ModelError("give --t-end or --revolutions, not both", "--revolutions", hint="drop one of them")
+        if output_step is not None and per_rev is not None:
+            raise ModelError("give --output-step or --per-rev, not both", "--per-rev", hint="drop one of them")
+        if (revolutions is not None or per_rev is not None) and _driver_period(m) is None:
+            raise ModelError(f"{'--revolutions' if revolutions is not None else '--per-rev'} needs a rotation "
+                             "driver at constant speed", str(model), hint="give --t-end / --output-step instead")
+        if revolutions is not None and not revolutions > 0:
+            raise ModelError(f"--revolutions must be positive, not {revolutions:g}", "--revolutions",
+                             hint="e.g. `--revolutions 60`")
+        changes.update(revolutions=revolutions, per_rev=per_rev)
         if integrator is not None:
             integrator_of(integrator, "--integrator")
         if rerun_signals not in ("envelope", "full"):
             raise ModelError(f"unknown --rerun-signals `{rerun_signals}`", "--rerun-signals",
                              hint="choose envelope or full")
+        if output is None and not out.parent.exists():  # results/, ignored by git wherever it is made
+            out.parent.mkdir(parents=True)
+            (out.parent / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
         with _Progress(quiet) as progress:
             res = simulate(m, output=out, progress=progress.update, **changes)
     except SimulationError as err:
@@ -140,6 +186,21 @@ def run(
     _print_summary(res, out)
     if rerun is not None:
         record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals)
+
+
+def _driver_period(m):
+    from planar_mbs.analysis import driver_period
+
+    return driver_period(m)
+
+
+def default_output(model: Path, sets: dict[str, str]) -> Path:
+    """results/<model name>.h5, with the --set values in the name (results/a_speed=2500rpm.h5), so a
+    run with other values never replaces the previous one; results/ is ignored by git."""
+    import re
+
+    tag = "".join(f"_{name}={re.sub(r'[^A-Za-z0-9.+-]', '', value)}" for name, value in sets.items())
+    return Path("results") / f"{model.stem}{tag}.h5"
 
 
 def _print_summary(res, out: Path) -> None:

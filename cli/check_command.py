@@ -13,12 +13,12 @@ from .common import console, fail_code, parse_sets
 
 def check_model(model, sets: list[str]) -> int:
     """Check one model; print its summary or its errors (with file:line:col).  Returns the exit code."""
-    from planar_mbs import load_model
+    from planar_mbs.compile import load_model  # errors worded for --set
     from planar_mbs.errors import MbsError
     from planar_mbs.kinematics import assemble
 
     try:
-        m = load_model(model, **parse_sets(sets))
+        m = load_model(model, parse_sets(sets))
         assemble(m)
     except MbsError as err:
         return fail_code(err)
@@ -34,7 +34,8 @@ def _print_model(m) -> None:
     con = console()
     k = m.kernel
     con.print(f"[bold]{m.source_path}[/]: {m.nbody} bodies, {m.ncoord} coordinates, "
-              f"{m.nconstraint} constraints, {m.dof} degrees of freedom "
+              f"{m.nconstraint} constraint{'s' if m.nconstraint != 1 else ''}, "
+              f"{m.dof} degree{'s' if m.dof != 1 else ''} of freedom "
               f"({m.nclearance} clearance joint{'s' if m.nclearance != 1 else ''})")
 
     def table(title, *columns):

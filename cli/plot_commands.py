@@ -45,14 +45,14 @@ def plot(
         "--orbit", help="Journal orbit of this clearance joint inside its clearance circle. Repeatable.",
         show_default=False)] = None,
     output: Annotated[Optional[Path], typer.Option(
-        "--output", "-o", help="Directory for the figures (default: <results>_plots/ next to the file).",
-        show_default=False)] = None,
+        "--output", "-o", help="Directory for the figures.",
+        show_default="<results>_plots/ next to the results file")] = None,
     fmt: Annotated[str, typer.Option("--format", "-f", help="png, svg or pdf.")] = "png",
     skip: Annotated[int, typer.Option(help="Revolutions dropped as transient before Poincaré sampling.",
                                       min=0)] = 1,
     body: Annotated[Optional[str], typer.Option(
-        "--clock", help="Body whose revolutions clock the Poincaré section (default: the body that turns "
-                        "most, i.e. the driven crank).", show_default=False)] = None,
+        "--clock", help="Body whose revolutions clock the Poincaré section.",
+        show_default="the body that turns most, i.e. the driven crank")] = None,
     list_: Annotated[bool, typer.Option("--list", "-l", help="List the signals in the file and exit.")] = False,
 ) -> None:
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
@@ -123,19 +123,19 @@ def _list_signals(results: Path) -> None:
 def view(
     results: ResultsArg,
     output: Annotated[Optional[Path], typer.Option(
-        "--output", "-o", help="The rerun recording to write (default: <results>.rrd next to the file).",
-        show_default=False)] = None,
+        "--output", "-o", help="The rerun recording to write.",
+        show_default="<results>.rrd next to the results file")] = None,
     open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the recording.")] = False,
     magnify: Annotated[float, typer.Option(help="Magnification of the clearance (eccentricity and gap) "
                                                 "in the drawing.", min=0.0)] = 10.0,
     fps: Annotated[Optional[float], typer.Option(
-        help="Frames per simulated second (default: 90 per revolution of the driven body).",
-        show_default=False, min=0.0)] = None,
+        help="Frames per simulated second.",
+        show_default="90 per revolution of the driven body", min=0.0)] = None,
     signals: Annotated[str, typer.Option(
         "--signals", help="Scalar series: `envelope` (per frame bin the first sample, the min and the max; "
                           "peaks kept, far smaller and faster) or `full` (every sample).")] = "envelope",
     signal_rate: Annotated[Optional[float], typer.Option(
-        help="Envelope bins per simulated second (default: the frame rate).", show_default=False, min=0.0)] = None,
+        help="Envelope bins per simulated second.", show_default="the frame rate", min=0.0)] = None,
     signal_stride: Annotated[int, typer.Option(help="Keep every n-th sample of the scalar signals instead "
                                                     "(no envelope).", min=1)] = 1,
     signals_only: Annotated[bool, typer.Option("--signals-only", help="Do not rebuild the model; log the "
@@ -180,7 +180,9 @@ def record_run(results, model, path, magnify: float = 10.0, fps: float | None = 
                    signals=signals, signal_rate=signal_rate)
     if not quiet:
         loop = float(results.attrs.get("wall_time") or 0.0)
-        share = f", {100 * info.seconds / loop:.0f} % of the time loop" if loop > 0 else ""
+        # a share of the time loop only when it is one: short runs pay rerun's fixed start-up cost
+        share = (f", {100 * info.seconds / loop:.0f} % of the time loop" if 0 < info.seconds <= loop
+                 else f"; the time loop took {loop:.2f} s" if loop > 0 else "")
         _console().print(
             f"rerun recording → {path}: {info.frames:,} frames, {info.signals} signals, "
             f"{info.signal_samples:,} scalar samples ({info.signal_mode}), "

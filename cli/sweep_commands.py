@@ -64,18 +64,17 @@ def _section_options(poincare, period, angle, transient, clock, no_section) -> O
 
 
 PoincareOpt = Annotated[Optional[str], typer.Option(
-    "--poincare", "-p", help="Signals of the Poincaré section X:Y [default: the slider's vx:ax].",
-    show_default=False)]
+    "--poincare", "-p", help="Signals of the Poincaré section X:Y.",
+    show_default="the slider's vx:ax")]
 PeriodOpt = Annotated[Optional[str], typer.Option(
-    "--period", help="Section period with units (default: from the rotation driver's constant speed).",
-    show_default=False)]
+    "--period", help="Section period with units.", show_default="from the rotation driver's constant speed")]
 AngleOpt = Annotated[Optional[str], typer.Option(
     "--angle", help="Section at this angle of the clock body (90deg, 1.5rad) instead of once per period.",
     show_default=False)]
 TransientOpt = Annotated[float, typer.Option(
     "--transient", help="Driver periods (revolutions) dropped before the section.", min=0)]
 ClockOpt = Annotated[Optional[str], typer.Option(
-    "--clock", help="Body whose angle clocks an --angle section (default: the driven body).", show_default=False)]
+    "--clock", help="Body whose angle clocks an --angle section.", show_default="the driven body")]
 
 
 def sweep(
@@ -88,10 +87,10 @@ def sweep(
     set_: Annotated[Optional[list[str]], typer.Option(
         "--set", "-s", help="Fixed override of a `param` for every case, NAME=VALUE. Repeatable.",
         show_default=False)] = None,
-    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", help="Parallel processes [default: cores].",
-                                                min=1, show_default=False)] = None,
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", help="Parallel processes.",
+                                                min=1, show_default="the number of cores")] = None,
     t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time of every case, with units.",
-                                                 show_default=False)] = None,
+                                                 show_default="the model's simulate block")] = None,
     revolutions: Annotated[Optional[float], typer.Option(
         "--revolutions", "-n", help="End time as a number of driver periods (scales with a swept speed).",
         show_default=False)] = None,
@@ -99,13 +98,15 @@ def sweep(
         "--per-rev", help="Output samples per driver period (the output step divides the period, so the "
         "Poincaré section is sampled without interpolation).", min=1, show_default=False)] = None,
     output_step: Annotated[Optional[str], typer.Option("--output-step", help="Output step with units.",
-                                                       show_default=False)] = None,
+                                                       show_default="the model's simulate block")] = None,
     integrator: Annotated[Optional[str], typer.Option(help=catalog.choices(catalog.INTEGRATORS) + ".",
-                                                      show_default=False)] = None,
-    rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance.", show_default=False)] = None,
+                                                      show_default="the model's simulate block, else dopri5")] = None,
+    rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance.",
+                                                    show_default="the model's simulate block, else 1e-6")] = None,
     keep: Annotated[Optional[str], typer.Option(
         "--keep", help="Comma-separated signals to store per case; an entity name (slider) keeps all its "
-        "signals [default: all].", show_default=False)] = None,
+        "signals; --keep \"\" stores none (the Poincaré "
+        "section and verdict are kept).", show_default="all")] = None,
     poincare: PoincareOpt = None,
     period: PeriodOpt = None,
     angle: AngleOpt = None,
@@ -143,8 +144,8 @@ def sweep(
         if t_end is not None and revolutions is not None:
             raise ModelError("give --t-end or --revolutions, not both", "--revolutions")
         section = _section_options(poincare, period, angle, transient, clock, no_section)
-        keep_list = [k.strip() for k in keep.split(",") if k.strip()] if keep else None
-        with _SweepProgress(quiet) as bar, _cluster(scheduler) as executor:
+        keep_list = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None  # "": none
+        with _interruptible(), _SweepProgress(quiet) as bar, _cluster(scheduler) as executor:
             summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
                                 jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
@@ -156,10 +157,37 @@ def sweep(
                                     "again to resume")
         raise typer.Exit(ExitCode.INTERRUPTED)
     _print_table(summary.rows, [a.name for a in axes])
+    # failed cases of an earlier call stay in the file (skipped unless --retry-failed): they count too
+    earlier = [r["index"] for r in summary.rows if r["status"] == "failed" and r["index"] not in summary.ran]
+    note = f" ({len(earlier)} from an earlier run: --retry-failed runs them again)" if earlier else ""
     _console().print(f"{len(summary.ran)} case(s) run, {len(summary.skipped)} already in the file, "
-                     f"{len(summary.failed)} failed → {summary.path}  ({summary.wall_time:.1f} s)")
-    if summary.failed:
+                     f"{len(summary.failed) + len(earlier)} failed{note} → {summary.path}  "
+                     f"({summary.wall_time:.1f} s)")
+    if summary.failed or earlier:
         raise typer.Exit(ExitCode.SIMULATION_FAILED)
+
+
+class _interruptible:
+    """Ctrl-C stops a sweep even when the shell started it with SIGINT ignored (a script
+    without job control, `nohup`): Python then leaves SIGINT ignored, so restore the
+    KeyboardInterrupt handler for the sweep, as `mbs run` installs its own."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.previous = None
+        if threading.current_thread() is threading.main_thread() and \
+                signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+            self.previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        return False
 
 
 class _cluster:

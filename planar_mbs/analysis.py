@@ -370,11 +370,11 @@ def classify(points, scale: Sequence[float] | None = None, *, tol_periodic: floa
     if isinstance(points, PoincareSection):
         sec = points
         points, scale = sec.array(), [sec.scale[n] for n in sec.names]
-    x = normalise(points, scale)
-    n = len(x)
-    if n < 20:
+    n = len(points)
+    if n < 20:  # before any arithmetic: no section points must not print numpy warnings
         return Verdict("undetermined", None, float("nan"), float("nan"), float("nan"), float("nan"), n,
                        False, "fewer than 20 section points: run longer")
+    x = normalise(points, scale)
     r = recurrence(x, max_period)
     best = float(np.min(r))
     periodic = [p + 1 for p in range(len(r)) if r[p] < tol_periodic]

@@ -205,6 +205,24 @@ def _readable(terminals) -> str:
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " or " + words[-1]
 
 
+_SPACED_UNIT = re.compile(r"\d\s*([A-Za-z_]\w*(?:\s*[*/^]\s*[\w.]+)*)\s+([A-Za-z_]\w*)$")
+
+
+def _spaced_unit(prev: str) -> tuple[str, str] | None:
+    """(`kg`, `m`) when the text before an error ends in a number, a unit and, after a space,
+    another unit: `inertia = 1e-5 kg m` (units are joined with `*`)."""
+    m = _SPACED_UNIT.search(prev)
+    if m is None:
+        return None
+    from .units import UnitError, parse_unit
+
+    try:
+        parse_unit(m.group(2))
+    except (UnitError, Exception):  # not a unit: an ordinary missing `=`
+        return None
+    return m.group(1), m.group(2)
+
+
 def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0,
                   code: str | None = None) -> ModelError:
     lines = text.splitlines() or [""]
@@ -265,6 +283,16 @@ def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0
                 op, name = re.search(r"([-+*/^])\s*(\w+)$", prev).groups()
                 message = f"unexpected `=`: `{name}` was read as the operand of the `{op}` before it"
                 hint = f"the value before `{name}` ends with a trailing `{op}`: finish or remove it"
+            elif expected == {"EQUAL"} and _spaced_unit(prev):  # `1e-5 kg m^2`: `m` read as a field name
+                unit, name = _spaced_unit(prev)
+                message = f"unexpected {shown}: the unit `{name}` after `{unit}` was read as a new field"
+                tail = re.match(r"[*/^][\w.*/^]*", text[tok.start_pos:])  # the rest of the unit: `^2`
+                hint = f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`"
+            elif tok.type == "NAME" and "EQUAL" not in expected and _spaced_unit(f"{prev} {tok}"):  # `2 N m)`
+                unit, name = _spaced_unit(f"{prev} {tok}")
+                message = f"unexpected `{tok}`: a second unit after `{unit}`, separated by a space"
+                tail = re.match(r"[*/^][\w.*/^]*", text[tok.end_pos:])
+                hint = f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`"
             elif tok.type == "STRING":
                 hint = 'quoted text is only used by `include "file.mbs"`; write names without quotes (`law = hertz`)'
             elif tok.type == "QUANTITY" and "PARAM" in expected:

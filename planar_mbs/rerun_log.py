@@ -105,9 +105,9 @@ def model_from_results(results: "Results") -> "Model":
 
             return compile_text(source, mpath or "<results>", overrides=params)
         if mpath and Path(mpath).exists():
-            from . import load_model
+            from .compile import load_model
 
-            return load_model(mpath, **params)
+            return load_model(mpath, params)
     except ImportError as exc:  # the compiler is not there (yet)
         raise PlotError(f"error: cannot rebuild the model to draw it: {exc}") from None
     except MbsError as exc:

@@ -240,12 +240,13 @@ def default_section_signals(model) -> tuple[str, str] | None:
 
 def run_case(spec: CaseSpec) -> CaseOutcome:
     """Compile, simulate and analyse one case, in memory (the worker side of a sweep)."""
-    from . import load_model, simulate
+    from . import simulate
     from .analysis import AnalysisError, classify, poincare_section
+    from .compile import load_model  # errors worded for `--set`, as the sweep's values are given
     from .errors import SimulationError
 
     start = time.perf_counter()
-    model = load_model(spec.model_path, **{**spec.sets, **spec.values})
+    model = load_model(spec.model_path, {**spec.sets, **spec.values})
     try:
         res = simulate(model, output=None, **case_settings(model, spec))
         status, message = FINISHED, res.attrs.get("message", "finished")
@@ -401,12 +402,12 @@ def check_section(model, section: dict | None) -> None:
 def check_cases(specs: Sequence[CaseSpec]) -> None:
     """Compile every case once in the parent, so a bad value, a misspelt `--keep` signal or a
     section signal the model lacks stops the sweep before it starts."""
-    from . import load_model
+    from .compile import load_model
     from .simulation import run_settings
 
     for spec in specs:
         try:
-            m = load_model(spec.model_path, **{**spec.sets, **spec.values})
+            m = load_model(spec.model_path, {**spec.sets, **spec.values})
             run_settings(m, **case_settings(m, spec))  # e.g. an unknown integrator name
             if spec.keep is not None:
                 kept_signals(m, spec.keep)

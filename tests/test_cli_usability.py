@@ -1,0 +1,166 @@
+"""What a new user hits on the command line: --version, grammar of `check`, defaults in every
+--help, `run --revolutions/--output-step/--per-rev`, default outputs in results/, `sweep --keep ""`,
+a rerun of a sweep with failed cases, an interruptible sweep."""
+from __future__ import annotations
+
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import pytest
+import typer
+from typer.testing import CliRunner
+
+import planar_mbs
+from planar_mbs import read_results
+from planar_mbs.cli.app import app
+from planar_mbs.sweep import read_case_table
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+IDEAL = MODELS / "slider_crank.mbs"
+runner = CliRunner()
+PERIOD = 60 / 5000  # s per crank revolution of slider_crank.mbs
+
+PENDULUM = """
+body bob { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.5, 0) }
+joint pin = revolute(ground (0, 0), bob (-0.5, 0))
+gravity (0, -9.81 m/s^2)
+simulate { t_end = 10 ms  output_step = 1 ms }
+"""
+
+
+def test_version():
+    r = runner.invoke(app, ["--version"])
+    assert r.exit_code == 0 and r.output.strip() == f"mbs (planar_mbs) {planar_mbs.__version__}"
+
+
+def test_check_counts_in_good_english(tmp_path):
+    model = tmp_path / "pendulum.mbs"
+    model.write_text(PENDULUM)
+    r = runner.invoke(app, ["check", str(model)])
+    assert r.exit_code == 0, r.output
+    assert "2 constraints, 1 degree of freedom" in r.output and "1 degrees" not in r.output
+
+
+def _options():
+    group = typer.main.get_command(app)
+    for name, command in group.commands.items():
+        for p in command.params:
+            if isinstance(p, typer.core.TyperOption) and not p.is_flag and not p.required and p.name != "help":
+                yield name, p
+
+
+# options whose absence means "not asked for" (nothing to show as a default)
+NO_DEFAULT = {"--set", "--rerun", "--orbit", "--against", "--angle", "--revolutions", "--per-rev",
+              "--scheduler", "plot --poincare"}
+
+
+def test_every_option_with_a_value_shows_its_default():
+    options = list(_options())
+    missing = [f"{cmd} {p.opts[0]}" for cmd, p in options
+               if p.show_default is False or (p.default is None and not isinstance(p.show_default, str))]
+    assert len(options) > 20
+    assert [m for m in missing if m.split()[1] not in NO_DEFAULT and m not in NO_DEFAULT] == []
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "plot", "view", "analyze"])
+def test_help_text_keeps_its_defaults_and_has_no_stray_placeholders(command):
+    r = runner.invoke(app, [command, "--help"], env={"COLUMNS": "250"})
+    assert r.exit_code == 0
+    assert not re.search(r"\w \.(\s|$)", r.output), r.output  # what rich markup left of "[default: ...]"
+    shown = {"run": ["results/<model name>.h5", "the model's simulate block, else dopri5"],
+             "sweep": ["(the number of cores)", "[default: (all)]", "(the slider's vx:ax)"],
+             "plot": ["<results>_plots/"], "view": ["<results>.rrd"], "analyze": ["[default: 1.0]"]}[command]
+    for text in shown:
+        assert text in r.output, text
+
+
+def test_run_revolutions_per_rev_and_output_step(tmp_path):
+    out = tmp_path / "a.h5"
+    r = runner.invoke(app, ["run", str(IDEAL), "-o", str(out), "-q", "-n", "2", "--per-rev", "10"])
+    assert r.exit_code == 0, r.output
+    res = read_results(out)
+    assert len(res.time) == 21 and math.isclose(res.time[-1], 2 * PERIOD, rel_tol=1e-12)
+    r = runner.invoke(app, ["run", str(IDEAL), "-o", str(out), "-q", "--t-end", "5ms", "--output-step", "1ms"])
+    assert r.exit_code == 0, r.output
+    assert len(read_results(out).time) == 6
+    r = runner.invoke(app, ["run", str(IDEAL), "-o", str(out), "-q", "-n", "2", "--t-end", "5ms"])
+    assert r.exit_code == 2 and "not both" in r.output
+
+
+def test_default_output_goes_to_results_and_keeps_other_set_values(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "2ms"])
+    assert r.exit_code == 0, r.output
+    first = tmp_path / "results" / "slider_crank.h5"
+    assert first.exists() and "*" in (tmp_path / "results" / ".gitignore").read_text().split()
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "2ms", "--set", "speed=2500 rpm"])
+    assert r.exit_code == 0, r.output
+    second = tmp_path / "results" / "slider_crank_speed=2500rpm.h5"
+    assert second.exists() and str(second.relative_to(tmp_path)) in r.output
+    assert read_results(first).attrs["parameters"]["speed"] == "5000 rpm"
+    assert read_results(second).attrs["parameters"]["speed"] == "2500 rpm"
+
+
+def test_sweep_keep_empty_stores_no_signals(tmp_path):
+    out = tmp_path / "s.h5"
+    r = runner.invoke(app, ["sweep", str(IDEAL), "-P", "speed=1000rpm,2000rpm", "-n", "3", "--per-rev", "36",
+                            "-j", "1", "-q", "--keep", "", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out, "r") as f:
+        for k in f["cases"]:
+            assert len(f["cases"][k].get("signals", {})) == 0
+            assert "poincare" in f["cases"][k]  # the section is still there
+
+
+def test_rerun_of_a_sweep_with_failed_cases_still_fails(tmp_path):
+    model = tmp_path / "few_steps.mbs"
+    model.write_text(IDEAL.read_text().replace("output_step = 10 us", "output_step = 10 us  max_steps = 20"))
+    out = tmp_path / "s.h5"
+    cmd = ["sweep", str(model), "-P", "speed=1000rpm,2000rpm", "-n", "2", "-j", "1", "-q", "-o", str(out)]
+    first = runner.invoke(app, cmd)
+    assert first.exit_code == 3 and "2 failed" in first.output, first.output
+    again = runner.invoke(app, cmd)
+    assert again.exit_code == 3, again.output
+    assert "0 case(s) run, 2 already in the file, 2 failed (2 from an earlier run" in again.output
+    assert [r["status"] for r in read_case_table(out)] == ["failed", "failed"]
+
+
+@pytest.mark.slow
+def test_sweep_started_with_sigint_ignored_can_still_be_interrupted(tmp_path):
+    """A script without job control starts commands with SIGINT ignored; `mbs sweep` must still
+    stop on SIGINT (exit 130), as `mbs run` does."""
+    out = tmp_path / "s.h5"
+    cmd = [sys.executable, "-c", "from planar_mbs.cli.app import main; main()", "sweep", str(IDEAL),
+           "-P", "speed=600rpm..1400rpm:6", "-n", "500", "--per-rev", "360", "-o", str(out), "-j", "1", "-q"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    deadline = time.time() + 120
+    while time.time() < deadline:  # wait for the first stored case
+        time.sleep(0.5)
+        try:
+            with h5py.File(out, "r", locking=False) as f:
+                if "cases" in f and len(f["cases"]):
+                    break
+        except (OSError, KeyError):
+            pass
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=60) == 130, proc.stderr.read()
+
+
+def test_analyze_without_section_points_prints_no_numpy_warning(tmp_path):
+    import warnings
+
+    out = tmp_path / "short.h5"
+    assert runner.invoke(app, ["run", str(IDEAL), "-o", str(out), "-q", "--t-end", "5ms"]).exit_code == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning would now fail the command
+        r = runner.invoke(app, ["analyze", str(out)])
+    assert r.exit_code == 0 and "0 points" in r.output and "run longer" in r.output, r.output
