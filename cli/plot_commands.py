@@ -14,6 +14,7 @@ import typer
 
 from .common import console as _console
 from .common import fail as _fail
+from .common import quantity as _quantity
 
 
 def _results_path(text: Path) -> Path:
@@ -54,6 +55,11 @@ def plot(
         "--clock", help="Body whose revolutions clock the Poincaré section.",
         show_default="the body that turns most, i.e. the driven crank")] = None,
     list_: Annotated[bool, typer.Option("--list", "-l", help="List the signals in the file and exit.")] = False,
+    t_from: Annotated[Optional[str], typer.Option(
+        "--from", help="Start of the time window drawn, with units (0.2s).", show_default="the start of the run")]
+    = None,
+    t_to: Annotated[Optional[str], typer.Option(
+        "--to", help="End of the time window drawn, with units (250ms).", show_default="the end of the run")] = None,
 ) -> None:
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
@@ -61,7 +67,8 @@ def plot(
     per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
-    mbs plot a.h5 --poincare slider.vx:slider.ax --skip 2 · mbs plot a.h5 --orbit A -f svg
+    mbs plot a.h5 --poincare slider.vx:slider.ax --skip 2 · mbs plot a.h5 --orbit A -f svg ·
+    mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
     """
     from planar_mbs.errors import MbsError
     from planar_mbs.plot import plot_file
@@ -71,12 +78,17 @@ def plot(
         if list_:
             _list_signals(results)
             return
+        window = dict(t_from=_quantity(t_from, "time", "--from"), t_to=_quantity(t_to, "time", "--to"))
+        notes: list[str] = []
         if ":/" in str(results):  # one case of a sweep: plot it like a run
-            written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body)
+            written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes)
         else:
-            written = plot_file(file, signals or [], against, poincare, output, fmt, skip, body, orbit or [])
+            written = plot_file(file, signals or [], against, poincare, output, fmt, skip, body, orbit or [],
+                                notes=notes, **window)
     except MbsError as err:
         _fail(err)
+    for note in notes:
+        _console(stderr=True).print(f"warning: {note}", markup=False, style="yellow")
     con = _console()
     for path in written:
         con.print(str(path), markup=False)
@@ -84,7 +96,7 @@ def plot(
         con.print("nothing to plot", markup=False)
 
 
-def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body):
+def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes):
     """`mbs plot sweep.h5:/cases/3 ...`: plot one case of a sweep like a run."""
     from planar_mbs.plot import plot_results
     from planar_mbs.results import read_results
@@ -98,7 +110,8 @@ def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, bo
     file, group = str(results).split(":", 1)
     stem = f"{Path(file).stem}_case{group.rstrip('/').rsplit('/', 1)[-1]}"
     out = output or Path(file).parent / f"{stem}_plots"
-    return plot_results(res, stem, signals or [], against, poincare, out, fmt, skip, body, orbit or [])
+    return plot_results(res, stem, signals or [], against, poincare, out, fmt, skip, body, orbit or [],
+                        notes=notes, **window)
 
 
 def _list_signals(results: Path) -> None:

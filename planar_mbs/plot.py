@@ -187,6 +187,95 @@ def contact_onsets(results: "Results", joint: str) -> np.ndarray:
     return np.nonzero(on[1:] & ~on[:-1])[0] + 1
 
 
+class _WindowSignals(dict):
+    """Signals of a results object cut to a time window, read (and cut) on first access."""
+
+    def __init__(self, results: "Results", mask: np.ndarray):
+        super().__init__()
+        self._results, self._mask = results, mask
+        self._names = list(results.signals)
+
+    def __missing__(self, name):
+        if name not in self._names:
+            raise KeyError(name)
+        value = np.asarray(self._results[name])[self._mask]
+        self[name] = value
+        return value
+
+    def __contains__(self, name) -> bool:
+        return name in self._names
+
+    def __iter__(self):
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def keys(self):
+        return list(self._names)
+
+    def items(self):
+        return [(n, self[n]) for n in self._names]
+
+    def values(self):
+        return [self[n] for n in self._names]
+
+    def get(self, name, default=None):
+        return self[name] if name in self._names else default
+
+
+def time_window(results: "Results", t_from: float | None = None, t_to: float | None = None) -> "Results":
+    """The samples with ``t_from <= t <= t_to`` (either end open when None), as `Results`."""
+    from .results import Results
+
+    if t_from is None and t_to is None:
+        return results
+    t = np.asarray(results.time)
+    lo = -np.inf if t_from is None else t_from
+    hi = np.inf if t_to is None else t_to
+    if not lo < hi:
+        raise PlotError(f"error: the time window is empty (--from {lo:g} s, --to {hi:g} s)\n"
+                        "hint: --from must be before --to")
+    mask = (t >= lo) & (t <= hi)
+    if not mask.any():
+        raise PlotError(f"error: no samples between {lo:g} s and {hi:g} s (the run covers "
+                        f"{t[0]:g} s to {t[-1]:g} s)\nhint: choose a window inside the run")
+    cut = Results(time=t[mask], signals={}, units=dict(results.units), attrs=dict(results.attrs))
+    cut.signals = _WindowSignals(results, mask)
+    cut.attrs["window"] = (float(t[mask][0]), float(t[mask][-1]))
+    return cut
+
+
+# the orbit is drawn through the output samples: when the journal turns more than this
+# between two samples along the wall, the straight chords visibly cut into the clearance circle
+# (a chord of 15 degrees dips 0.9 % of the clearance inside it)
+ORBIT_MAX_TURN_DEG = 15.0
+
+
+def orbit_resolution_warning(results: "Results", joint: str) -> str | None:
+    """A warning when the output step is too coarse to draw the journal's orbit: along the
+    bearing wall (e >= 0.98 c) the journal turns more than ORBIT_MAX_TURN_DEG between
+    consecutive samples in more than 5 % of them."""
+    ex, ey = np.asarray(results[f"{joint}.ex"]), np.asarray(results[f"{joint}.ey"])
+    c = clearance_radius(results, joint)
+    if len(ex) < 3 or not c > 0:
+        return None
+    near = np.hypot(ex, ey) >= 0.98 * c
+    both = near[1:] & near[:-1]
+    if both.sum() < 10:
+        return None
+    turn = np.degrees(np.abs(np.angle(np.exp(1j * np.diff(np.arctan2(ey, ex))))))[both]
+    coarse = turn > ORBIT_MAX_TURN_DEG
+    if coarse.mean() <= 0.05:
+        return None
+    dt = float(np.median(np.diff(results.time)))
+    worst = float(np.percentile(turn, 95))
+    finer = dt * ORBIT_MAX_TURN_DEG / worst
+    return (f"the orbit of `{joint}` is drawn from output samples {dt:.3g} s apart, between which the journal "
+            f"turns up to {worst:.0f}° along the bearing wall: straight chords cut across the clearance circle. "
+            f"Rerun with a finer output step (e.g. --output-step {finer:.2g}s) to draw it faithfully")
+
+
 def default_panels(results: "Results", model: "Model | None" = None) -> list[tuple[str, list[str]]]:
     """Muvengei et al.'s figures from the signals present: slider velocity, slider acceleration,
     clearance-joint forces, driver torques (or forces)."""
@@ -268,7 +357,8 @@ def _figure(width: float = 8.0, height: float = 4.0):
     return Figure(figsize=(width, height), layout="constrained", dpi=110)
 
 
-def _title(results: "Results") -> str:
+def _title(results: "Results", width: float = 8.0) -> str:
+    """The run's title (model, parameters, state), wrapped to fit a figure `width` inches wide."""
     params = results.attrs.get("parameters") or {}
     model = Path(str(results.attrs.get("model_path", "") or "")).name
     bits = [model] if model else []
@@ -276,9 +366,12 @@ def _title(results: "Results") -> str:
         bits.append(", ".join(f"{k} = {v}" for k, v in params.items()))
     if not results.complete:
         bits.append(f"incomplete: {results.attrs.get('message', '')}")
+    if results.attrs.get("window"):
+        t0, t1 = results.attrs["window"]
+        bits.append(f"t = {t0:.6g} … {t1:.6g} s")
     import textwrap
 
-    return "\n".join(textwrap.wrap(" · ".join(bits), 95))
+    return "\n".join(textwrap.wrap(" · ".join(bits), int(width * 10)))  # ~10 characters per inch at 10 pt
 
 
 def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: str | None = None,
@@ -311,17 +404,23 @@ def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: 
 
 
 def poincare_figure(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
-                    model: "Model | None" = None, ax=None):
+                    model: "Model | None" = None, ax=None, window: tuple[float, float] | None = None):
+    """Poincaré map of a run; with `window` (t0, t1) only the points in it (the section is still
+    counted in revolutions from the start of the run)."""
     ps = poincare(results, x, y, body, skip, model)
+    if window is not None:
+        keep = (ps.t >= window[0]) & (ps.t <= window[1])
+        ps = PoincareSet(ps.x[keep], ps.y[keep], ps.t[keep], ps.x_name, ps.y_name, ps.body, ps.skip)
+        results = time_window(results, *window)
     fig = None
     if ax is None:
         fig = _figure(5.5, 5.0)
         ax = fig.subplots()
-        fig.suptitle(_title(results), fontsize="medium")
+        fig.suptitle(_title(results, 5.5), fontsize="medium")
     ax.plot(ps.x, ps.y, "o", ms=2.5, color="C3")
     ax.set_xlabel(label(x, results.units.get(x, "")))
     ax.set_ylabel(label(y, results.units.get(y, "")))
-    ax.set_title(f"Poincaré map: {len(ps.t)} points, once per revolution of {ps.body} (first {skip} skipped)",
+    ax.set_title(f"Poincaré map: {len(ps.t)} points, once per revolution\nof {ps.body} (first {skip} skipped)",
                  fontsize="small")
     ax.grid(True, lw=0.3, alpha=0.6)
     return fig if fig is not None else ax
@@ -347,7 +446,10 @@ def orbit_figure(results: "Results", joint: str):
     ax.set_title(f"journal orbit in clearance joint {joint}", fontsize="small")
     ax.legend(loc="upper right", fontsize="x-small")
     ax.grid(True, lw=0.3, alpha=0.6)
-    fig.suptitle(_title(results), fontsize="medium")
+    if orbit_resolution_warning(results, joint):
+        ax.text(0.5, 0.01, "coarse output step: chords cut the circle", transform=ax.transAxes, ha="center",
+                va="bottom", fontsize="x-small", color="C3")
+    fig.suptitle(_title(results, 5.5), fontsize="medium")
     return fig
 
 
@@ -503,6 +605,9 @@ def plot_file(
     body: str | None = None,
     orbit: Sequence[str] = (),
     model: "Model | None" = None,
+    t_from: float | None = None,
+    t_to: float | None = None,
+    notes: list[str] | None = None,
 ) -> list[Path]:
     """Draw the figures `mbs plot` makes and return the files written.
 
@@ -532,7 +637,8 @@ def plot_file(
         results = read_results(path)
     except (KeyError, OSError) as exc:
         raise PlotError(f"error: {path} is not a results file written by `mbs run` ({exc})") from None
-    return plot_results(results, stem, signals, against, poincare_pair, outdir, fmt, skip, body, orbit, model)
+    return plot_results(results, stem, signals, against, poincare_pair, outdir, fmt, skip, body, orbit, model,
+                        t_from, t_to, notes)
 
 
 def plot_results(
@@ -547,8 +653,12 @@ def plot_results(
     body: str | None = None,
     orbit: Sequence[str] = (),
     model: "Model | None" = None,
+    t_from: float | None = None,
+    t_to: float | None = None,
+    notes: list[str] | None = None,
 ) -> list[Path]:
-    """The figures of one run (already loaded); file names start with `stem`."""
+    """The figures of one run (already loaded); file names start with `stem`.  ``t_from`` / ``t_to``
+    (s) cut every figure to a time window; warnings (a too-coarse orbit) go to `notes`."""
     if fmt not in FORMATS:
         raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
     outdir = Path(outdir)
@@ -557,6 +667,9 @@ def plot_results(
     written: list[Path] = []
     if len(results.time) == 0:
         raise PlotError("error: the results hold no samples")
+    full = results
+    results = time_window(results, t_from, t_to)
+    window = results.attrs.get("window") if results is not full else None
     if against:
         check_signals(results, [against])
     defaults = not panels and pair is None and not orbit
@@ -566,7 +679,7 @@ def plot_results(
         orbit = clearance_names(results)
         slider = slider_body(results, model)
         if slider and (body or turning_body(results, model)):
-            p = poincare(results, f"{slider}.vx", f"{slider}.ax", body, skip, model)
+            p = poincare(full, f"{slider}.vx", f"{slider}.ax", body, skip, model)
             if len(p.t):
                 pair = (p.x_name, p.y_name)
     if panels:
@@ -574,7 +687,7 @@ def plot_results(
         name = "_".join("+".join(p) for p in panels) + (f"_vs_{against}" if against else "")
         _save(series_figure(results, panels, against), outdir / f"{stem}_{_slug(name)}.{fmt}", written)
     if pair:
-        fig = poincare_figure(results, pair[0], pair[1], body, skip, model)
+        fig = poincare_figure(full, pair[0], pair[1], body, skip, model, window=window)
         _save(fig, outdir / f"{stem}_poincare_{_slug(pair[0] + '_' + pair[1])}.{fmt}", written)
     for joint in orbit:
         if joint not in clearance_names(results):
@@ -583,6 +696,9 @@ def plot_results(
                             + (f"\nhint: {hint}" if hint else f"\nhint: clearance joints: "
                                f"{', '.join(clearance_names(results)) or 'none'}"))
         _save(orbit_figure(results, joint), outdir / f"{stem}_orbit_{_slug(joint)}.{fmt}", written)
+        warning = orbit_resolution_warning(results, joint)
+        if warning and notes is not None:
+            notes.append(warning)
     return written
 
 
