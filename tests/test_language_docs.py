@@ -62,3 +62,52 @@ def test_generated_lists_match_the_catalog():
     (regenerate them with `python -m planar_mbs.catalog --docs`)."""
     blocks = catalog.doc_blocks(DOC.read_text(encoding="utf-8"))
     assert blocks == catalog.docs_lists(), "run `python -m planar_mbs.catalog --docs`"
+
+
+# ---------------------------------------------------------------- every fragment compiles
+# The elements fragments refer to without declaring them; a fragment's own declarations win.
+STOCK = """
+param speed = 5000 rpm
+material steel { E = 207 GPa  nu = 0.3 }
+body crank  { mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (0.025, 0) }
+body rod    { mass = 0.2 kg  inertia = 2.5e-4 kg*m^2  position = (0.11, 0) }
+body slider { mass = 0.1 kg  inertia = 1e-4 kg*m^2  position = (0.17, 0) }
+body rocker { mass = 0.1 kg  inertia = 1e-4 kg*m^2  position = (0.1, 0.05) }
+body frame  { mass = 1 kg  inertia = 1e-2 kg*m^2 }
+body arm    { mass = 0.1 kg  inertia = 1e-4 kg*m^2  position = (0.15, 0) }
+body guide  { mass = 0.1 kg  inertia = 1e-4 kg*m^2 }
+body pin    { mass = 0.1 kg  inertia = 1e-4 kg*m^2 }
+body wheel  { mass = 2 kg  inertia = 0.01 kg*m^2 }
+"""
+
+
+def _in_context(body: str) -> str:
+    """The fragment after the stock elements it does not declare itself (none with an include)."""
+    if re.search(r"^\s*include\b", body, re.M):
+        return body
+    own = {(s.kind, s.name) for s in parse_statements(body, "fragment")}
+    own_names = {name for _, name in own}
+    stock = [s for s in parse_statements(STOCK, "stock")]
+    lines = STOCK.strip().splitlines()
+    keep = [line for line, st in zip(lines, stock) if st.name not in own_names]
+    return "\n".join(keep) + "\n" + body
+
+
+@pytest.mark.parametrize("kind, body", [p for p in examples() if p.values[0] == "mbs fragment"])  # the tutorial: test_tutorial
+def test_every_fragment_compiles_in_context(kind, body):
+    model = compile_text(_in_context(body), str(ROOT / "models" / "doc_fragment.mbs"))
+    assert model.nbody >= 1
+
+
+# keywords a reader looks for: each appears in at least one example block, not only in prose
+IN_EXAMPLES = ["max_steps", "h_min", "h_max", "atol", "exponent", "bearing_material", "journal_material",
+               "velocity", "actuator", "motion =", "phase", "dop853", "rk4", "dopri5", "projection",
+               "relative_to", "initial", "friction", "stiffness", "restitution", "journal_radius", "ramp",
+               "harmonic", "polynomial", "spring_damper", "rotational_spring_damper", "constant(", "torque(",
+               "weld", "revolute_revolute", "revolute_translational", "override", "include", "gravity",
+               *catalog.names(catalog.LAWS)]
+
+
+def test_every_keyword_has_an_example():
+    code = "\n".join(p.values[1] for p in examples())
+    assert [w for w in IN_EXAMPLES if not re.search(rf"(?<![\w]){re.escape(w)}", code)] == []
