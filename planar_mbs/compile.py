@@ -119,20 +119,13 @@ def _rot(phi: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-# ------------------------------------------------------------------ the compiler
-class Compiler:
-    """Runs the passes in order over one ModelSpec."""
-
-    PASSES = ("collect", "resolve_params", "assign_ids", "size", "allocate", "fill", "check")
-
-    def __init__(self, spec: ModelSpec, overrides: dict[str, str]):
-        self.spec = spec
-        self.cli_overrides = dict(overrides)
-
-    def run(self) -> Model:
-        for name in self.PASSES:
-            getattr(self, f"pass_{name}")()
-        return self.model
+# ------------------------------------------------------------------ the passes
+# Each pass is a small class of methods over one shared state (`self`: the spec, the resolved
+# params, the element lists, the arrays `self.a`); `Compiler` at the end joins them and runs
+# them in order.  Names: symbols and params, layout (ids, sizes, arrays), bodies, joints,
+# clearance joints, drivers, forces, settings, checks.
+class _SymbolPasses:
+    """Passes 1-2: one statement per name, then every param resolved."""
 
     # 1. collect ------------------------------------------------------------
     def pass_collect(self):
@@ -222,6 +215,9 @@ class Compiler:
                                  f"got {U.describe(new.q.dimensionality)} ({expr.pos.text})",
                                  hint=f"the model has `param {name} = {st.value.pos.text}`")
 
+class _LayoutPasses:
+    """Passes 3-6: number the elements, size and allocate the arrays, fill them kind by kind."""
+
     # 3. assign ids ---------------------------------------------------------
     def pass_assign_ids(self):
         """Bodies get ids 0..nbody-1; joints split into ideal and clearance by their type."""
@@ -309,6 +305,10 @@ class Compiler:
     def _fields(self, st: Statement, label: str, allowed: dict, call: Call | None = None) -> Fields:
         extra = tuple(Field(k.name, k.value, k.pos) for k in call.kwargs) if call else ()
         return Fields(self.ev, st, label, allowed, extra)
+
+class _BodyPass:
+    """Bodies: mass, inertia, the initial pose and velocity, the drawing shape; and the body
+    references (`body (x, y)`) every other element uses."""
 
     def _fill_body(self, k: int, st: Statement):
         f = self._fields(st, f"body `{st.name}`", BODY_FIELDS)
@@ -434,6 +434,9 @@ class Compiler:
             raise e.pos.error(f"`{name}` must not be the zero vector", hint=f"give a direction, e.g. `{name} = (1, 0)`")
         return ax[0] / n, ax[1] / n
 
+class _JointPass:
+    """Ideal joints: bodies, points, axes and the relative angle or length they keep."""
+
     def _fill_joint(self, k: int, st: Statement):
         c: Call = st.value
         label = f"joint `{st.name}` ({c.name})"
@@ -457,6 +460,9 @@ class Compiler:
                 raise where.error(f"the length of {label} must be positive",
                                   hint="the two points coincide in the initial pose; give `length = ...`")
             a["joint_param"][k, JP_LENGTH] = length
+
+class _ClearancePass:
+    """Revolute clearance joints: radii, materials, the contact law and its stiffness, friction."""
 
     def _sigma(self, name: str, pos: Pos) -> float:
         """sigma = (1 - nu^2) / E of a material (Muvengei et al. eq. 18)."""
@@ -490,30 +496,49 @@ class Compiler:
 
     def _fill_clearance(self, k: int, st: Statement):
         """A revolute clearance joint: a force element (Muvengei et al. §II.A–C), stiffness from eq. 18."""
-        c: Call = st.value
         label = f"clearance joint `{st.name}`"
         bi, pi, bj, pj = self._two_refs(st, label)
-        law_call = None
-        f = self._fields(st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT], c)
-        if f.has("law"):
-            lv = self.ev.value(f.expr("law"))
-            if isinstance(lv, CallVal):  # law = lankarani_nikravesh(restitution = 0.9)
-                law_call = lv.call
-                allowed = LAW_SETTINGS  # the chosen law's group checks them below
-                extra = []
-                for kw in law_call.kwargs:
-                    if kw.name not in allowed:
-                        raise kw.pos.error(f"unknown argument `{kw.name}` of the contact law",
-                                           hint=did_you_mean(kw.name, allowed) or "arguments: " + ", ".join(sorted(allowed)))
-                    extra.append(Field(kw.name, kw.value, kw.pos))
-                if law_call.args:
-                    raise law_call.pos.error("contact law arguments are named, e.g. `restitution = 0.9`")
-                f = Fields(self.ev, st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT],
-                           tuple(Field(kw.name, kw.value, kw.pos) for kw in c.kwargs) + tuple(extra))
+        f = self._clearance_fields(st, label)
         name = f.symbol("law", list(LAWS))
         law = LAWS[name]
         group = catalog.law(name).group
-        # radii: any two of clearance, bearing_radius, journal_radius
+        cl, rb, rj = self._clearance_radii(f, st, label)
+        length = f.scalar("length", U.LENGTH, 0.0, positive=True)
+        sigma_sum = self._clearance_sigma(f, st, label)
+        stiffness, exponent, ce = self._clearance_law(f, st, label, name, group, rb, rj, sigma_sum, length)
+        p = self.a["clearance_param"][k]
+        p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL], p[CP_LENGTH] = cl, rb, rj, length
+        p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = stiffness, exponent, ce, sigma_sum
+        self._clearance_friction(f, p)
+        self.a["clearance_body"][k] = (bi, bj)
+        self.a["clearance_point"][k] = (pi, pj)
+        self.a["clearance_law"][k] = int(law)
+
+    def _clearance_fields(self, st: Statement, label: str) -> Fields:
+        """The joint's fields, with the settings a law call carries
+        (``law = lankarani_nikravesh(restitution = 0.9)``) added to them."""
+        c: Call = st.value
+        f = self._fields(st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT], c)
+        if not f.has("law"):
+            return f
+        lv = self.ev.value(f.expr("law"))
+        if not isinstance(lv, CallVal):
+            return f
+        law_call = lv.call
+        allowed = LAW_SETTINGS  # the chosen law's group checks them later
+        extra = []
+        for kw in law_call.kwargs:
+            if kw.name not in allowed:
+                raise kw.pos.error(f"unknown argument `{kw.name}` of the contact law",
+                                   hint=did_you_mean(kw.name, allowed) or "arguments: " + ", ".join(sorted(allowed)))
+            extra.append(Field(kw.name, kw.value, kw.pos))
+        if law_call.args:
+            raise law_call.pos.error("contact law arguments are named, e.g. `restitution = 0.9`")
+        return Fields(self.ev, st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT],
+                      tuple(Field(kw.name, kw.value, kw.pos) for kw in c.kwargs) + tuple(extra))
+
+    def _clearance_radii(self, f: Fields, st: Statement, label: str) -> tuple[float, float, float]:
+        """(c, R_B, R_J) from any two of `clearance`, `bearing_radius`, `journal_radius`."""
         given = {key: f.scalar(key, U.LENGTH, positive=True)
                  for key in ("clearance", "bearing_radius", "journal_radius") if f.has(key)}
         if len(given) < 2:
@@ -541,18 +566,24 @@ class Compiler:
             raise f.expr("clearance").pos.error(
                 f"the clearance leaves no journal (journal radius {rj * 1e3:g} mm)",
                 hint="the clearance must be smaller than the bearing radius")
-        length = f.scalar("length", U.LENGTH, 0.0, positive=True)
-        # materials
+        return cl, rb, rj
+
+    def _clearance_sigma(self, f: Fields, st: Statement, label: str) -> float:
+        """sigma_1 + sigma_2 of the bearing and journal materials (0 when none is given)."""
         if f.has("material") and (f.has("bearing_material") or f.has("journal_material")):
             raise f.expr("material").pos.error("give `material` or `bearing_material` + `journal_material`, not both")
         if f.has("bearing_material") != f.has("journal_material"):
             raise (st.name_pos or st.pos).error(f"{label} needs both `bearing_material` and `journal_material`")
-        sigma_sum = 0.0
         if f.has("material"):
-            sigma_sum = 2 * self._sigma(*self._material(f, "material"))
-        elif f.has("bearing_material"):
-            sigma_sum = self._sigma(*self._material(f, "bearing_material")) + \
+            return 2 * self._sigma(*self._material(f, "material"))
+        if f.has("bearing_material"):
+            return self._sigma(*self._material(f, "bearing_material")) + \
                 self._sigma(*self._material(f, "journal_material"))
+        return 0.0
+
+    def _clearance_law(self, f: Fields, st: Statement, label: str, name: str, group, rb: float, rj: float,
+                       sigma_sum: float, length: float) -> tuple[float, float, float]:
+        """(K, n, c_e) of the contact law, checked against what the law's group reads."""
         for key in sorted(LAW_SETTINGS - set(group.takes)):  # settings the law's group does not read
             if f.has(key):
                 why = (": its compliance comes from the materials, the bearing length and the radii"
@@ -590,9 +621,10 @@ class Compiler:
                     f"the coefficient of restitution must lie in (0, 1], got {f.expr('restitution').pos.text}")
         else:
             ce = 1.0
-        p = self.a["clearance_param"][k]
-        p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL], p[CP_LENGTH] = cl, rb, rj, length
-        p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = stiffness, exponent, ce, sigma_sum
+        return stiffness, exponent, ce
+
+    def _clearance_friction(self, f: Fields, p: np.ndarray) -> None:
+        """Coulomb friction and its slip-speed ramp v0 -> v1 into the joint's parameter row."""
         p[CP_FRICTION] = f.scalar("friction", U.NUMBER, 0.0, nonneg=True)
         v0 = p[CP_FRICTION_V0] = f.scalar("friction_velocity", U.VELOCITY, 1e-4, nonneg=True)
         if v0 == 0 and not f.has("friction_velocity_full"):
@@ -603,9 +635,10 @@ class Compiler:
             raise f.expr("friction_velocity_full").pos.error(
                 "`friction_velocity_full` must exceed `friction_velocity`",
                 hint="friction ramps from 0 at friction_velocity to its full value at friction_velocity_full")
-        self.a["clearance_body"][k] = (bi, bj)
-        self.a["clearance_point"][k] = (pi, pj)
-        self.a["clearance_law"][k] = int(law)
+
+
+class _DriverPass:
+    """Drivers: the driven coordinate and its prescribed motion."""
 
     def _fill_driver(self, k: int, st: Statement):
         c: Call = st.value
@@ -691,6 +724,9 @@ class Compiler:
         phase = scalar_si(self.ev, given["phase"], U.ANGLE, "phase") if "phase" in given else 0.0
         return MotionType.HARMONIC, [p0, amp, freq, phase]
 
+class _ForcePass:
+    """Applied forces: constant forces and torques, translational and rotational spring-dampers."""
+
     def _fill_force(self, k: int, st: Statement):
         c: Call = st.value
         label = f"force `{st.name}` ({c.name})"
@@ -729,6 +765,9 @@ class Compiler:
         a["force_point"][k] = (pi, pj)
         a["force_param"][k] = params
 
+class _SettingsPass:
+    """The `simulate` block."""
+
     def _settings(self, st: Statement | None) -> Settings:
         s = Settings()
         if st is None:
@@ -753,6 +792,9 @@ class Compiler:
         s.max_steps = int(n)
         return s
 
+class _CheckPass:
+    """Pass 7: whole-model checks, then the `Model`."""
+
     # 7. check --------------------------------------------------------------
     def pass_check(self):
         """Whole-model checks, then the Model."""
@@ -776,6 +818,23 @@ class Compiler:
             driver_source=refs(self.drivers), clearance_source=refs(self.clearance),
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
         )
+
+
+# ------------------------------------------------------------------ the compiler
+class Compiler(_SymbolPasses, _LayoutPasses, _BodyPass, _JointPass, _ClearancePass, _DriverPass, _ForcePass,
+               _SettingsPass, _CheckPass):
+    """Runs the passes in order over one ModelSpec."""
+
+    PASSES = ("collect", "resolve_params", "assign_ids", "size", "allocate", "fill", "check")
+
+    def __init__(self, spec: ModelSpec, overrides: dict[str, str]):
+        self.spec = spec
+        self.cli_overrides = dict(overrides)
+
+    def run(self) -> Model:
+        for name in self.PASSES:
+            getattr(self, f"pass_{name}")()
+        return self.model
 
 
 def _names_in(e: Expr) -> list[str]:
