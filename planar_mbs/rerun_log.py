@@ -38,7 +38,7 @@ import os
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -323,13 +323,46 @@ def _time_column(rr, t: np.ndarray):
     return [rr.TimeColumn(TIMELINE, duration=np.asarray(t, dtype=float))]
 
 
+@dataclass
+class _Scene:
+    """What the mechanism's drawing functions share: the frames, each body's pose, the points
+    drawn on each body, the magnified clearance geometry and the mechanism's size."""
+
+    rr: Any
+    rec: Any
+    model: "Model"
+    draw: list[str]  # per ideal joint: pin | link | slide (catalog)
+    pose: dict  # body -> (x, y, phi) over all samples
+    idx: np.ndarray  # sample index of each frame
+    tcol: Any  # the frames' time column
+    info: RecordingInfo
+    body_points: dict = field(default_factory=dict)  # body -> [(label, local point)]
+    journal_of: dict = field(default_factory=dict)  # (body, point number) -> clearance joint
+    bearing_c: dict = field(default_factory=dict)  # clearance joint -> bearing centre per frame
+    journal_c: dict = field(default_factory=dict)  # ... drawn journal centre (magnified eccentricity)
+    normal: dict = field(default_factory=dict)
+    radius_j: dict = field(default_factory=dict)
+    radius_b: dict = field(default_factory=dict)
+    size: float = 1.0
+
+    @property
+    def nf(self) -> int:
+        return len(self.idx)
+
+    def ui(self, r: float):
+        return self.rr.Radius.ui_points(r)
+
+    def send(self, path: str, columns) -> None:
+        self.rec.send_columns(path, indexes=self.tcol, columns=columns)
+
+    def center(self, b: int) -> np.ndarray:
+        return np.stack([self.pose[b][0][self.idx], self.pose[b][1][self.idx]], 1)
+
+
 def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: RecordingInfo) -> None:
+    """The moving mechanism: bodies, centres of mass, pins and ground, clearance joints, force arrows."""
     from . import catalog
-    from .model import CP_CLEARANCE, CP_R_BEARING, CP_R_JOURNAL
 
-    draw = [catalog.JOINTS[int(t)].draw for t in model.kernel.joint_type]  # pin | link | slide
-
-    k = model.kernel
     names = model.body_names
     missing = [f"{b}.{q}" for b in names for q in ("x", "y", "phi") if f"{b}.{q}" not in results]
     if missing:
@@ -337,129 +370,162 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
     pose = {b: (results[f"{n}.x"], results[f"{n}.y"], results[f"{n}.phi"]) for b, n in enumerate(names)}
     idx = frame_indices(results, model, fps, max_frames)
     t = results.time[idx]
-    nf = len(idx)
-    info.frames, info.frame_times = nf, t
-    tcol = _time_column(rr, t)
-    ui = rr.Radius.ui_points
-    ent = info.entities
+    info.frames, info.frame_times = len(idx), t
+    draw = [catalog.JOINTS[int(jt)].draw for jt in model.kernel.joint_type]
+    scene = _Scene(rr, rec, model, draw, pose, idx, _time_column(rr, t), info)
+    _body_points(scene)
+    _clearance_geometry(scene, magnify)
+    _mechanism_size(scene)
+    for b, name in enumerate(names):
+        _log_body(scene, b, name)
+    _log_pins(scene)
+    _log_clearances(scene)
+    _log_forces(scene, results, magnify)
 
-    # points of each body: ideal joints (not translational), clearance joints, force elements
+
+def _body_points(scene: _Scene) -> None:
+    """The points drawn on each body: ideal joints (not translational), clearance joints, forces."""
+    model, k = scene.model, scene.model.kernel
     body_points: dict[int, list[tuple[str, np.ndarray]]] = {b: [] for b in range(model.nbody)}
     for j in range(model.njoint):
         for side in (0, 1):
             b = int(k.joint_body[j, side])
-            if b >= 0 and draw[j] != "slide":
+            if b >= 0 and scene.draw[j] != "slide":
                 body_points[b].append((f"joint{j}", k.joint_point[j, side]))
-    journal_of: dict[tuple[int, int], int] = {}
     for c in range(model.nclearance):
         for side in (0, 1):
             b = int(k.clearance_body[c, side])
             if b >= 0:
                 body_points[b].append((f"clearance{c}:{side}", k.clearance_point[c, side]))
                 if side == 1:
-                    journal_of[(b, len(body_points[b]) - 1)] = c
+                    scene.journal_of[(b, len(body_points[b]) - 1)] = c
     for f in range(model.nforce):
         for side in (0, 1):
             b = int(k.force_body[f, side])
             if b >= 0:
                 body_points[b].append((f"force{f}", k.force_point[f, side]))
+    scene.body_points = body_points
 
-    # drawn (magnified) clearance geometry
-    bearing_c, journal_c, normal, radius_j, radius_b = {}, {}, {}, {}, {}
-    for c in range(model.nclearance):
+
+def _clearance_geometry(scene: _Scene, magnify: float) -> None:
+    """Bearing and (magnified) journal centres, contact normals and drawn radii per frame."""
+    from .model import CP_CLEARANCE, CP_R_BEARING, CP_R_JOURNAL
+
+    k, pose, idx = scene.model.kernel, scene.pose, scene.idx
+    for c in range(scene.model.nclearance):
         bi, bj = int(k.clearance_body[c, 0]), int(k.clearance_body[c, 1])
         Pi = _global(pose, bi, k.clearance_point[c, 0], idx)
         Pj = _global(pose, bj, k.clearance_point[c, 1], idx)
         e = Pj - Pi
         clearance = float(k.clearance_param[c, CP_CLEARANCE])
         rj = float(k.clearance_param[c, CP_R_JOURNAL]) or float(k.clearance_param[c, CP_R_BEARING]) - clearance
-        bearing_c[c], journal_c[c] = Pi, Pi + magnify * e
+        scene.bearing_c[c], scene.journal_c[c] = Pi, Pi + magnify * e
         elen = np.hypot(e[:, 0], e[:, 1])
         safe = np.where(elen > 0, elen, 1.0)[:, None]
-        normal[c] = np.where(elen[:, None] > 0, e / safe, np.array([1.0, 0.0]))
-        radius_j[c], radius_b[c] = rj, rj + magnify * clearance
+        scene.normal[c] = np.where(elen[:, None] > 0, e / safe, np.array([1.0, 0.0]))
+        scene.radius_j[c], scene.radius_b[c] = rj, rj + magnify * clearance
 
-    # the mechanism's size, for boxes and arrows
-    allpts = [p for b in range(model.nbody) for _, s in body_points[b] for p in [_global(pose, b, s, idx)]]
-    allpts += [np.stack([pose[b][0][idx], pose[b][1][idx]], 1) for b in range(model.nbody)]
+
+def _mechanism_size(scene: _Scene) -> None:
+    """The mechanism's extent over the run, for boxes and arrows."""
+    pose, idx, nb = scene.pose, scene.idx, scene.model.nbody
+    allpts = [p for b in range(nb) for _, s in scene.body_points[b] for p in [_global(pose, b, s, idx)]]
+    allpts += [scene.center(b) for b in range(nb)]
     cloud = np.concatenate(allpts) if allpts else np.zeros((1, 2))
-    size = float(np.max(np.ptp(cloud, axis=0))) or 1.0
+    scene.size = float(np.max(np.ptp(cloud, axis=0))) or 1.0
 
-    # bodies
-    slider_axis: dict[int, int] = {}  # body drawn as a box along the axis of this translational joint
-    for j in range(model.njoint):
-        if draw[j] == "slide":
+
+def _slider_axis(scene: _Scene, b: int) -> int | None:
+    """The translational joint whose axis a slider body is drawn along (None: not a slider)."""
+    k = scene.model.kernel
+    for j in range(scene.model.njoint):
+        if scene.draw[j] == "slide":
             bi, bj = int(k.joint_body[j, 0]), int(k.joint_body[j, 1])
-            slider_axis.setdefault(bj if bj >= 0 else bi, j)
-    for b, name in enumerate(names):
-        geom = model.body_geometry[b] if b < len(model.body_geometry) and model.body_geometry[b] else {}
-        kind = geom.get("kind", "")
-        color = PALETTE[b % len(PALETTE)]
-        center = np.stack([pose[b][0][idx], pose[b][1][idx]], 1)
-        body_axis = np.stack(_rot(pose[b][2][idx]), 1)
-        strips = []  # each (nf, k, 2)
-        if kind == "box":
-            strips.append(_box(center, body_axis, float(geom["width"]), float(geom["height"])))
-        elif b in slider_axis:
-            j = slider_axis[b]
-            ax_local = k.joint_axis[j]
-            ca, sa = _rot(_angle(pose, int(k.joint_body[j, 0]), idx))
-            axis = np.stack([ca * ax_local[0] - sa * ax_local[1], sa * ax_local[0] + ca * ax_local[1]], 1)
-            strips.append(_box(center, axis, 0.16 * size, 0.08 * size))
-        elif kind == "circle":
-            r = float(geom["radius"])
-            th = np.linspace(0, 2 * np.pi, 49)
-            ring = np.stack([np.cos(th), np.sin(th)], 1) * r
-            c, sn = body_axis[:, :1, None], body_axis[:, 1:, None]
-            rot = np.concatenate([np.concatenate([c, -sn], 2), np.concatenate([sn, c], 2)], 1)  # (nf, 2, 2)
-            strips.append(center[:, None, :] + ring @ rot.transpose(0, 2, 1))
-            strips.append(np.stack([center, center + r * body_axis], 1))  # a spoke shows the rotation
-        pts = body_points[b]
-        local = np.array([s for _, s in pts], dtype=float).reshape(-1, 2)
-        _, keep = np.unique(np.round(local, 12), axis=0, return_index=True)  # a point may serve two joints
-        keep = np.sort(keep)
-        if len(keep) >= 2:
-            coords = []
-            for i in keep[_order_outline(local[keep])]:
-                if (b, int(i)) in journal_of:
-                    coords.append(journal_c[journal_of[(b, int(i))]])
-                else:
-                    coords.append(_global(pose, b, pts[int(i)][1], idx))
-            strips.append(np.stack(coords, 1))
-        elif kind == "bar" or (not strips and len(keep) == 1):
-            half = float(geom.get("length", 0.0)) / 2
-            if half > 0:  # the bar along the body's x axis
-                strips.append(np.stack([center - half * body_axis, center + half * body_axis], 1))
-            elif len(keep) == 1:  # one point: from it to the centre of mass
-                strips.append(np.stack([_global(pose, b, pts[int(keep[0])][1], idx), center], 1))
-        if not strips:
-            continue
-        # one array (nf * nstrips, kmax, 2): strips padded by repeating their last point
-        kmax = max(st.shape[1] for st in strips)
-        padded = [np.concatenate([st, np.repeat(st[:, -1:], kmax - st.shape[1], 1)], 1) for st in strips]
-        flat = _up(np.stack(padded, 1).reshape(-1, kmax, 2))
-        rec.send_columns(
-            f"mechanism/bodies/{name}", indexes=tcol,
-            columns=rr.LineStrips2D.columns(strips=flat).partition(np.full(nf, len(strips))),
-        )
-        thick = kind == "bar" and float(geom.get("width", 0)) > 0
-        rec.log(f"mechanism/bodies/{name}", rr.LineStrips2D.from_fields(
-            radii=float(geom["width"]) / 2 if thick else ui(2.5),
-            colors=_rgba((*color, 150) if thick else color), labels=[name], show_labels=False,
-            draw_order=10.0), static=True)
-        ent.append(f"mechanism/bodies/{name}")
+            if (bj if bj >= 0 else bi) == b:
+                return j
+    return None
 
-    com = np.stack([np.stack([pose[b][0][idx], pose[b][1][idx]], 1) for b in range(model.nbody)], 1)
-    rec.send_columns("mechanism/com", indexes=tcol,
-                     columns=rr.Points2D.columns(positions=_up(com.reshape(-1, 2))).partition(np.full(nf, model.nbody)))
-    rec.log("mechanism/com", rr.Points2D.from_fields(radii=ui(2.0), colors=_rgba((0, 0, 0)), draw_order=41.0), static=True)
+
+def _body_strips(scene: _Scene, b: int, geom: dict) -> list[np.ndarray]:
+    """Line strips (nf, k, 2) drawing body `b`: its shape, and the outline through its points."""
+    k, pose, idx = scene.model.kernel, scene.pose, scene.idx
+    kind = geom.get("kind", "")
+    center = scene.center(b)
+    body_axis = np.stack(_rot(pose[b][2][idx]), 1)
+    strips = []  # each (nf, k, 2)
+    j = _slider_axis(scene, b)
+    if kind == "box":
+        strips.append(_box(center, body_axis, float(geom["width"]), float(geom["height"])))
+    elif j is not None:
+        ax_local = k.joint_axis[j]
+        ca, sa = _rot(_angle(pose, int(k.joint_body[j, 0]), idx))
+        axis = np.stack([ca * ax_local[0] - sa * ax_local[1], sa * ax_local[0] + ca * ax_local[1]], 1)
+        strips.append(_box(center, axis, 0.16 * scene.size, 0.08 * scene.size))
+    elif kind == "circle":
+        r = float(geom["radius"])
+        th = np.linspace(0, 2 * np.pi, 49)
+        ring = np.stack([np.cos(th), np.sin(th)], 1) * r
+        c, sn = body_axis[:, :1, None], body_axis[:, 1:, None]
+        rot = np.concatenate([np.concatenate([c, -sn], 2), np.concatenate([sn, c], 2)], 1)  # (nf, 2, 2)
+        strips.append(center[:, None, :] + ring @ rot.transpose(0, 2, 1))
+        strips.append(np.stack([center, center + r * body_axis], 1))  # a spoke shows the rotation
+    pts = scene.body_points[b]
+    local = np.array([s for _, s in pts], dtype=float).reshape(-1, 2)
+    _, keep = np.unique(np.round(local, 12), axis=0, return_index=True)  # a point may serve two joints
+    keep = np.sort(keep)
+    if len(keep) >= 2:
+        coords = []
+        for i in keep[_order_outline(local[keep])]:
+            if (b, int(i)) in scene.journal_of:
+                coords.append(scene.journal_c[scene.journal_of[(b, int(i))]])
+            else:
+                coords.append(_global(pose, b, pts[int(i)][1], idx))
+        strips.append(np.stack(coords, 1))
+    elif kind == "bar" or (not strips and len(keep) == 1):
+        half = float(geom.get("length", 0.0)) / 2
+        if half > 0:  # the bar along the body's x axis
+            strips.append(np.stack([center - half * body_axis, center + half * body_axis], 1))
+        elif len(keep) == 1:  # one point: from it to the centre of mass
+            strips.append(np.stack([_global(pose, b, pts[int(keep[0])][1], idx), center], 1))
+    return strips
+
+
+def _log_body(scene: _Scene, b: int, name: str) -> None:
+    """One body as line strips over the frames, with its colour and width."""
+    model, rr = scene.model, scene.rr
+    geom = model.body_geometry[b] if b < len(model.body_geometry) and model.body_geometry[b] else {}
+    strips = _body_strips(scene, b, geom)
+    if not strips:
+        return
+    kind = geom.get("kind", "")
+    color = PALETTE[b % len(PALETTE)]
+    # one array (nf * nstrips, kmax, 2): strips padded by repeating their last point
+    kmax = max(st.shape[1] for st in strips)
+    padded = [np.concatenate([st, np.repeat(st[:, -1:], kmax - st.shape[1], 1)], 1) for st in strips]
+    flat = _up(np.stack(padded, 1).reshape(-1, kmax, 2))
+    scene.send(f"mechanism/bodies/{name}",
+               rr.LineStrips2D.columns(strips=flat).partition(np.full(scene.nf, len(strips))))
+    thick = kind == "bar" and float(geom.get("width", 0)) > 0
+    scene.rec.log(f"mechanism/bodies/{name}", rr.LineStrips2D.from_fields(
+        radii=float(geom["width"]) / 2 if thick else scene.ui(2.5),
+        colors=_rgba((*color, 150) if thick else color), labels=[name], show_labels=False,
+        draw_order=10.0), static=True)
+    scene.info.entities.append(f"mechanism/bodies/{name}")
+
+
+def _log_pins(scene: _Scene) -> None:
+    """Centres of mass, ideal-joint pins (at the first body's point), ground pins and slide guides."""
+    model, rr, rec, k, pose = scene.model, scene.rr, scene.rec, scene.model.kernel, scene.pose
+    ent, nf, idx, size = scene.info.entities, scene.nf, scene.idx, scene.size
+    com = np.stack([scene.center(b) for b in range(model.nbody)], 1)
+    scene.send("mechanism/com", rr.Points2D.columns(positions=_up(com.reshape(-1, 2))).partition(np.full(nf, model.nbody)))
+    rec.log("mechanism/com", rr.Points2D.from_fields(radii=scene.ui(2.0), colors=_rgba((0, 0, 0)), draw_order=41.0),
+            static=True)
     ent.append("mechanism/com")
-
-    # ideal-joint pins (at the first body's point) and ground
     pins, ground_pts, guides = [], [], []
     for j in range(model.njoint):
         bi, bj = int(k.joint_body[j, 0]), int(k.joint_body[j, 1])
-        if draw[j] == "slide":
+        if scene.draw[j] == "slide":
             if bi < 0 or bj < 0:
                 g_side, s_body = (0, bj) if bi < 0 else (1, bi)
                 p0 = np.asarray(k.joint_point[j, g_side], dtype=float)
@@ -471,7 +537,7 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
                 below = float(((xs - p0) @ nrm).min()) - 0.5 * 0.08 * size
                 guides.append([p0 + lo * ax + below * nrm, p0 + hi * ax + below * nrm])
             continue
-        if draw[j] == "link":  # a massless link: its points join the outlines, no pin
+        if scene.draw[j] == "link":  # a massless link: its points join the outlines, no pin
             continue
         pins.append(_global(pose, bi, k.joint_point[j, 0], idx) if bi >= 0 else
                     _global(pose, bj, k.joint_point[j, 1], idx))
@@ -479,47 +545,58 @@ def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: Reco
             ground_pts.append(k.joint_point[j, 0] if bi < 0 else k.joint_point[j, 1])
     if pins:
         arr = np.stack(pins, 1)
-        rec.send_columns("mechanism/joints", indexes=tcol,
-                         columns=rr.Points2D.columns(positions=_up(arr.reshape(-1, 2))).partition(np.full(nf, len(pins))))
-        rec.log("mechanism/joints", rr.Points2D.from_fields(radii=ui(4.0), colors=_rgba((30, 30, 30)), draw_order=40.0), static=True)
+        scene.send("mechanism/joints", rr.Points2D.columns(positions=_up(arr.reshape(-1, 2))).partition(
+            np.full(nf, len(pins))))
+        rec.log("mechanism/joints", rr.Points2D.from_fields(radii=scene.ui(4.0), colors=_rgba((30, 30, 30)),
+                                                            draw_order=40.0), static=True)
         ent.append("mechanism/joints")
     if ground_pts or guides:
-        rec.log("mechanism/ground/pins", rr.Points2D(_up(np.array(ground_pts).reshape(-1, 2)), radii=ui(6.0),
+        rec.log("mechanism/ground/pins", rr.Points2D(_up(np.array(ground_pts).reshape(-1, 2)), radii=scene.ui(6.0),
                                                      colors=_rgba(GROUND)), static=True)
         if guides:
-            rec.log("mechanism/ground/guides", rr.LineStrips2D([_up(np.array(g)) for g in guides], radii=ui(1.5), colors=_rgba(GROUND)), static=True)
+            rec.log("mechanism/ground/guides", rr.LineStrips2D([_up(np.array(g)) for g in guides],
+                                                               radii=scene.ui(1.5), colors=_rgba(GROUND)), static=True)
         ent.append("mechanism/ground")
 
-    # clearance joints
-    for c, cname in enumerate(model.clearance_names):
-        base = f"mechanism/clearance/{cname}"
-        rec.send_columns(f"{base}/bearing", indexes=tcol, columns=rr.Ellipses2D.columns(
-            centers=_up(bearing_c[c]), half_sizes=np.full((nf, 2), radius_b[c])))
-        rec.log(f"{base}/bearing", rr.Ellipses2D.from_fields(line_radii=ui(1.5), colors=_rgba(BEARING), draw_order=30.0), static=True)
-        rec.send_columns(f"{base}/journal", indexes=tcol, columns=rr.Ellipses2D.columns(
-            centers=_up(journal_c[c]), half_sizes=np.full((nf, 2), radius_j[c])))
-        rec.log(f"{base}/journal", rr.Ellipses2D.from_fields(line_radii=ui(1.5), colors=_rgba(JOURNAL), draw_order=31.0), static=True)
-        ent += [f"{base}/bearing", f"{base}/journal"]
 
-    # forces
+def _log_clearances(scene: _Scene) -> None:
+    """Each clearance joint's bearing and journal circles (clearance magnified)."""
+    rr, rec, nf = scene.rr, scene.rec, scene.nf
+    for c, cname in enumerate(scene.model.clearance_names):
+        base = f"mechanism/clearance/{cname}"
+        scene.send(f"{base}/bearing", rr.Ellipses2D.columns(
+            centers=_up(scene.bearing_c[c]), half_sizes=np.full((nf, 2), scene.radius_b[c])))
+        rec.log(f"{base}/bearing", rr.Ellipses2D.from_fields(line_radii=scene.ui(1.5), colors=_rgba(BEARING),
+                                                             draw_order=30.0), static=True)
+        scene.send(f"{base}/journal", rr.Ellipses2D.columns(
+            centers=_up(scene.journal_c[c]), half_sizes=np.full((nf, 2), scene.radius_j[c])))
+        rec.log(f"{base}/journal", rr.Ellipses2D.from_fields(line_radii=scene.ui(1.5), colors=_rgba(JOURNAL),
+                                                             draw_order=31.0), static=True)
+        scene.info.entities += [f"{base}/bearing", f"{base}/journal"]
+
+
+def _log_forces(scene: _Scene, results, magnify: float) -> None:
+    """Joint reactions and contact forces as arrows on one scale, and the drawing's legend."""
+    model, rr, rec, k, pose, idx = scene.model, scene.rr, scene.rec, scene.model.kernel, scene.pose, scene.idx
+    ent = scene.info.entities
     reactions = [(j, n) for j, n in enumerate(model.joint_names) if f"{n}.fx" in results and f"{n}.fy" in results]
     r_forces = [np.stack([results[f"{n}.fx"][idx], results[f"{n}.fy"][idx]], 1) for _, n in reactions]
     contacts = [(c, n) for c, n in enumerate(model.clearance_names) if f"{n}.fx" in results]
     c_forces = [np.stack([results[f"{n}.fx"][idx], results[f"{n}.fy"][idx]], 1) for _, n in contacts]
-    scale = _arrow_scale(r_forces + c_forces, 0.25 * size)  # one scale: arrows compare
-    info.force_scale["forces"] = scale
+    scale = _arrow_scale(r_forces + c_forces, 0.25 * scene.size)  # one scale: arrows compare
+    scene.info.force_scale["forces"] = scale
     for (j, n), F in zip(reactions, r_forces):
         bi, bj = int(k.joint_body[j, 0]), int(k.joint_body[j, 1])
         origin = _global(pose, bj, k.joint_point[j, 1], idx) if bj >= 0 else _global(pose, bi, k.joint_point[j, 0], idx)
-        rec.send_columns(f"forces/joints/{n}", indexes=tcol,
-                         columns=rr.Arrows2D.columns(origins=_up(origin), vectors=_up(F * scale)))
-        rec.log(f"forces/joints/{n}", rr.Arrows2D.from_fields(radii=ui(1.5), colors=_rgba(REACTION), draw_order=50.0), static=True)
+        scene.send(f"forces/joints/{n}", rr.Arrows2D.columns(origins=_up(origin), vectors=_up(F * scale)))
+        rec.log(f"forces/joints/{n}", rr.Arrows2D.from_fields(radii=scene.ui(1.5), colors=_rgba(REACTION),
+                                                              draw_order=50.0), static=True)
         ent.append(f"forces/joints/{n}")
     for (c, n), F in zip(contacts, c_forces):
-        origin = journal_c[c] + radius_j[c] * normal[c]
-        rec.send_columns(f"forces/contact/{n}", indexes=tcol,
-                         columns=rr.Arrows2D.columns(origins=_up(origin), vectors=_up(F * scale)))
-        rec.log(f"forces/contact/{n}", rr.Arrows2D.from_fields(radii=ui(2.0), colors=_rgba(CONTACT), draw_order=51.0), static=True)
+        origin = scene.journal_c[c] + scene.radius_j[c] * scene.normal[c]
+        scene.send(f"forces/contact/{n}", rr.Arrows2D.columns(origins=_up(origin), vectors=_up(F * scale)))
+        rec.log(f"forces/contact/{n}", rr.Arrows2D.from_fields(radii=scene.ui(2.0), colors=_rgba(CONTACT),
+                                                               draw_order=51.0), static=True)
         ent.append(f"forces/contact/{n}")
     rec.log("mechanism/legend", rr.TextDocument(
         f"clearance magnified x{magnify:g}; force arrows (joint reactions and contact forces) "
