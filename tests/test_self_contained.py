@@ -56,3 +56,15 @@ def test_the_search_finds_what_it_looks_for(tmp_path):
     assert all(DESIGN_NOTE.search(b) or SEED_PROSE.search(b) for b in bad)
     assert not any(DESIGN_NOTE.search(g) or SEED_PROSE.search(g) for g in good)
     assert tracked_files(), "found no files to search"
+
+
+def test_architecture_page_names_only_files_that_exist():
+    """docs/architecture.md: every module and file it names is in the repository, and every
+    module of the package has its paragraph."""
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    named = set(re.findall(r"`([\w/]+\.(?:py|md|lark))`", text))
+    files = [p.relative_to(ROOT).as_posix() for p in tracked_files()]
+    assert [n for n in named if not any(f == n or f.endswith("/" + n) for f in files)] == []
+    modules = [p.name for p in (ROOT / "planar_mbs").glob("*.py") if p.name != "__init__.py"]
+    assert [m for m in modules if f"`{m}`" not in text] == []
+    assert "Effects of input speed on the dynamic response of planar" in " ".join(text.split())
