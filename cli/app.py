@@ -19,10 +19,10 @@ import typer
 
 from planar_mbs import catalog
 
-from .common import ExitCode, parse_sets
+from .common import (MAX_REVOLUTIONS, ExitCode, check_choice, check_number, check_output, check_rtol, parse_sets,
+                     positive_time)
 from .common import console as _console
 from .common import fail as _fail
-from .common import quantity as _quantity
 
 _INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
 EPILOG = ("Exit codes: 0 success · 2 bad model or usage · 3 the simulation failed (results kept) · "
@@ -138,10 +138,10 @@ def run(
         out = output or default_output(model, sets)
         m = load_model(model, sets)
         changes = dict(
-            t_end=_quantity(t_end, "time", "--t-end"),
-            step=_quantity(step, "time", "--step"),
-            output_step=_quantity(output_step, "time", "--output-step"),
-            rtol=rtol,
+            t_end=positive_time(t_end, "--t-end"),
+            step=positive_time(step, "--step"),
+            output_step=positive_time(output_step, "--output-step"),
+            rtol=check_rtol(rtol),
             integrator=integrator,
         )
         if t_end is not None and revolutions is not None:
@@ -151,18 +151,21 @@ def run(
         if (revolutions is not None or per_rev is not None) and _driver_period(m) is None:
             raise ModelError(f"{'--revolutions' if revolutions is not None else '--per-rev'} needs a rotation "
                              "driver at constant speed", str(model), hint="give --t-end / --output-step instead")
-        if revolutions is not None and not revolutions > 0:
-            raise ModelError(f"--revolutions must be positive, not {revolutions:g}", "--revolutions",
-                             hint="e.g. `--revolutions 60`")
+        check_number(revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS, hint="e.g. `--revolutions 60`")
         changes.update(revolutions=revolutions, per_rev=per_rev)
         if integrator is not None:
             integrator_of(integrator, "--integrator")
-        if rerun_signals not in ("envelope", "full"):
-            raise ModelError(f"unknown --rerun-signals `{rerun_signals}`", "--rerun-signals",
-                             hint="choose envelope or full")
+        rerun_signals = check_choice(rerun_signals, ("envelope", "full"), "--rerun-signals")
+        check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
+        check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
         if output is None and not out.parent.exists():  # results/, ignored by git wherever it is made
             out.parent.mkdir(parents=True)
             (out.parent / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
+        inputs = [("the model file" if i == 0 else "a file the model includes", f)
+                  for i, f in enumerate(m.source_files or [model])]
+        check_output(out, "--output", inputs)
+        if rerun is not None:
+            check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
         with _Progress(quiet) as progress:
             res = simulate(m, output=out, progress=progress.update, **changes)
     except SimulationError as err:
@@ -267,4 +270,18 @@ app.command()(analyze)
 
 
 def main() -> None:
-    app()
+    """The `mbs` entry point.  Every expected failure is reported by the commands themselves;
+    anything else (a bug) still ends with one message instead of a traceback, unless
+    MBS_TRACEBACK=1 asks for it."""
+    import os
+    import sys
+
+    try:
+        app()
+    except Exception as exc:  # noqa: BLE001  (the last line of defence: never a traceback)
+        if os.environ.get("MBS_TRACEBACK"):
+            raise
+        _console(stderr=True).print(f"internal error: {type(exc).__name__}: {exc}\n"
+                                    "hint: this is a bug in planar_mbs; please report it with the command "
+                                    "(MBS_TRACEBACK=1 shows where it happened)", markup=False)
+        sys.exit(1)

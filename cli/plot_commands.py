@@ -18,13 +18,11 @@ from .common import quantity as _quantity
 
 
 def _results_path(text: Path) -> Path:
-    """The file part of `FILE.h5` or `FILE.h5:/cases/3`."""
-    from planar_mbs.plot import PlotError
+    """The file part of `FILE.h5` or `FILE.h5:/cases/3`, checked to be a regular HDF5 file
+    (a FIFO or a device is never opened)."""
+    from planar_mbs.results import check_results_file
 
-    file = Path(str(text).split(":/", 1)[0])
-    if not file.exists():
-        raise PlotError(f"error: no such results file: {file}")
-    return file
+    return check_results_file(Path(str(text).split(":/", 1)[0]))
 
 
 ResultsArg = Annotated[Path, typer.Argument(help="HDF5 results file written by `mbs run` (or a sweep file; "
@@ -71,15 +69,20 @@ def plot(
     mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
     """
     from planar_mbs.errors import MbsError
-    from planar_mbs.plot import plot_file
+    from planar_mbs.plot import FORMATS, plot_file
+
+    from .common import check_choice, check_output
 
     try:
+        fmt = check_choice(fmt, FORMATS, "--format")
         file = _results_path(results)
         if list_:
             _list_signals(results)
             return
         window = dict(t_from=_quantity(t_from, "time", "--from"), t_to=_quantity(t_to, "time", "--to"))
         notes: list[str] = []
+        check_output(output or file.parent / f"{file.stem}_plots", "--output", [("the results file", file)],
+                     folder=True)
         if ":/" in str(results):  # one case of a sweep: plot it like a run
             written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes)
         else:
@@ -162,16 +165,24 @@ def view(
     Example: mbs view a.h5 -o a.rrd --open
     """
     from planar_mbs.errors import MbsError
+    from planar_mbs.plot import PlotError
     from planar_mbs.results import read_results
     from planar_mbs.rerun_log import model_from_results
 
+    from .common import check_choice, check_number, check_output
+
     try:
+        signals = check_choice(signals, ("envelope", "full"), "--signals")
+        check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
+        check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
+        check_number(signal_rate, "--signal-rate", low=0.0, hint="bins per simulated second, e.g. 2000")
         file = _results_path(results)
-        res = read_results(results)
-        model = None if signals_only else model_from_results(res)
         out = output or file.with_suffix(".rrd")
-        if signals not in ("envelope", "full"):
-            _fail(f"error: --signals must be `envelope` or `full`, not `{signals}`")
+        check_output(out, "--output", [("the results file", file)])
+        res = read_results(results)
+        if not len(res.time):
+            raise PlotError(f"error: {results} holds no samples: nothing to record")
+        model = None if signals_only else model_from_results(res)
         record_run(res, model, out, magnify=magnify, fps=fps, signal_stride=signal_stride, open_viewer=open_,
                    signals=signals, signal_rate=signal_rate)
     except MbsError as err:

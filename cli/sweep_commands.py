@@ -20,7 +20,31 @@ from .common import ExitCode
 from .common import console as _console
 from .common import fail as _fail
 from .common import parse_sets as _sets
-from .common import quantity as _quantity
+from .common import MAX_JOBS, MAX_REVOLUTIONS, check_number, check_output, check_rtol, model_files, positive_time
+
+
+
+def _check_sweep_files(model: Path, output: Path, sets: list[str], keep: Optional[list[str]]) -> None:
+    """Before any case runs: the output is not the model or a file it includes and can be written;
+    every `--keep` name is a signal of the model."""
+    from planar_mbs.errors import ModelError
+
+    inputs = [("the model file" if i == 0 else "a file the model includes", f)
+              for i, f in enumerate(model_files(model))]
+    check_output(output, "--output", inputs)
+    if keep:
+        from planar_mbs import load_model
+        from planar_mbs.signals import signal_table
+
+        names = [s.name for s in signal_table(load_model(model, **_sets(sets)))]
+        for name in keep:
+            if name not in names:
+                from planar_mbs.errors import did_you_mean
+
+                entity = [n for n in names if n.startswith(name + ".")]
+                hint = (f"`--keep` takes full signal names: {', '.join(entity[:6])}" if entity
+                        else did_you_mean(name, names) or "`mbs plot FILE.h5 --list` lists the signals of a run")
+                raise ModelError(f"`--keep {name}`: the model has no signal `{name}`", "--keep", hint=hint)
 
 
 def _pair(text: Optional[str]) -> Optional[list[str]]:
@@ -51,13 +75,15 @@ def _angle(text: Optional[str]) -> Optional[float]:
 def _section_options(poincare, period, angle, transient, clock, no_section) -> Optional[dict]:
     if no_section:
         return None
+    check_number(transient, "--transient", low=0.0, low_ok=True, high=MAX_REVOLUTIONS,
+                 hint="driver periods dropped before the section, e.g. `--transient 1`")
     opts: dict = {"transient": transient}
     if poincare:
         opts["signals"] = _pair(poincare)
     if period is not None:
-        opts["period"] = _quantity(period, "time", "--period")
+        opts["period"] = positive_time(period, "--period")
     if angle is not None:
-        opts["angle"] = _angle(angle)
+        opts["angle"] = check_number(_angle(angle), "--angle", hint="e.g. `--angle 90deg`")
     if clock:
         opts["clock"] = clock
     return opts
@@ -139,12 +165,17 @@ def sweep(
         if integrator is not None:
             integrator_of(integrator, "--integrator")
         settings = {k: v for k, v in dict(
-            t_end=_quantity(t_end, "time", "--t-end"), output_step=_quantity(output_step, "time", "--output-step"),
-            rtol=rtol, integrator=integrator.lower() if integrator else None).items() if v is not None}
+            t_end=positive_time(t_end, "--t-end"), output_step=positive_time(output_step, "--output-step"),
+            rtol=check_rtol(rtol), integrator=integrator.lower() if integrator else None).items()
+            if v is not None}
+        check_number(revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS,
+                     hint="the number of driver periods to simulate, e.g. `-n 101`")
+        check_number(jobs, "--jobs", low=1, low_ok=True, high=MAX_JOBS, hint="e.g. `-j 4`")
         if t_end is not None and revolutions is not None:
             raise ModelError("give --t-end or --revolutions, not both", "--revolutions")
         section = _section_options(poincare, period, angle, transient, clock, no_section)
         keep_list = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None  # "": none
+        _check_sweep_files(model, output, set_ or [], keep_list)
         with _interruptible(), _SweepProgress(quiet) as bar, _cluster(scheduler) as executor:
             summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
@@ -304,10 +335,13 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
     from planar_mbs.analysis import classify, poincare_section, write_section
     from planar_mbs.sweep import read_case_table
 
+    from planar_mbs.results import check_results_file, open_results
+
     file, _, group = str(results).partition(":")
-    if not Path(file).exists():
-        raise FileNotFoundError(f"no such results file: {file}")
-    with h5py.File(file, "r") as f:
+    check_results_file(file)
+    opts = _section_options(poincare, period, angle, transient, clock, False)
+
+    with open_results(file) as f:
         is_sweep = f.attrs.get("kind") == "sweep"
     if is_sweep and not group:
         rows = read_case_table(file)
@@ -315,7 +349,6 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
         _print_table(rows, params)
         return
     res = read_results(results)
-    opts = _section_options(poincare, period, angle, transient, clock, False)
     signals = opts.pop("signals", None)
     if signals is None:
         slider = [n[:-3] for n in res.signals if n.endswith(".vx") and f"{n[:-3]}.phi" in res.signals

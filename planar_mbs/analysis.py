@@ -486,8 +486,6 @@ def bifurcation_figure(sweep_path, param: str, signal: str | None = None, *, sca
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    import h5py
-
     from .sweep import parameter_number, parameter_si, read_case_table
 
     table = read_case_table(sweep_path)
@@ -501,7 +499,9 @@ def bifurcation_figure(sweep_path, param: str, signal: str | None = None, *, sca
     if ax is None:
         fig, ax = plt.subplots(figsize=(8, 4))
     seen = set()
-    with h5py.File(sweep_path, "r") as f:
+    from .results import open_results
+
+    with open_results(sweep_path) as f:
         for row in table:
             if where and any(row["values"].get(k) != v for k, v in where.items()):
                 continue

@@ -33,7 +33,7 @@ from .model import (
     INTEGRATOR_NAMES, DriverType, ForceType, Integrator, JointType, KernelModel, Model, MotionType, Settings,
     SourceRef,
 )
-from .parse import KEYWORDS, decode_model, parse_expression, parse_model
+from .parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from .spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
 
 __all__ = ["load_model", "compile_text"]
@@ -42,21 +42,33 @@ __all__ = ["load_model", "compile_text"]
 # ------------------------------------------------------------------ entry points
 def load_model(path: str | Path, overrides: dict[str, str] | None = None) -> Model:
     """Read, parse and compile a `.mbs` file; `overrides` are `--set NAME=VALUE` pairs."""
+    import os
+    import stat
+
     path = str(path)
     try:
-        if Path(path).exists() and not Path(path).is_file():  # a folder, /dev/zero, a pipe
-            raise IsADirectoryError(0, "a folder" if Path(path).is_dir() else "not a regular file")
-        data = Path(path).read_bytes()
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened
+            raise IsADirectoryError(0, "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file")
+        if info.st_size > MAX_MODEL_BYTES:
+            raise ModelError(f"the model file is {info.st_size / 2**20:.0f} MB; models are limited to "
+                             f"{MAX_MODEL_BYTES // 2**20} MB", path, hint="is this really a model file?")
+        with open(path, "rb") as f:
+            data = f.read(MAX_MODEL_BYTES + 1)
     except OSError as e:
         raise ModelError(f"cannot read the model file ({getattr(e, 'strerror', None) or e})", path,
                          hint="check the path") from None
-    return compile_text(decode_model(data, path), path, overrides)
+    model = compile_text(decode_model(data, path), path, overrides)
+    model.source_files.insert(0, Path(path).resolve())
+    return model
 
 
-def compile_text(text: str, path: str = "<string>", overrides: dict[str, str] | None = None) -> Model:
-    """Parse and compile model text; every user mistake raises `ModelError`."""
+def compile_text(text: str, path: str = "<string>", overrides: dict[str, str] | None = None,
+                 includes: dict[str, str] | None = None, key: str | None = None) -> Model:
+    """Parse and compile model text; every user mistake raises `ModelError`.  ``includes`` and
+    ``key`` (a model's `source_includes` and `source_key`) supply its included files from memory."""
     try:
-        spec = parse_model(text, path)
+        spec = parse_model(text, path, sources=includes, main=key)
         return Compiler(spec, overrides or {}).run()
     except ModelError:
         raise
@@ -817,6 +829,8 @@ class _CheckPass:
             body_source=refs(self.bodies), joint_source=refs(self.ideal),
             driver_source=refs(self.drivers), clearance_source=refs(self.clearance),
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
+            source_key=self.spec.key, source_includes=dict(self.spec.includes),
+            source_files=list(self.spec.include_files),
         )
 
 

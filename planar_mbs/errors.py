@@ -55,7 +55,9 @@ class ModelError(MbsError):
         where = ""
         if self.file:
             where = f"{self.file}:{self.line}:{self.column}: " if self.line else f"{self.file}: "
-        text = f"{where}error: {self.message}"
+        message = self.message if len(self.message) <= 4 * MAX_SHOWN else \
+            self.message[:2 * MAX_SHOWN] + " … " + self.message[-MAX_SHOWN:]  # never a megabyte of it
+        text = f"{where}error: {message}"
         if self.source_line is not None and self.line:
             line = self.source_line.rstrip("\n").expandtabs(1)
             col, width = max(0, self.column - 1), self.width

@@ -269,6 +269,9 @@ class Model:
     parameters: dict[str, str] = field(default_factory=dict)  # resolved params, as text with units
     source_text: str = ""
     source_path: str = ""
+    source_key: str = ""  # absolute path of the model file (symlinks kept): the base of source_includes
+    source_includes: dict[str, str] = field(default_factory=dict)  # absolute path -> text, every include
+    source_files: list = field(default_factory=list)  # resolved paths of the model file and its includes
 
     @property
     def nbody(self) -> int:

@@ -24,11 +24,18 @@ from .spec import (
 
 KEYWORDS = ("param", "material", "body", "joint", "driver", "force", "gravity",
             "simulate", "include", "override")
-_NUMBER = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+# atomic groups `(?>...)`: a failed match never retries shorter digit runs, so long numbers
+# cost linear time (`\d+\.?\d*` tried every split of a 100 000-digit number: quadratic)
+_NUMBER = re.compile(r"(?>\d+(?:\.\d*)?|\.\d+)(?>[eE][+-]?\d+)?")
 # text that is neither a comment nor a quoted string (blanked out, positions kept)
 _NOT_CODE = re.compile(r'"[^"\n]*"?|#[^\n]*')
+_NOT_COMMENT = re.compile(r'("[^"\n]*"?)|#[^\n]*')  # comments (a quoted `#` is not one)
+
+
+def _blank(m) -> str:
+    return m.group(1) or " " * len(m.group(0))
 # a number whose exponent has no digits (`1e`, `2.5e-`), or with two decimal points (`1.2.3`)
-_BAD_NUMBER = re.compile(r"(?<![\w.])(?:\d+\.?\d*|\.\d+)(?:[eE][+-](?!\d)|[eE](?![+\-\w])|\.\d*\.)")
+_BAD_NUMBER = re.compile(r"(?<![\w.])(?>\d+(?:\.\d*)?|\.\d+)(?:[eE][+-](?!\d)|[eE](?![+\-\w])|\.)")
 MAX_DEPTH = 100  # nesting levels of one expression (deeper trees would exhaust Python's stack)
 
 
@@ -36,8 +43,10 @@ MAX_DEPTH = 100  # nesting levels of one expression (deeper trees would exhaust 
 def parser() -> Lark:
     """The LALR parser, built once (start symbols: ``start`` for files, ``expr`` for `--set`)."""
     text = resources.files("planar_mbs.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
+    # No `cache=True`: lark would load a pickle from the shared temporary directory, where anyone
+    # could plant one.  Building the LALR tables takes about 30 ms, once per process.
     return Lark(text, parser="lalr", lexer="contextual", propagate_positions=True,
-                start=["start", "expr"], maybe_placeholders=True, cache=True)  # pickled in the temp dir
+                start=["start", "expr"], maybe_placeholders=True)
 
 
 # ------------------------------------------------------------ tree → spec
@@ -129,7 +138,7 @@ class _ToSpec(Transformer):
         m = _NUMBER.match(tok)
         value = float(m.group(0))
         if value == float("inf"):
-            raise pos.error(f"the number {m.group(0)} is too large",
+            raise pos.error(f"the number {_clip(m.group(0))} is too large",
                             hint="numbers must stay below about 1.8e308")
         unit = tok[m.end():].strip() or None
         return Number(pos, value, unit)
@@ -263,7 +272,7 @@ def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0
             hint = f"expected {_readable(expected)}; " + (unclosed(False) or "is a `)` or `}` missing?")
         else:
             width = len(str(tok))
-            shown = f"`{tok}`"
+            shown = f"`{_clip(str(tok))}`"
             message = f"unexpected {shown}"
             hint = f"expected {_readable(expected)}"
             prev = code[:tok.start_pos].rstrip()
@@ -351,6 +360,11 @@ def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0
                       width=width)
 
 
+def _clip(word: str, n: int = 40) -> str:
+    """A word shown in a message: long ones (a 100 000-digit number) cut in the middle."""
+    return word if len(word) <= n else f"{word[:n // 2]}…{word[-n // 4:]} ({len(word):,} characters)"
+
+
 def _code(text: str) -> str:
     """The text with comments and quoted strings blanked out (same length, same lines)."""
     return _NOT_CODE.sub(lambda m: " " * len(m.group(0)), text)
@@ -410,9 +424,35 @@ def _check_depth(tree, text: str, path: str) -> None:
 
 
 # ------------------------------------------------------------ entry points
-def parse_statements(text: str, path: str = "<string>") -> list[Statement]:
-    """Parse one file's text into statements (includes not expanded)."""
+MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~300)
+_TOKEN = re.compile(r'"[^"\n]*"?|[\w.\u00b5\u03bc]+|[^\s\w#]')  # comments are skipped below
+
+
+def _check_tokens(text: str, code: str, path: str, left: list[int]) -> None:
+    """Refuse text with more than ``left[0]`` tokens (stopping at the first one too many), so that
+    the parser's time -- linear, but some 50 µs a token -- stays bounded; subtract the count
+    from ``left[0]``."""
+    import itertools
+
+    n = 0
+    tokens = (m for m in _TOKEN.finditer(_NOT_COMMENT.sub(_blank, text)))
+    for n, m in enumerate(itertools.islice(tokens, left[0] + 1), 1):
+        if n > left[0]:
+            line = text.count("\n", 0, m.start()) + 1
+            start = text.rfind("\n", 0, m.start()) + 1
+            end = text.find("\n", m.start())
+            raise ModelError(f"the model is too long: more than {MAX_TOKENS:,} names, numbers and symbols "
+                             "(with its included files)", path, line, m.start() - start + 1,
+                             source_line=text[start:end if end >= 0 else len(text)],
+                             hint="is this really a model file? The longest shipped model has about 300")
+    left[0] -= n
+
+
+def parse_statements(text: str, path: str = "<string>", tokens: list[int] | None = None) -> list[Statement]:
+    """Parse one file's text into statements (includes not expanded).  ``tokens`` holds the
+    number of tokens still allowed (shared by a model and its includes)."""
     code = _code(text)
+    _check_tokens(text, code, path, [MAX_TOKENS] if tokens is None else tokens)
     try:
         tree = parser().parse(text, start="start")
     except UnexpectedInput as e:
@@ -439,6 +479,7 @@ def _transform(tree, text: str, path: str):
 
 def parse_expression(text: str, path: str = "--set") -> Expr:
     """Parse a single expression (the value of a `--set NAME=VALUE` override)."""
+    _check_tokens(text, _code(text), path, [MAX_TOKENS])
     try:
         tree = parser().parse(text, start="expr")
     except UnexpectedInput as e:
@@ -450,35 +491,85 @@ def parse_expression(text: str, path: str = "--set") -> Expr:
     return _transform(tree, text, path)
 
 
-def parse_model(text: str, path: str = "<string>") -> ModelSpec:
-    """Parse a model and expand its includes into one ModelSpec."""
-    statements = _expand(text, path, stack=())
-    return ModelSpec(statements, path, text)
+MAX_MODEL_BYTES = 16 * 2**20  # a model file, or all of its includes together
+MAX_INCLUDES = 100  # included files of one model, counting repeats
 
 
-def _expand(text: str, path: str, stack: tuple[Path, ...]) -> list[Statement]:
-    here = Path(path).resolve() if not path.startswith("<") else None
+def parse_model(text: str, path: str = "<string>", sources: dict[str, str] | None = None,
+                main: str | None = None) -> ModelSpec:
+    """Parse a model and expand its includes into one ModelSpec.
+
+    ``sources`` (absolute path → text, as recorded in ``spec.includes`` of an earlier parse,
+    with ``main`` its ``spec.key``) supplies the included files instead of the disk: a results
+    file keeps them so that its model can be rebuilt anywhere.  ``spec.include_files`` lists
+    the real files read (to refuse writing over any of them)."""
+    main = main or (_lexical(path) if not path.startswith("<") else None)
+    spec = ModelSpec([], path, text, key=main or "")
+    spec.statements = _expand(text, path, (), main, spec, sources, [len(text), MAX_TOKENS])
+    return spec
+
+
+def _lexical(path: str) -> str:
+    """An absolute path without resolving symlinks (the key of an included file's text)."""
+    import os
+
+    return os.path.normpath(os.path.abspath(path))
+
+
+def _expand(text: str, path: str, stack: tuple[Path, ...], key: str | None, spec: ModelSpec,
+            sources: dict[str, str] | None, budget: list[int]) -> list[Statement]:
+    import os
+
+    here = Path(path).resolve() if sources is None and not path.startswith("<") else None
     out = []
-    for st in parse_statements(text, path):
+    tokens = budget[1:]
+    statements = parse_statements(text, path, tokens)
+    budget[1] = tokens[0]
+    for st in statements:
         if st.kind != "include":
             out.append(st)
             continue
-        base = here.parent if here is not None else Path.cwd()
-        target = (base / st.value).resolve()
-        chain = [*stack, *( [here] if here else [] )]
+        base = here.parent if here is not None else Path(os.path.dirname(key)) if key else Path.cwd()
+        sub_key = os.path.normpath(os.path.join(str(base) if key is None else os.path.dirname(key), st.value))
+        target = Path(sub_key) if sources is not None else (base / st.value).resolve()
+        chain = [*stack, *([here] if here else [Path(key)] if key and sources is not None else [])]
         if target in chain:
             names = " → ".join(p.name for p in chain[chain.index(target):]) + f" → {target.name}"
             raise st.pos.error(f"include cycle: {names}", hint="a file may not include itself, directly or not")
-        try:
-            if target.exists() and not target.is_file():  # a folder, /dev/zero, a pipe: never read
-                raise IsADirectoryError(0, "a folder" if target.is_dir() else "not a regular file")
-            data = target.read_bytes()
-        except OSError as err:
-            raise st.pos.error(f"cannot read included file `{st.value}` ({err.strerror or err})",
-                               hint=f"the path is relative to the including file's folder ({base})") from None
-        sub = decode_model(data, str(_display(target)))
-        out.extend(_expand(sub, str(_display(target)), tuple(chain)))
+        if len(spec.include_files) >= MAX_INCLUDES:
+            raise st.pos.error(f"more than {MAX_INCLUDES} included files",
+                               hint="a model includes each file once; is a file included in a loop?")
+        if sources is not None:
+            if sub_key not in sources:
+                raise st.pos.error(f"the included file `{st.value}` is not stored with the results",
+                                   hint="run the model again to store all of its files")
+            sub = sources[sub_key]
+        else:
+            sub = decode_model(_read_include(st, target, base, budget), str(_display(target)))
+            spec.include_files.append(target)
+        spec.includes[sub_key] = sub
+        out.extend(_expand(sub, str(_display(target)), tuple(chain), sub_key, spec, sources, budget))
     return out
+
+
+def _read_include(st: Statement, target: Path, base: Path, budget: list[int]) -> bytes:
+    """The bytes of an included file: a regular file, within what is left of the size budget."""
+    import os
+    import stat
+
+    try:
+        info = os.stat(target)
+        if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened
+            raise IsADirectoryError(0, "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file")
+        budget[0] += info.st_size
+        if budget[0] > MAX_MODEL_BYTES:
+            raise st.pos.error(f"the model and its includes exceed {MAX_MODEL_BYTES // 2**20} MB",
+                               hint="is this included file really a model?")
+        with open(target, "rb") as f:
+            return f.read(MAX_MODEL_BYTES + 1)
+    except OSError as err:
+        raise st.pos.error(f"cannot read included file `{st.value}` ({err.strerror or err})",
+                           hint=f"the path is relative to the including file's folder ({base})") from None
 
 
 def decode_model(data: bytes, path: str) -> str:

@@ -457,21 +457,17 @@ def orbit_figure(results: "Results", joint: str):
 
 
 def is_sweep(path: str | Path) -> bool:
-    import h5py
+    from .results import SIGNALS, open_results
 
-    from .results import SIGNALS
-
-    with h5py.File(path, "r") as f:
+    with open_results(path) as f:
         return "cases" in f and SIGNALS not in f
 
 
 def sweep_cases(path: str | Path) -> list[tuple[str, "Results"]]:
     """``(case key, Results)`` of every ``/cases/<k>`` group, in numeric order."""
-    import h5py
+    from .results import open_results, read_results
 
-    from .results import read_results
-
-    with h5py.File(path, "r") as f:
+    with open_results(path) as f:
         keys = sorted(f["cases"].keys(), key=lambda k: (not k.isdigit(), int(k) if k.isdigit() else 0, k))
     return [(k, read_results(f"{path}:/cases/{k}")) for k in keys]
 
@@ -577,8 +573,28 @@ def _slug(text: str) -> str:
 
 
 def _save(fig, path: Path, written: list[Path]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data."""
+    import os
+    import stat
+
+    from .results import HDF5_SIGNATURE
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if os.path.lexists(path):
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                raise PlotError(f"error: {path} exists and is not a regular file; not writing a figure there")
+            with open(path, "rb") as f:
+                if f.read(len(HDF5_SIGNATURE)) == HDF5_SIGNATURE:
+                    raise PlotError(f"error: {path} holds HDF5 data; not writing a figure over it\n"
+                                    "hint: choose another --output folder")
+        fig.savefig(path)
+    except OSError as exc:
+        raise PlotError(f"error: cannot write {path}: {exc.strerror or exc}") from None
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
     written.append(path)
 
 

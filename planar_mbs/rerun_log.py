@@ -103,7 +103,11 @@ def model_from_results(results: "Results") -> "Model":
         if source:
             from .compile import compile_text
 
-            return compile_text(source, mpath or "<results>", overrides=params)
+            includes = attrs.get("model_includes")
+            if not isinstance(includes, dict) or not all(isinstance(v, str) for v in includes.values()):
+                includes = None  # written before the included files were stored: read them from disk
+            return compile_text(source, mpath or "<results>", overrides=params, includes=includes,
+                                key=str(attrs.get("model_key") or "") or None)
         if mpath and Path(mpath).exists():
             from .compile import load_model
 

@@ -6,7 +6,8 @@ shared by `ResultsWriter`, `write_results`, `read_results` and `FileResults`)::
     /time                (n,)  s
     /signals/<entity>    (n,)  one compound dataset per entity: a float64 field per quantity
                                (slider: x, y, phi, vx, ...), attribute `units` (one per field)
-    attributes of /: model_source, model_path, parameters (JSON), version,
+    attributes of /: format_version, model_source, model_path, model_key, model_includes (JSON:
+        absolute path -> text of every included file), parameters (JSON), version,
         complete (bool), status, message, wall_time, n_steps, n_rejected,
         n_rhs, n_contact_events, n_outputs, settings (JSON)
 
@@ -28,8 +29,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import stat
 import sys
 from collections.abc import Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,6 +41,8 @@ import numpy as np
 
 from .errors import MbsError
 from .signals import Signal
+
+FORMAT_VERSION = 1  # attribute `format_version` of a run's group; readers refuse newer ones
 
 
 def entity_groups(names) -> dict[str, list[str]]:
@@ -285,7 +291,7 @@ TIME = "time"  # dataset of the output times
 SIGNALS = "signals"  # group of the signals: SIGNALS/<entity>, one compound dataset per entity
 UNIT = "unit"  # attribute of the time dataset (and of every dataset in files of the earlier layout)
 UNITS = "units"  # attribute of an entity's dataset: the unit of each field
-JSON_ATTRS = ("parameters", "settings", "warnings")  # attributes stored as JSON text
+JSON_ATTRS = ("parameters", "settings", "warnings", "model_includes")  # attributes stored as JSON text
 
 
 def entity_path(entity: str) -> str:
@@ -362,7 +368,7 @@ def write_results(target, results: Results, group: str = "/", compression: str |
     chunks = dict(chunks=(min(max(n, 1), chunk),)) if opts else {}
     create_run_datasets(g, [(name, results.units.get(name, "")) for name in results.signals],
                         (results.time, list(results.signals.values())), **opts, **chunks)
-    set_attrs(g, results.attrs)
+    set_attrs(g, dict(results.attrs, format_version=FORMAT_VERSION))
 
 
 class ResultsBusy(Exception):
@@ -470,7 +476,7 @@ class ResultsWriter:
             self.n = 0
             self.time, self.datasets = create_run_datasets(self.group, [(sig.name, sig.unit) for sig in table],
                                                            chunks=(self.CHUNK,))
-            self.set_attrs(dict(attrs, complete=False, status="running"))
+            self.set_attrs(dict(attrs, complete=False, status="running", format_version=FORMAT_VERSION))
             self.file.flush()
         except BaseException:
             self.broken = not isinstance(sys.exc_info()[1], DiskFull)
@@ -540,32 +546,211 @@ class ResultsWriteError(DiskFull):
     """A write to the results file failed (an I/O error, a disk that filled past the reservation)."""
 
 
+# ---------------------------------------------------------------- reading files we did not write
+class ResultsFileError(MbsError):
+    """A file given as results is not one (missing, not a regular file, not HDF5, a foreign or
+    crafted layout, more data than memory allows)."""
+
+    exit_code = 2
+
+    def __init__(self, message: str, hint: str = ""):
+        self.message = message
+        self.hint = hint
+        super().__init__(f"error: {message}" + (f"\nhint: {hint}" if hint else ""))
+
+
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,199}")
+MAX_SIGNALS = 100_000
+_JSON_ATTRS = {"parameters": dict, "settings": dict, "warnings": list, "model_includes": dict}
+
+
+def memory_budget() -> int:
+    """Bytes a command may read into memory at once: half of the physical memory."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):
+        return 4 * 2**30
+
+
+def check_results_file(path: str | Path) -> Path:
+    """The path of an existing regular HDF5 file, or `ResultsFileError` -- checked with
+    ``os.stat`` and 8 bytes, so a FIFO, a device or a folder is never opened by HDF5."""
+    path = Path(path)
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise ResultsFileError(f"no such results file: {path}", hint="check the path") from None
+    except OSError as exc:
+        raise ResultsFileError(f"cannot read {path}: {exc.strerror or exc}",
+                               hint="give a results file written by `mbs run` or `mbs sweep`") from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise ResultsFileError(f"{path} is {kind}", hint="give a results file written by `mbs run` or `mbs sweep`")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(HDF5_SIGNATURE))
+    except OSError as exc:
+        raise ResultsFileError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if head != HDF5_SIGNATURE:
+        what = "empty" if info.st_size == 0 else "not an HDF5 file"
+        raise ResultsFileError(f"{path} is {what}", hint="give a results file written by `mbs run` or `mbs sweep`"
+                               + (" (a .rrd recording is an output of `mbs view`, not an input)"
+                                  if path.suffix == ".rrd" else ""))
+    return path
+
+
+@contextmanager
+def open_results(path: str | Path):
+    """An h5py File opened read-only after `check_results_file`; reading errors of a damaged or
+    foreign file (inside the ``with``) become `ResultsFileError`."""
+    import h5py
+
+    path = check_results_file(path)
+    with reading(path):
+        f = h5py.File(path, "r")
+    try:
+        with reading(path):
+            yield f
+    finally:
+        f.close()
+
+
+@contextmanager
+def reading(path):
+    """Turn the exceptions a damaged or foreign HDF5 file raises while read into `ResultsFileError`."""
+    try:
+        yield
+    except MbsError:
+        raise
+    except MemoryError:
+        raise ResultsFileError(f"{path}: not enough memory to read it") from None
+    except (OSError, KeyError, ValueError, TypeError, IndexError, AttributeError, RuntimeError,
+            UnicodeError) as exc:
+        raise ResultsFileError(f"{path} is damaged or not in the layout of planar_mbs results "
+                               f"({type(exc).__name__}: {exc})",
+                               hint="give a results file written by `mbs run` or `mbs sweep`") from None
+
+
+def check_run_layout(g, where: str, budget: int | None = None) -> int:
+    """Check one run's group before reading it: ``time`` and ``signals/<entity>`` (a compound
+    dataset of float fields, or a group of datasets in the earlier layout), 1-D, one length,
+    names that are names, hard links only, stored sizes that match the declared ones, and all
+    of it within `budget` bytes.  Returns the bytes the run needs in memory."""
+    import h5py
+
+    def bad(what: str):
+        return ResultsFileError(f"{where} is not a planar_mbs results file: {what}",
+                                hint="give a results file written by `mbs run` or `mbs sweep`")
+
+    fmt = g.attrs.get("format_version", FORMAT_VERSION)
+    if not isinstance(fmt, (int, np.integer)) or int(fmt) > FORMAT_VERSION:
+        raise ResultsFileError(f"{where} has format version {fmt!r}; this planar_mbs reads up to "
+                               f"{FORMAT_VERSION}", hint="read it with a newer planar_mbs")
+
+    def member(parent, name: str, kinds, what: str):
+        """A member reached by a hard link (soft and external links could lead to other files,
+        a FIFO among them), of one of the expected kinds."""
+        if not isinstance(parent.get(name, getlink=True), h5py.HardLink):
+            raise bad(f"`{what}` is missing or a link")
+        obj = parent[name]
+        if not isinstance(obj, kinds):
+            raise bad(f"`{what}` is not a {'dataset' if kinds is h5py.Dataset else 'group'}")
+        return obj
+
+    datasets = [(TIME, member(g, TIME, h5py.Dataset, TIME), None)]
+    signals = member(g, SIGNALS, h5py.Group, SIGNALS)
+    count = 0
+    for entity in signals:
+        if not _NAME.fullmatch(entity):
+            raise bad(f"`{SIGNALS}/{entity[:80]!r}` is not an entity name")
+        obj = member(signals, entity, (h5py.Group, h5py.Dataset), f"{SIGNALS}/{entity}")
+        if isinstance(obj, h5py.Dataset):  # one compound dataset: a float field per quantity
+            names = obj.dtype.names or ()
+            if not names or any(not _NAME.fullmatch(q) or obj.dtype.fields[q][0].kind != "f"
+                                or obj.dtype.fields[q][0].itemsize > 8 or obj.dtype.fields[q][0].shape
+                                for q in names):
+                raise bad(f"`{SIGNALS}/{entity}` is {obj.dtype}, not a record of float fields")
+            datasets.append((f"{SIGNALS}/{entity}", obj, names))
+            count += len(names)
+        else:  # the earlier layout: a group of 1-D datasets
+            for qty in obj:
+                if not _NAME.fullmatch(qty):
+                    raise bad(f"`{SIGNALS}/{entity}/{qty[:80]!r}` is not a signal name")
+                datasets.append((f"{SIGNALS}/{entity}/{qty}",
+                                 member(obj, qty, h5py.Dataset, f"{SIGNALS}/{entity}/{qty}"), None))
+                count += 1
+        if count > MAX_SIGNALS:
+            raise bad(f"more than {MAX_SIGNALS:,} signals")
+    n = None
+    total = 0
+    for name, ds, fields in datasets:
+        if ds.ndim != 1 or (fields is None and (ds.dtype.kind not in "fiu" or ds.dtype.itemsize > 8)):
+            raise bad(f"`{name}` is {ds.dtype} of shape {ds.shape}, not a 1-D array of numbers")
+        if ds.is_virtual or ds.id.get_create_plist().get_external_count():
+            raise bad(f"`{name}` keeps its data in other files")
+        if n is None:
+            n = ds.shape[0]
+        elif ds.shape[0] != n:
+            raise bad(f"`{name}` has {ds.shape[0]:,} samples, `time` has {n:,}")
+        if not ds.id.get_create_plist().get_nfilters() and ds.id.get_storage_size() < ds.shape[0] * ds.dtype.itemsize:
+            raise bad(f"`{name}` declares {ds.shape[0]:,} samples but stores only "
+                      f"{ds.id.get_storage_size():,} bytes (truncated or crafted)")
+        total += ds.shape[0] * 8 * (len(fields) if fields else 1)
+    budget = memory_budget() if budget is None else budget
+    if total > budget:
+        raise ResultsFileError(f"{where} asks for {total / 2**30:.1f} GiB in memory; at most "
+                               f"{budget / 2**30:.1f} GiB are allowed here",
+                               hint="a file this large cannot be read on this machine")
+    return total
+
+
 def read_results(path: str | Path) -> Results:
-    """Load a run written by `ResultsWriter` (or one case of a sweep file: `file.h5:/cases/3`)."""
+    """Load a run written by `ResultsWriter` (or one case of a sweep file: `file.h5:/cases/3`),
+    in either layout, after checking that it is a regular HDF5 file laid out as a run
+    (`check_run_layout`): a foreign or crafted file is a `ResultsFileError`, not a traceback."""
     import h5py
 
     path = str(path)
     group = "/"
     if ":/" in path:
         path, group = path.split(":", 1)
-    with h5py.File(path, "r") as f:
-        g = f[group]
-        time = g[TIME][()]
-        units = signal_units(g)
+    where = path if group == "/" else f"{path}:{group}"
+    with open_results(path) as f:
+        g = f.get(group)
+        if not isinstance(g, h5py.Group):
+            raise ResultsFileError(f"no group {group} in {path}",
+                                   hint="cases of a sweep are FILE.h5:/cases/0, /cases/1, ... (see `mbs plot "
+                                        "FILE.h5 --list`)")
+        check_run_layout(g, where)
+        time = np.asarray(g[TIME][()], dtype="f8")
+        units = {k: _text_attr(v) for k, v in signal_units(g).items()}
         signals = {}
         for entity, obj in g[SIGNALS].items():
             if hasattr(obj, "dtype"):  # one compound dataset per entity: read it once, split the fields
                 records = obj[()]
-                signals.update({f"{entity}.{q}": np.ascontiguousarray(records[q]) for q in records.dtype.names})
+                signals.update({f"{entity}.{q}": np.ascontiguousarray(records[q], dtype="f8")
+                                for q in records.dtype.names})
             else:
-                signals.update({f"{entity}.{q}": ds[()] for q, ds in obj.items()})
+                signals.update({f"{entity}.{q}": np.asarray(ds[()], dtype="f8") for q, ds in obj.items()})
         attrs = {}
         for key, value in g.attrs.items():
             if isinstance(value, bytes):
-                value = value.decode()
+                value = value.decode("utf-8", errors="replace")
             if isinstance(value, np.generic):
                 value = value.item()
-            if key in JSON_ATTRS and isinstance(value, str) and value:
-                value = json.loads(value)
+            if key in _JSON_ATTRS:
+                try:
+                    value = json.loads(value) if isinstance(value, str) and value else None
+                except ValueError:
+                    value = None
+                if not isinstance(value, _JSON_ATTRS[key]):
+                    value = _JSON_ATTRS[key]()
             attrs[key] = value
     return Results(time=time, signals=signals, units=units, attrs=attrs)
+
+
+def _text_attr(value) -> str:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    return value if isinstance(value, str) else ""

@@ -324,6 +324,8 @@ def simulate(
     attrs = {
         "model_source": model.source_text,
         "model_path": model.source_path,
+        "model_key": model.source_key,
+        "model_includes": model.source_includes,  # every included file: `mbs view` rebuilds anywhere
         "parameters": model.parameters,
         "version": __version__,
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},

@@ -124,3 +124,6 @@ class ModelSpec:
     statements: list[Statement] = field(default_factory=list)
     path: str = "<string>"
     text: str = ""
+    key: str = ""  # the absolute path of the file, symlinks kept: the base of `includes` keys
+    includes: dict[str, str] = field(default_factory=dict)  # absolute path -> text of each included file
+    include_files: list = field(default_factory=list)  # the real (resolved) paths of the included files

@@ -52,12 +52,13 @@ from typing import Any, Sequence
 import numpy as np
 
 from .errors import MbsError, ModelError
-from .results import ResultsBusy, open_for_writing
+from .results import ResultsBusy, open_for_writing, open_results
 
 FINISHED, FAILED = "finished", "failed"
-_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_RANGE = re.compile(rf"^\s*({_NUMBER})\s*([^.:\s][^:]*?)?\s*\.\.\s*({_NUMBER})\s*([^:\s][^:]*?)?\s*:\s*(\d+)\s*$")
-_QUANTITY = re.compile(rf"^\s*({_NUMBER})\s*(.*?)\s*$")
+MAX_CASES = 1_000_000  # cases of one sweep
+# atomic groups and a greedy tail: linear time on any text (no retrying of shorter digit runs)
+_NUMBER = r"[-+]?(?>\d+(?:\.\d*)?|\.\d+)(?>[eE][-+]?\d+)?"
+_QUANTITY = re.compile(rf"\s*({_NUMBER})(.*)", re.S)  # fullmatch; the unit is group 2, stripped
 
 
 class SweepError(MbsError):
@@ -79,27 +80,50 @@ def _fmt(x: float) -> str:
     return f"{x:.12g}"
 
 
+MAX_PARAM_TEXT = 10_000  # characters of one --param
+
+
+def _short(text: str, n: int = 60) -> str:
+    return text if len(text) <= n else text[:n] + "…"
+
+
+def _range(text: str):
+    """(from, unit, to, unit, count) of ``FROM..TO:COUNT``, or None."""
+    left, dots, rest = text.partition("..")
+    right, colon, count = rest.rpartition(":")
+    if not dots or not colon or not count.strip().isdigit():
+        return None
+    a, b = _QUANTITY.fullmatch(left), _QUANTITY.fullmatch(right)
+    if a is None or b is None:
+        return None
+    ua, ub = a.group(2).strip(), b.group(2).strip()
+    if ua.startswith((".", ":")) or ":" in ub:
+        return None
+    return a.group(1), ua, b.group(1), ub, int(count)
+
+
 def parse_values(text: str) -> tuple[str, ...]:
     """``800rpm,1200rpm`` (a list), ``0.1mm..0.5mm:5`` (a linear range with a count, ends
     included) or ``hertz,lankarani_nikravesh`` (names)."""
     text = text.strip()
-    m = _RANGE.match(text)
+    m = _range(text)
     if m:
-        a, ua, b, ub, n = m.groups()
-        ua, ub, n = (ua or "").strip(), (ub or "").strip(), int(n)
+        a, ua, b, ub, n = m
         if ua and ub and ua.replace(" ", "") != ub.replace(" ", ""):
-            raise SweepError(f"range `{text}`: both ends need the same unit (got `{ua}` and `{ub}`)")
+            raise SweepError(f"range `{_short(text)}`: both ends need the same unit (got `{ua}` and `{ub}`)")
         unit = (ua or ub).replace(" ", "")
-        if n < 1:
-            raise SweepError(f"range `{text}`: the count must be at least 1")
+        if n < 1 or n > MAX_CASES:
+            raise SweepError(f"range `{_short(text)}`: the count must be between 1 and {MAX_CASES:,}")
+        if not (math.isfinite(float(a)) and math.isfinite(float(b))):
+            raise SweepError(f"range `{_short(text)}`: the ends must be finite numbers")
         xs = np.linspace(float(a), float(b), n) if n > 1 else np.array([float(a)])
         return tuple(_fmt(x) + unit for x in xs)
     if ".." in text:
-        raise SweepError(f"`{text}` is not a range FROM..TO:COUNT",
+        raise SweepError(f"`{_short(text)}` is not a range FROM..TO:COUNT",
                          )
     values = tuple(v.strip().replace(" ", "") for v in text.split(",") if v.strip())
     if not values:
-        raise SweepError(f"no values in `{text}`")
+        raise SweepError(f"no values in `{_short(text)}`")
     return values
 
 
@@ -109,7 +133,17 @@ def parse_param(text: str) -> Axis:
     if not sep or not name.strip() or not values.strip():
         raise SweepError(f"`--param {text}` is not NAME=VALUES: write e.g. `--param speed=800rpm,1200rpm`, "
                          "`--param clearance=0.1mm..0.5mm:5` or `--param law=hertz,lankarani_nikravesh`")
-    return Axis(name.strip(), parse_values(values))
+    if len(text) > MAX_PARAM_TEXT:  # checked before any regular expression looks at it
+        raise SweepError(f"`--param {text[:40]}…` is {len(text):,} characters long; at most "
+                         f"{MAX_PARAM_TEXT:,} are read")
+    try:
+        parsed = parse_values(values)
+    except SweepError as err:
+        raise SweepError(f"--param {_short(name)}=…: {err}") from None
+    twice = sorted({v for v in parsed if parsed.count(v) > 1})
+    if twice:
+        raise SweepError(f"--param {text}: the value {', '.join(twice)} is given twice")
+    return Axis(name.strip(), parsed)
 
 
 def expand(axes: Sequence[Axis]) -> list[dict[str, str]]:
@@ -117,6 +151,8 @@ def expand(axes: Sequence[Axis]) -> list[dict[str, str]]:
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise SweepError("a parameter is swept twice: " + ", ".join(sorted(n for n in set(names) if names.count(n) > 1)))
+    if math.prod(len(a.values) for a in axes) > MAX_CASES:
+        raise SweepError(f"the sweep has {math.prod(len(a.values) for a in axes):,} cases; at most {MAX_CASES:,}")
     return [dict(zip(names, combo)) for combo in itertools.product(*(a.values for a in axes))]
 
 
@@ -127,10 +163,10 @@ def case_key(values: dict[str, str]) -> str:
 
 def parameter_number(text: str) -> tuple[float, str] | None:
     """``"800rpm"`` → ``(800.0, "rpm")``; None for a name."""
-    m = _QUANTITY.match(str(text))
+    m = _QUANTITY.fullmatch(str(text))
     if not m:
         return None
-    return float(m.group(1)), m.group(2)
+    return float(m.group(1)), m.group(2).strip()
 
 
 def parameter_si(text: str) -> float:
@@ -275,9 +311,9 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
 # ---------------------------------------------------------------- the sweep file
 def read_case_table(path: str | Path) -> list[dict]:
     """Rows of ``/cases_table``: ``{"index", "key", "status", "values": {name: text}, "verdict", ...}``."""
-    import h5py
+    from .results import open_results
 
-    with h5py.File(path, "r") as f:
+    with open_results(path) as f:
         return _table_rows(f)
 
 
@@ -291,6 +327,8 @@ def _table_rows(f) -> list[dict]:
     t = f["cases_table"]
     params = json.loads(t.attrs.get("params", "[]"))
     n = len(t["index"])
+    if n > MAX_CASES or any(len(t[c]) != n for c in t):  # a crafted table: never loop over 10^12 rows
+        raise SweepError(f"{f.filename}: the table of cases is damaged ({n:,} rows, columns of unequal length)")
     rows = []
     for i in range(n):
         row = {"index": int(t["index"][i]), "key": _text(t["key"][i]), "status": _text(t["status"][i]),
@@ -495,7 +533,7 @@ def run_sweep(
     rows: dict[str, dict] = {}
     if output.exists() and not overwrite:
         try:
-            with h5py.File(output, "r") as f:
+            with open_results(output) as f:
                 if f.attrs.get("kind") != "sweep":
                     raise SweepError(f"{output} exists and is not a sweep file; choose another -o or pass --overwrite")
                 old = json.loads(f.attrs["config"])
@@ -617,12 +655,10 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
 
 def sweep_sections(path: str | Path) -> list[tuple[dict, Any, Any]]:
     """``(table row, PoincareSection, Verdict)`` of every case of a sweep file that has a section."""
-    import h5py
-
     from .analysis import read_section
 
     out = []
-    with h5py.File(path, "r") as f:
+    with open_results(path) as f:
         for row in _table_rows(f):
             g = f.get(f"cases/{row['index']}")
             if g is not None and "poincare" in g:
