@@ -52,6 +52,34 @@ def _truncate(box, name, fraction):
     return name
 
 
+def _entities(f):
+    return [f"signals/{e}" for e in f["signals"]]
+
+
+def _each_entity(make):
+    """Replace every entity's dataset by make(old dataset) (a dict of create_dataset arguments)."""
+    def edit(f):
+        for k in _entities(f):
+            old = f[k]
+            args = make(old)
+            del f[k]
+            f.create_dataset(k, **args)
+    return edit
+
+
+def _records(n, names=("x", "y"), dtype="<f8"):
+    return np.zeros(n, dtype=[(q, dtype) for q in names])
+
+
+def _legacy(f):
+    """The earlier layout: a group per entity, a dataset per signal."""
+    for k in _entities(f):
+        data = f[k][()]
+        del f[k]
+        for q in data.dtype.names:
+            f.create_dataset(f"{k}/{q}", data=np.ascontiguousarray(data[q]))
+
+
 def _with_attr(key, value):
     def edit(f):
         f.attrs[key] = value
@@ -81,19 +109,25 @@ KINDS = {
     "time-complex": lambda box: _crafted(box, "c.h5", _replace("time", lambda f, p: f.create_dataset(p, data=np.zeros(11, complex)))),
     "time-is-group": lambda box: _crafted(box, "c.h5", _replace("time", lambda f, p: f.create_group(p))),
     "time-scalar": lambda box: _crafted(box, "c.h5", _replace("time", lambda f, p: f.create_dataset(p, data=1.0))),
-    "signal-length-differs": lambda box: _crafted(box, "c.h5", _replace("signals/slider/x", lambda f, p: f.create_dataset(p, data=np.zeros(7)))),
-    "signal-is-group": lambda box: _crafted(box, "c.h5", _replace("signals/slider/x", lambda f, p: f.create_group(p))),
-    "entity-is-dataset": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=np.zeros(11)))),
+    "entity-length-differs": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=_records(7)))),
+    "entity-plain-floats": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=np.zeros(11)))),
+    "entity-2d-floats": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=np.zeros((11, 3))))),
+    "entity-integer-fields": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=_records(11, dtype="<i8")))),
+    "entity-string-field": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=np.zeros(11, dtype=[("x", "<f8"), ("s", "S8")])))),
+    "entity-array-field": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=np.zeros(11, dtype=[("x", "<f8", (1000,))])))),
+    "entity-field-with-dots": lambda box: _crafted(box, "c.h5", _replace("signals/slider", lambda f, p: f.create_dataset(p, data=_records(11, ("x.y.z", "vx"))))),
     "signals-is-dataset": lambda box: _crafted(box, "c.h5", _replace("signals", lambda f, p: f.create_dataset(p, data=np.zeros(11)))),
-    "signal-name-with-dots": lambda box: _crafted(box, "c.h5", lambda f: f.move("signals/slider/x", "signals/slider/x.y.z")),
+    "legacy-signal-is-group": lambda box: _crafted(box, "c.h5", lambda f: (_legacy(f), f.__delitem__("signals/slider/x"), f.create_group("signals/slider/x"))),
+    "legacy-signal-length-differs": lambda box: _crafted(box, "c.h5", lambda f: (_legacy(f), f.__delitem__("signals/slider/x"), f.create_dataset("signals/slider/x", data=np.zeros(7)))),
+    "legacy-name-with-dots": lambda box: _crafted(box, "c.h5", lambda f: (_legacy(f), f.move("signals/slider/x", "signals/slider/x.y.z"))),
     "entity-name-control-chars": lambda box: _crafted(box, "c.h5", lambda f: f.move("signals/slider", "signals/sl\x1b[31mider")),
     "huge-declared-chunked": lambda box: _crafted(box, "c.h5", _replace("time", lambda f, p: f.create_dataset(
         p, shape=(2**40,), maxshape=(None,), chunks=(4096,), dtype="f8"))),
     "huge-declared-contiguous": lambda box: _crafted(box, "c.h5", _replace("time", lambda f, p: f.create_dataset(
         p, shape=(2**37,), dtype="f8"))),
-    "all-signals-huge": lambda box: _crafted(box, "c.h5", lambda f: [
-        (f.__delitem__(k), f.create_dataset(k, shape=(10**9,), chunks=(4096,), dtype="f8"))
-        for k in ["time"] + [f"signals/{e}/{q}" for e in f["signals"] for q in f["signals"][e]]]),
+    "all-signals-huge": lambda box: _crafted(box, "c.h5", lambda f: (
+        _replace("time", lambda f, p: f.create_dataset(p, shape=(10**9,), chunks=(4096,), dtype="f8"))(f),
+        _each_entity(lambda old: dict(shape=(10**9,), chunks=(4096,), dtype=old.dtype))(f))),
     "soft-link": lambda box: _crafted(box, "c.h5", lambda f: (f.move("time", "t0"), f.__setitem__("time", h5py.SoftLink("/t0")))),
     "external-link-to-fifo": lambda box: _crafted(box, "c.h5", lambda f: (
         os.mkfifo(box / "ext.fifo"), f.__delitem__("time"), f.__setitem__("time", h5py.ExternalLink(str(box / "ext.fifo"), "/x")))),
@@ -113,14 +147,16 @@ ODD_BUT_VALID = {
                                                                                 "model_includes")]),
     "model-source-garbage": lambda box: _crafted(box, "c.h5", _with_attr("model_source", "body {{{ nonsense")),
     "model-source-binary": lambda box: _crafted(box, "c.h5", _with_attr("model_source", np.void(b"\0\1\2"))),
-    "zero-samples": lambda box: _crafted(box, "c.h5", lambda f: [
-        (f.__delitem__(k), f.create_dataset(k, shape=(0,), dtype="f8"))
-        for k in ["time"] + [f"signals/{e}/{q}" for e in f["signals"] for q in f["signals"][e]]]),
-    "nan-everywhere": lambda box: _crafted(box, "c.h5", lambda f: [
-        f[k].__setitem__(slice(None), np.nan) for k in [f"signals/{e}/{q}" for e in f["signals"] for q in f["signals"][e]]]),
+    "zero-samples": lambda box: _crafted(box, "c.h5", lambda f: (
+        _replace("time", lambda f, p: f.create_dataset(p, shape=(0,), dtype="f8"))(f),
+        _each_entity(lambda old: dict(shape=(0,), dtype=old.dtype))(f))),
+    "nan-everywhere": lambda box: _crafted(box, "c.h5", _each_entity(
+        lambda old: dict(data=np.array([(np.nan,) * len(old.dtype.names)] * old.shape[0], dtype=old.dtype)))),
+    "legacy-layout": lambda box: _crafted(box, "c.h5", _legacy),
     "time-backwards": lambda box: _crafted(box, "c.h5", lambda f: f["time"].__setitem__(slice(None), f["time"][()][::-1])),
     "integer-time": lambda box: _crafted(box, "c.h5", _replace("time", lambda f, p: f.create_dataset(p, data=np.arange(11)))),
-    "unit-attr-binary": lambda box: _crafted(box, "c.h5", lambda f: f["signals/slider/x"].attrs.__setitem__("unit", np.arange(3))),
+    "units-attr-numbers": lambda box: _crafted(box, "c.h5", lambda f: f["signals/slider"].attrs.__setitem__("units", np.arange(3))),
+    "units-attr-missing": lambda box: _crafted(box, "c.h5", lambda f: f["signals/slider"].attrs.__delitem__("units")),
 }
 
 # variants that read the file through the same checks as another command: in the slow run only
@@ -235,7 +271,7 @@ def test_layout_budget_counts_every_signal(sandbox):
     with h5py.File(sandbox / "run.h5", "r") as f:
         need = check_run_layout(f, "run.h5")
         n = len(f["time"])
-        count = 1 + sum(len(f["signals"][e]) for e in f["signals"])
+        count = 1 + sum(len(f["signals"][e].dtype.names) for e in f["signals"])  # time + every field
         assert need == 8 * n * count  # every dataset, 8 bytes a sample
         with pytest.raises(ResultsFileError, match="GiB"):
             check_run_layout(f, "run.h5", budget=need - 1)
