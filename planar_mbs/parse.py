@@ -41,12 +41,92 @@ MAX_DEPTH = 100  # nesting levels of one expression (deeper trees would exhaust 
 
 @functools.lru_cache(maxsize=None)
 def parser() -> Lark:
-    """The LALR parser, built once (start symbols: ``start`` for files, ``expr`` for `--set`)."""
+    """The LALR parser, built once per process (start symbols: ``start`` for files, ``expr`` for
+    `--set`).  Not lark's ``cache=True``: that loads a pickle from the shared temporary folder,
+    where anyone could plant one.  The tables are kept instead in a private cache folder of the
+    user (`_private_cache`); building them costs some 200 ms, loading them some 15 ms."""
+    text, options = _grammar()
+    cache = _private_cache(tables_name())
+    if cache is not None:
+        loaded = _load_tables(cache)
+        if loaded is not None:
+            return loaded
+    built = Lark(text, **options)
+    if cache is not None:
+        _save_tables(built, cache)
+    return built
+
+
+def _grammar() -> tuple[str, dict]:
     text = resources.files("planar_mbs.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
-    # No `cache=True`: lark would load a pickle from the shared temporary directory, where anyone
-    # could plant one.  Building the LALR tables takes about 30 ms, once per process.
-    return Lark(text, parser="lalr", lexer="contextual", propagate_positions=True,
-                start=["start", "expr"], maybe_placeholders=True)
+    return text, dict(parser="lalr", lexer="contextual", propagate_positions=True, start=["start", "expr"],
+                      maybe_placeholders=True)
+
+
+def tables_name() -> str:
+    """File name of the saved parser: changes with the grammar, its options and lark's version."""
+    import hashlib
+
+    import lark
+
+    text, options = _grammar()
+    return "grammar-" + hashlib.sha256(f"{text}\0{lark.__version__}\0{sorted(options.items())}".encode()
+                                       ).hexdigest()[:24] + ".lark"
+
+
+def _private_cache(name: str) -> str | None:
+    """A path in the user's own cache folder ($XDG_CACHE_HOME or ~/.cache, then planar_mbs/),
+    or None when that folder is not a real folder owned by this user with mode 0700."""
+    import os
+    import stat
+
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    folder = os.path.join(base, "planar_mbs")
+    try:
+        os.makedirs(folder, mode=0o700, exist_ok=True)
+        info = os.lstat(folder)
+    except OSError:
+        return None
+    if not stat.S_ISDIR(info.st_mode) or info.st_uid != os.getuid() or info.st_mode & 0o077:
+        return None
+    return os.path.join(folder, name)
+
+
+def _load_tables(path: str) -> Lark | None:
+    """The parser saved at `path`, if that is a regular file (not a link) of this user that no
+    one else may write; else None (and it is rebuilt)."""
+    import os
+    import stat
+
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return None
+    with os.fdopen(fd, "rb") as f:
+        info = os.fstat(f.fileno())
+        if not stat.S_ISREG(info.st_mode) or info.st_uid != os.getuid() or info.st_mode & 0o022:
+            return None
+        try:
+            return Lark.load(f)
+        except Exception:  # noqa: BLE001  (a damaged cache is rebuilt)
+            return None
+
+
+def _save_tables(built: Lark, path: str) -> None:
+    """Save the parser next to `path` and move it into place (readers never see half a file)."""
+    import os
+    import tempfile
+
+    try:
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
+        with os.fdopen(fd, "wb") as f:
+            built.save(f)
+        os.replace(tmp, path)
+    except Exception:  # noqa: BLE001  (no cache then: slower, not wrong)
+        try:
+            os.unlink(tmp)
+        except (OSError, UnboundLocalError):
+            pass
 
 
 # ------------------------------------------------------------ tree → spec
