@@ -64,15 +64,32 @@ class Outcome:
 
 
 _runner = CliRunner()
+_command = None
+
+
+def _built(app_):
+    """typer rebuilds the click command of `app` on every invoke (0.1 s); build it once."""
+    global _command
+    if _command is None:
+        import typer.main
+
+        _command = typer.main.get_command(app_)
+    return _command
 
 
 def mbs(*args, cwd: Path | None = None, timeout: float = 20.0) -> Outcome:
     """`mbs ARGS` in this process (typer's CliRunner), inside `cwd`, with an alarm as a hang bound."""
+    import typer.testing
+
     args = [str(a) for a in args]
-    with _chdir(cwd), deadline(timeout):
-        start = time.perf_counter()
-        res = _runner.invoke(app, args)
-        seconds = time.perf_counter() - start
+    rebuild, typer.testing._get_command = typer.testing._get_command, _built
+    try:
+        with _chdir(cwd), deadline(timeout):
+            start = time.perf_counter()
+            res = _runner.invoke(app, args)
+            seconds = time.perf_counter() - start
+    finally:
+        typer.testing._get_command = rebuild
     exc = res.exception if not isinstance(res.exception, SystemExit) else None
     if exc is not None:  # show the traceback the user would have seen
         import traceback
