@@ -71,7 +71,7 @@ def plot(
     from planar_mbs.errors import MbsError
     from planar_mbs.plot import FORMATS, plot_file
 
-    from .common import check_choice, check_output
+    from .common import check_choice, check_number, check_output
 
     try:
         fmt = check_choice(fmt, FORMATS, "--format")
@@ -79,7 +79,10 @@ def plot(
         if list_:
             _list_signals(results)
             return
-        window = dict(t_from=_quantity(t_from, "time", "--from"), t_to=_quantity(t_to, "time", "--to"))
+        window = dict(t_from=check_number(_quantity(t_from, "time", "--from"), "--from", low=0.0, low_ok=True,
+                                          hint="a time from the start of the run, e.g. `--from 0.2s`"),
+                      t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
+                                        hint="a time from the start of the run, e.g. `--to 0.25s`"))
         notes: list[str] = []
         check_output(output or file.parent / f"{file.stem}_plots", "--output", [("the results file", file)],
                      folder=True)

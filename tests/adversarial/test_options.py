@@ -70,7 +70,8 @@ def test_view_refuses_bad_option(sandbox, option, value):
     assert option.split("-")[-1] in out.output.lower() or "signal-stride" in option, out.output
 
 
-PLOT_CASES = ([("--format", v) for v in ["jpg", "gif", "png2", ""]] + [("--skip", v) for v in ["-1", "x"]])
+PLOT_CASES = ([("--format", v) for v in ["jpg", "gif", "png2", ""]] + [("--skip", v) for v in ["-1", "x"]]
+              + [(o, v) for o in ("--from", "--to") for v in ["nan s", "inf s", "-1 s", "3 kg"]] + [("--to", "0 s")])
 
 
 @pytest.mark.parametrize("option,value", PLOT_CASES)
