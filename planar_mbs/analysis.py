@@ -434,9 +434,18 @@ def read_section(group, name: str = "poincare") -> tuple[PoincareSection, Verdic
     """Inverse of `write_section`; ``group`` is an open h5py group."""
     import json
 
+    from .results import ResultsFileError, memory_budget
+
     g = group[name]
     a = dict(g.attrs)
     sigs = json.loads(a["signals"])
+    if not isinstance(sigs, list) or len(sigs) > 1000:
+        raise ResultsFileError(f"{g.name}: the section's signal list is damaged")
+    for key in ("time", *sigs):  # a crafted file may declare 2^40 points: check before reading
+        ds = g[key]
+        if ds.ndim != 1 or ds.dtype.kind not in "fiu" or ds.shape[0] * 8 * (1 + len(sigs)) > memory_budget():
+            raise ResultsFileError(f"{g.name}/{key} is {ds.dtype} of shape {ds.shape}: not a Poincaré section "
+                                   "that fits in memory")
     nan_none = lambda v: None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v)  # noqa: E731
     sec = PoincareSection(
         time=g["time"][()], points={s: g[s][()] for s in sigs}, period=nan_none(a.get("period")),

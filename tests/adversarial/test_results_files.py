@@ -281,3 +281,24 @@ def test_results_written_now_carry_the_format_version(sandbox):
     with h5py.File(sandbox / "run.h5", "r") as f:
         assert int(f.attrs["format_version"]) == 1
         assert json.loads(f.attrs["model_includes"])
+
+
+@pytest.mark.parametrize("damage", ["huge", "two-d", "strings", "signals-not-a-list"])
+def test_crafted_poincare_section_is_refused(sandbox, damage):
+    """`sweep_sections` (Python API) reads every case's section: a crafted one is refused from its
+    metadata, before any allocation."""
+    from planar_mbs.results import ResultsFileError
+    from planar_mbs.sweep import sweep_sections
+
+    with h5py.File(sandbox / "sweep.h5", "r+") as f:
+        g = f.create_group("cases/0/poincare")
+        g.attrs["signals"] = json.dumps(["slider.vx"]) if damage != "signals-not-a-list" else json.dumps("x")
+        g.create_dataset("time", data=np.zeros(3))
+        if damage == "huge":
+            g.create_dataset("slider.vx", shape=(2**40,), chunks=(4096,), dtype="f8")
+        elif damage == "two-d":
+            g.create_dataset("slider.vx", data=np.zeros((3, 3)))
+        elif damage == "strings":
+            g.create_dataset("slider.vx", data=np.array([b"a", b"b", b"c"]))
+    with pytest.raises(ResultsFileError):
+        sweep_sections(sandbox / "sweep.h5")
