@@ -170,3 +170,24 @@ def test_parser_tables_cache_is_private(tmp_path):
     assert oct(folder.stat().st_mode & 0o777) == oct(0o700)
     files = list(folder.iterdir())
     assert len(files) == 1 and files[0].stat().st_mode & 0o077 == 0
+
+
+@pytest.mark.parametrize("damage", ["self-include", "fan-out", "not-a-model", "not-json"])
+def test_crafted_stored_includes(sandbox, damage):
+    """The included files kept in a results file are model text like any other: a cycle, an
+    explosion of includes or nonsense is a clean refusal of the drawing, not a crash."""
+    import json
+
+    key = str(sandbox / "mech.mbs")
+    part = str(sandbox / "parts" / "bodies.mbs")
+    includes = {"self-include": {part: 'include "bodies.mbs"\n'},
+                "fan-out": {part: 'include "bodies.mbs"\n' * 5},
+                "not-a-model": {part: "body {{{ ]]]\n"}}.get(damage)
+    with h5py.File(sandbox / "run.h5", "r+") as f:
+        f.attrs["model_path"] = f.attrs["model_key"] = key
+        f.attrs["model_includes"] = json.dumps(includes) if includes is not None else "{not json"
+    if damage == "not-json":  # read as "not stored": the files on disk are used
+        shutil.rmtree(sandbox / "parts")
+    before = snapshot(sandbox)
+    out = mbs("view", "run.h5", "-o", "x.rrd", cwd=sandbox)
+    assert_clean(out, 2, "no longer compiles", before=before, folder=sandbox)
