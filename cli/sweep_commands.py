@@ -188,6 +188,11 @@ def sweep(
                                     "again to resume")
         raise typer.Exit(ExitCode.INTERRUPTED)
     _print_table(summary.rows, [a.name for a in axes])
+    for r in summary.rows:
+        if r["index"] in summary.failed and r.get("message"):
+            vals = ", ".join(f"{k}={v}" for k, v in r["values"].items())
+            _console(stderr=True).print(f"case {r['index']} ({vals}) failed: {r['message']}", markup=False,
+                                        soft_wrap=True)
     # failed cases of an earlier call stay in the file (skipped unless --retry-failed): they count too
     earlier = [r["index"] for r in summary.rows if r["status"] == "failed" and r["index"] not in summary.ran]
     note = f" ({len(earlier)} from an earlier run: --retry-failed runs them again)" if earlier else ""

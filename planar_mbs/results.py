@@ -363,8 +363,8 @@ def write_results(target, results: Results, group: str = "/", compression: str |
     if name and name in target:
         del target[name]
     g = target.require_group(name) if name else target
-    opts = dict(compression=compression) if compression else {}
     n = len(results.time)
+    opts = dict(compression=compression) if compression and n else {}  # HDF5 cannot chunk 0 rows
     chunks = dict(chunks=(min(max(n, 1), chunk),)) if opts else {}
     create_run_datasets(g, [(name, results.units.get(name, "")) for name in results.signals],
                         (results.time, list(results.signals.values())), **opts, **chunks)
@@ -601,14 +601,15 @@ def check_results_file(path: str | Path) -> Path:
 
 
 @contextmanager
-def open_results(path: str | Path):
+def open_results(path: str | Path, locking: bool = True):
     """An h5py File opened read-only after `check_results_file`; reading errors of a damaged or
-    foreign file (inside the ``with``) become `ResultsFileError`."""
+    foreign file (inside the ``with``) become `ResultsFileError`.  ``locking=False`` for a
+    process that holds the file's `WriteLock` itself (HDF5's own lock would conflict with it)."""
     import h5py
 
     path = check_results_file(path)
     with reading(path):
-        f = h5py.File(path, "r")
+        f = h5py.File(path, "r", locking=locking)
     try:
         with reading(path):
             yield f

@@ -52,7 +52,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .errors import MbsError, ModelError
-from .results import ResultsBusy, open_for_writing, open_results
+from .results import WRITE_CHUNK_CACHE, DiskFull, ResultsBusy, WriteLock, open_results, release_reserve, reserve_space
 
 FINISHED, FAILED = "finished", "failed"
 MAX_CASES = 1_000_000  # cases of one sweep
@@ -65,6 +65,12 @@ class SweepError(MbsError):
     """A sweep cannot start or resume (bad --param, a file from another model, ...)."""
 
     exit_code = 2
+
+
+class SweepStopped(SweepError):
+    """The sweep stopped before its end (a full disk, a lost cluster); finished cases are kept."""
+
+    exit_code = 3
 
 
 # ---------------------------------------------------------------- axes and cases
@@ -192,7 +198,7 @@ def model_fingerprint(path: str | Path) -> str:
 
     def add(p: Path):
         p = p.resolve()
-        if p in seen or not p.exists():
+        if p in seen or not p.is_file():  # never read a pipe or a device (the compiler reports them)
             return
         seen.add(p)
         text = p.read_bytes()
@@ -282,12 +288,16 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     from .errors import SimulationError
 
     start = time.perf_counter()
-    model = load_model(spec.model_path, {**spec.sets, **spec.values})
     try:
+        model = load_model(spec.model_path, {**spec.sets, **spec.values})
         res = simulate(model, output=None, **case_settings(model, spec))
         status, message = FINISHED, res.attrs.get("message", "finished")
     except SimulationError as err:
         res, status, message = err.results, FAILED, err.message
+    except MbsError as err:  # e.g. a case whose mechanism cannot be assembled: this case fails, the sweep goes on
+        return _failed_case(spec, str(err), start)
+    except Exception as err:  # never lose the other cases to one case's bug
+        return _failed_case(spec, f"internal error ({type(err).__name__}: {err})", start)
     section = verdict = None
     if spec.section is not None and res is not None and len(res.time) > 1:
         opts = dict(spec.section)
@@ -305,6 +315,17 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     if res is not None:
         res.attrs.update(case=spec.index, case_key=spec.key, case_values=spec.values)
     return CaseOutcome(spec.index, spec.key, dict(spec.values), status, message, res, section, verdict,
+                       time.perf_counter() - start)
+
+
+def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
+    """The outcome of a case that stopped before its time loop started (no rows)."""
+    from .results import Results
+
+    res = Results(time=np.zeros(0), signals={}, attrs={"complete": False, "status": "failed", "message": message,
+                                                       "case": spec.index, "case_key": spec.key,
+                                                       "case_values": spec.values})
+    return CaseOutcome(spec.index, spec.key, dict(spec.values), FAILED, message, res, None, None,
                        time.perf_counter() - start)
 
 
@@ -472,7 +493,43 @@ def default_executor(jobs: int | None) -> Executor:
         ctx.set_forkserver_preload(["planar_mbs.sweep_worker"])
     else:
         ctx = mp.get_context("spawn")
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=end_with_parent,
+                               initargs=(os.getpid(),))
+
+
+def end_with_parent(parent: int) -> None:
+    """Pool initializer: this worker ends when the sweep's process ends, even when that one is killed
+    (SIGKILL leaves it no chance to stop its pool).  Two guards: the kernel sends SIGKILL when the
+    worker's own parent (the pool's fork server) dies (prctl PR_SET_PDEATHSIG), and a daemon thread
+    waits on the sweep process itself (a pidfd, else polling) and ends the worker when it is gone."""
+    import signal
+    import threading
+
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+    def watch():
+        try:
+            import select
+
+            fd = os.pidfd_open(parent)
+            select.select([fd], [], [])  # readable once the process has ended
+        except (AttributeError, OSError):  # no pidfd here: poll
+            while True:
+                try:
+                    os.kill(parent, 0)
+                except ProcessLookupError:
+                    break
+                except PermissionError:
+                    pass
+                time.sleep(0.5)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=watch, name="end-with-parent", daemon=True).start()
 
 
 class _InlineFuture:
@@ -512,15 +569,13 @@ def run_sweep(
     float64 outputs shrank by ~20 % for ~20x the write time (measured: 0.26 s instead of 0.015 s
     per 10-revolution case), and the parent process alone writes, so it would cap ``jobs``.
     """
-    import h5py
-
-    from . import __version__
-
     start = time.perf_counter()
     output = Path(output)
     model_path = str(model_path)
     if not Path(model_path).exists():
         raise SweepError(f"no model file {model_path}")
+    if not Path(model_path).is_file():  # a folder, /dev/zero, a pipe: never read
+        raise SweepError(f"{model_path} is not a regular file: give the .mbs model file")
     keep = tuple(keep) if keep is not None else None
     section = dict(section) if section is not None else None
     if section and section.get("signals"):
@@ -530,10 +585,38 @@ def run_sweep(
     config = _config(model_path, sets, settings, revolutions, per_rev, keep, section)
     params = [a.name for a in axes]
 
+    # the lock first, then the table: a concurrent sweep on the same file must not be read halfway
+    existed = output.exists()
+    if not existed:
+        output.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        lock = WriteLock(output)
+    except ResultsBusy:
+        raise SweepError(f"{output} is being written by another sweep; wait for it to end (or choose another -o)") \
+            from None
+    except OSError as exc:
+        raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
+    try:
+        f, rows, merged, numbered, pending, skipped = _open_sweep(
+            output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path)
+    except BaseException:
+        lock.release()
+        if not existed:
+            output.unlink(missing_ok=True)
+        raise
+    return _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config, params, model_path,
+                      jobs, executor, compression, progress, start)
+
+
+def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path):
+    """Read what the file already holds (under the lock), number and check the cases to run, and
+    open the file for writing."""
+    import h5py
+
     rows: dict[str, dict] = {}
-    if output.exists() and not overwrite:
+    if existed and not overwrite:
         try:
-            with open_results(output) as f:
+            with open_results(output, locking=False) as f:
                 if f.attrs.get("kind") != "sweep":
                     raise SweepError(f"{output} exists and is not a sweep file; choose another -o or pass --overwrite")
                 old = json.loads(f.attrs["config"])
@@ -543,7 +626,8 @@ def run_sweep(
                     if f"cases/{r['index']}" not in f:
                         r["status"] = "missing"
         except OSError as exc:
-            raise SweepError(f"cannot read {output}: {exc} (is another process writing it?)") from None
+            raise SweepError(f"cannot read {output} as a sweep file ({exc}); choose another -o or pass --overwrite") \
+                from None
         if old.get("model_fingerprint") != config["model_fingerprint"]:
             raise SweepError(f"{output} was computed from a different model source than {model_path} "
                              "(the model file or a file it includes changed): its cases cannot be resumed; "
@@ -574,19 +658,29 @@ def run_sweep(
     skipped = [s.index for s in numbered if s not in pending]
     check_cases(pending)
 
-    mode = "w" if overwrite or not output.exists() else "a"
-    output.parent.mkdir(parents=True, exist_ok=True)
+    mode = "w" if overwrite or not existed else "a"
     try:
-        f, lock = open_for_writing(output, mode)
-    except (OSError, ResultsBusy) as exc:
+        f = h5py.File(output, mode, locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE)
+    except OSError as exc:
         raise SweepError(f"cannot write {output}: {exc}") from None
+    return f, rows, merged, numbered, pending, skipped
+
+
+def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config, params, model_path,
+               jobs, executor, compression, progress, start) -> SweepSummary:
+    """Run the pending cases and store each as it arrives; the file and the lock are closed at the end."""
+    from . import __version__
+
     ran, failed = [], []
+    reserved = 0
     total = len(numbered)
     done = len(skipped)
     pool = None
     try:
+        source = Path(model_path).read_text(encoding="utf-8")
+        reserved = _reserve(lock, output, 4 * len(source) + len(rows) * 2048 + (1 << 18), len(skipped))
         f.attrs.update(kind="sweep", config=json.dumps(config, default=str), params=json.dumps(merged),
-                       model_path=model_path, model_source=Path(model_path).read_text(encoding="utf-8"),
+                       model_path=model_path, model_source=source,
                        version=__version__)
         for s in pending:  # a case cut off while being written is redone
             for grp in (f"cases/{s.index}", f"incoming/{s.index}"):
@@ -605,10 +699,15 @@ def run_sweep(
             results_iter = as_completed(futures)
         for fut in results_iter:
             outcome = fut.result()
-            _store_case(f, outcome, compression)
+            reserved = max(reserved, _reserve(lock, output, _case_bytes(outcome, len(rows) + 1),
+                                              len(skipped) + len(ran)))
             rows[outcome.key] = _row(outcome)
-            _write_table(f, list(rows.values()), params)
-            f.flush()
+            try:
+                _store_case(f, outcome, compression)
+                _write_table(f, list(rows.values()), params)
+                f.flush()
+            except (OSError, RuntimeError) as exc:
+                raise SweepStopped(f"cannot write {output} ({exc}); run the same command again to resume") from None
             ran.append(outcome.index)
             if outcome.status != FINISHED:
                 failed.append(outcome.index)
@@ -623,16 +722,41 @@ def run_sweep(
     finally:
         if pool is not None and executor is None:
             pool.shutdown(wait=True)
-        if "incoming" in f and not len(f["incoming"]):
-            del f["incoming"]
-        f.close()
-        lock.release()
+        try:
+            if "incoming" in f and not len(f["incoming"]):
+                del f["incoming"]
+            f.close()
+        finally:
+            release_reserve(lock.fd, reserved)
+            lock.release()
     order = {s.key: i for i, s in enumerate(numbered)}
     out_rows = sorted(rows.values(), key=lambda r: order.get(r["key"], 1 << 30))
     return SweepSummary(output, total, ran, skipped, failed, time.perf_counter() - start, out_rows)
 
 
+def _reserve(lock, output: Path, nbytes: int, kept: int) -> int:
+    """Reserve disk for the next write of the sweep file; a full disk stops the sweep (`SweepStopped`)
+    before anything of that write reaches the file, so every case stored so far stays readable."""
+    try:
+        return reserve_space(lock.fd, nbytes, output)
+    except DiskFull as exc:
+        raise SweepStopped(f"{exc.message}; the {kept} case(s) stored so far are kept in {output}: make room "
+                           "and run the same command again to resume") from None
+
+
+def _case_bytes(outcome: CaseOutcome, n_rows: int) -> int:
+    """Disk that storing a case and rewriting the table can take: its data uncompressed (what gzip
+    writes is at most that, plus headers), its section, HDF5 metadata per dataset, the table's rows."""
+    res = outcome.results
+    sec = outcome.section
+    arrays = [] if res is None else [res.time, *res.signals.values()]
+    arrays += [sec.time, *sec.points.values()] if sec is not None else []
+    data = sum(np.asarray(a).nbytes for a in arrays)
+    return int(data * 1.05 + len(arrays) * 8192 + n_rows * 2048 + (1 << 18))
+
+
 def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
+    """Write a case under /incoming/<k>, then move it to /cases/<k> (so /cases only holds whole cases)."""
     from .analysis import write_section
     from .results import write_results
 

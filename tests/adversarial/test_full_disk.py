@@ -93,3 +93,35 @@ def test_full_disk_before_the_first_row_is_a_clean_error(tmp_path):
         r = _mbs("run", MODEL, "-o", disk / "a.h5", "--t-end", "0.01s", "-q", env=env)
         assert r.returncode in (2, 3), r.stdout + r.stderr
         assert "Traceback" not in r.stdout + r.stderr
+
+
+SWEEP = ["-P", "speed=2500rpm,5000rpm,1200rpm,800rpm", "--revolutions", "2", "--per-rev", "180", "-j", "1",
+         "--no-section", "-q"]
+
+
+def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
+    disk = tmp_path / "disk"
+    with small_disk(disk, "1200k") as mounted:
+        env = None if mounted else _inject_env(tmp_path, 1200 << 10)
+        out = disk / "s.h5"
+        r = _mbs("sweep", MODEL, *SWEEP, "-o", out, env=env)
+        text = r.stdout + r.stderr
+        assert r.returncode == 3, text
+        assert "Traceback" not in text and "full" in text
+        with h5py.File(out, "r") as f:
+            done = sorted(f["cases"]) if "cases" in f else []
+            status = [s.decode() if isinstance(s, bytes) else s for s in f["cases_table/status"][()]]
+            for k in done:
+                g = f[f"cases/{k}"]
+                assert g["time"].shape == g["signals/slider/vx"].shape and g["time"].shape[0] > 0
+        assert 0 < len(done) < 4 and status.count("finished") == len(done)
+        if mounted:  # room again: the same file on a bigger disk resumes the missing cases only
+            big = tmp_path / "big.h5"
+            big.write_bytes(out.read_bytes())
+        else:
+            big = out
+    r = _mbs("sweep", MODEL, *SWEEP, "-o", big)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert f"{4 - len(done)} case(s) run, {len(done)} already in the file" in r.stdout
+    with h5py.File(big, "r") as f:
+        assert len(f["cases"]) == 4
