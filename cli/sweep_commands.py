@@ -143,8 +143,11 @@ def sweep(
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Run failed cases again.")] = False,
     scheduler: Annotated[Optional[str], typer.Option(
         "--scheduler", help="Address of a running dask.distributed scheduler (tcp://host:8786): the cases run on "
-        "its workers instead of local processes. Workers need planar_mbs installed and the model files at the "
-        "same path; only this process writes the HDF5 file.", show_default=False)] = None,
+        "its workers instead of local processes. Workers need planar_mbs installed; the model's text (with its "
+        "includes) is sent to them. Only this process writes the HDF5 file.", show_default=False)] = None,
+    worker_timeout: Annotated[float, typer.Option(
+        "--worker-timeout", help="With --scheduler: stop (keeping the finished cases) once the cluster has had no "
+        "worker, or no scheduler, for this many seconds.", min=1.0)] = 60.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Run a model for every combination of parameter values, in parallel, into one HDF5 file.
@@ -180,7 +183,7 @@ def sweep(
             summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
                                 jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
-                                progress=bar.update)
+                                progress=bar.update, worker_timeout=worker_timeout)
     except MbsError as err:
         _fail(err)
     except KeyboardInterrupt:
@@ -243,16 +246,25 @@ class _cluster:
         except ImportError:
             raise ModelError("--scheduler needs dask.distributed", "--scheduler",
                              hint="pip install 'dask[distributed]'") from None
+        import logging
+
+        # distributed logs a lost scheduler with tracebacks; the sweep reports it in one sentence
+        for name in ("distributed", "distributed.client", "distributed.comm", "distributed.core",
+                     "distributed.batched", "tornado"):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
         try:
             self.client = Client(self.address, timeout="10s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:
             raise ModelError(f"cannot reach the dask scheduler at {self.address}: {exc}", "--scheduler",
                              hint="start one with `dask scheduler` and workers with `dask worker ADDRESS`") from None
         return self.client.get_executor()
 
     def __exit__(self, *exc):
         if self.client is not None:
-            self.client.close()
+            try:
+                self.client.close(timeout=5)
+            except Exception:  # a scheduler that died: nothing to close cleanly, and nothing to lose
+                pass
         return False
 
 

@@ -44,7 +44,7 @@ import os
 import re
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
@@ -191,23 +191,64 @@ def parameter_si(text: str) -> float:
         return float("nan")
 
 
-def model_fingerprint(path: str | Path) -> str:
-    """sha256 of the model file and, recursively, of every file it includes."""
-    h = hashlib.sha256()
-    seen = set()
+def _model_files(path: str | Path) -> list[tuple[Path, bytes]]:
+    """The model file and, recursively, every file it includes (resolved path, bytes); only regular
+    files are read (a pipe or a device is left to the compiler, which reports it)."""
+    files: dict[Path, bytes] = {}
 
     def add(p: Path):
         p = p.resolve()
-        if p in seen or not p.is_file():  # never read a pipe or a device (the compiler reports them)
+        if p in files or not p.is_file():
             return
-        seen.add(p)
-        text = p.read_bytes()
-        h.update(p.name.encode() + b"\0" + text + b"\0")
+        files[p] = text = p.read_bytes()
         for inc in re.findall(rb'^\s*include\s+"([^"]+)"', text, re.M):
             add(p.parent / inc.decode("utf-8", "replace"))
 
     add(Path(path))
+    return list(files.items())
+
+
+def model_fingerprint(path: str | Path) -> str:
+    """sha256 of the model file and, recursively, of every file it includes."""
+    h = hashlib.sha256()
+    for p, text in _model_files(path):
+        h.update(p.name.encode() + b"\0" + text + b"\0")
     return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class ModelSources:
+    """A model and the files it includes, as text, laid out relative to their common folder `root`:
+    what a worker on another machine (dask) compiles instead of reading our paths."""
+
+    root: str
+    files: tuple[tuple[str, bytes], ...]  # (path relative to root, bytes); the model first
+
+    @classmethod
+    def of(cls, path: str | Path) -> "ModelSources":
+        found = _model_files(path)
+        root = Path(os.path.commonpath([str(p.parent) for p, _ in found]))
+        return cls(str(root), tuple((str(p.relative_to(root)), text) for p, text in found))
+
+    def load(self, overrides: dict[str, str]):
+        """Compile the model from these texts (in a private temporary folder); errors name the
+        original files."""
+        import tempfile
+
+        from .compile import load_model  # errors worded for `--set`, as the sweep's values are given
+
+        with tempfile.TemporaryDirectory(prefix="mbs-case-") as tmp:
+            for rel, text in self.files:
+                target = Path(tmp, rel)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(text)
+            try:
+                model = load_model(Path(tmp, self.files[0][0]), overrides)
+            except MbsError as err:
+                raise MbsError(str(err).replace(str(Path(tmp).resolve()), self.root).replace(tmp, self.root)) \
+                    from None
+        model.source_path = str(Path(self.root, self.files[0][0]))
+        return model
 
 
 # ---------------------------------------------------------------- one case (runs in a worker)
@@ -224,6 +265,8 @@ class CaseSpec:
     per_rev: int | None = None  # output_step = driver period / per_rev
     keep: tuple[str, ...] | None = None  # signals stored (None: all)
     section: dict[str, Any] | None = field(default_factory=dict)  # poincare_section options; None: no section
+    sources: "ModelSources | None" = None  # the model's text, for workers that do not share our files
+
 
     @property
     def key(self) -> str:
@@ -289,7 +332,8 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
 
     start = time.perf_counter()
     try:
-        model = load_model(spec.model_path, {**spec.sets, **spec.values})
+        overrides = {**spec.sets, **spec.values}
+        model = spec.sources.load(overrides) if spec.sources else load_model(spec.model_path, overrides)
         res = simulate(model, output=None, **case_settings(model, spec))
         status, message = FINISHED, res.attrs.get("message", "finished")
     except SimulationError as err:
@@ -532,6 +576,44 @@ def end_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="end-with-parent", daemon=True).start()
 
 
+def _completed(futures, watch: Callable[[], None] | None):
+    """The futures as they finish; between them, every second, ``watch()`` may stop the wait."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    left = set(futures)
+    while left:
+        done, left = wait(left, timeout=1.0, return_when=FIRST_COMPLETED)
+        yield from done
+        if not done and watch is not None:
+            watch()
+
+
+def _cluster_watch(executor, timeout: float) -> Callable[[], None] | None:
+    """For a dask executor: raises `SweepStopped` once the cluster has had no worker, or the client
+    no scheduler, for ``timeout`` seconds (the sweep would otherwise wait forever)."""
+    client = getattr(executor, "_client", None)
+    if client is None:
+        return None
+    since: list[float | None] = [None]
+
+    def watch() -> None:
+        try:
+            problem = None if client.status == "running" else "lost its dask scheduler"
+            if problem is None and not client.scheduler_info().get("workers"):
+                problem = "has no dask worker"
+        except Exception as exc:  # the scheduler is gone mid-call
+            problem = f"lost its dask scheduler ({type(exc).__name__})"
+        if problem is None:
+            since[0] = None
+            return
+        since[0] = since[0] or time.monotonic()
+        if time.monotonic() - since[0] >= timeout:
+            raise SweepStopped(f"the sweep {problem} for {timeout:g} s; the cases stored so far are kept: start "
+                               "workers (`dask worker ADDRESS`) and run the same command again to resume")
+
+    return watch
+
+
 class _InlineFuture:
     def __init__(self, fn, arg):
         self.fn, self.arg = fn, arg
@@ -557,6 +639,7 @@ def run_sweep(
     retry_failed: bool = False,
     compression: str | None = None,
     progress: Callable[[int, int, CaseOutcome | None], None] | None = None,
+    worker_timeout: float = 60.0,
 ) -> SweepSummary:
     """Run every case of the sweep not yet in ``output`` and store it there.
 
@@ -568,6 +651,9 @@ def run_sweep(
     ``compression`` is an h5py filter for the case datasets (e.g. ``"gzip"``); none by default:
     float64 outputs shrank by ~20 % for ~20x the write time (measured: 0.26 s instead of 0.015 s
     per 10-revolution case), and the parent process alone writes, so it would cap ``jobs``.
+    With an ``executor`` (a cluster), the cases carry the model's text, not its path, and a cluster
+    left without a worker for ``worker_timeout`` seconds, or without its scheduler, stops the sweep
+    (`SweepStopped`; the cases stored so far are kept and a rerun resumes).
     """
     start = time.perf_counter()
     output = Path(output)
@@ -582,6 +668,9 @@ def run_sweep(
         section["signals"] = list(section["signals"])
     settings = dict(settings or {})
     specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section)
+    if executor is not None:  # workers elsewhere (dask) need not share our files or working folder
+        sources = ModelSources.of(model_path)
+        specs = [dataclasses.replace(s, sources=sources) for s in specs]
     config = _config(model_path, sets, settings, revolutions, per_rev, keep, section)
     params = [a.name for a in axes]
 
@@ -605,7 +694,7 @@ def run_sweep(
             output.unlink(missing_ok=True)
         raise
     return _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config, params, model_path,
-                      jobs, executor, compression, progress, start)
+                      jobs, executor, compression, progress, start, worker_timeout)
 
 
 def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path):
@@ -667,7 +756,7 @@ def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, 
 
 
 def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config, params, model_path,
-               jobs, executor, compression, progress, start) -> SweepSummary:
+               jobs, executor, compression, progress, start, worker_timeout) -> SweepSummary:
     """Run the pending cases and store each as it arrives; the file and the lock are closed at the end."""
     from . import __version__
 
@@ -696,9 +785,17 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
         else:
             pool = executor or default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
             futures = [pool.submit(run_case, s) for s in pending]
-            results_iter = as_completed(futures)
+            results_iter = _completed(futures, _cluster_watch(executor, worker_timeout))
         for fut in results_iter:
-            outcome = fut.result()
+            try:
+                outcome = fut.result()
+            except MbsError:
+                raise
+            except Exception as exc:  # a worker killed, a cluster lost: not one case's fault
+                kept = len(skipped) + len(ran)
+                what = "the dask cluster failed" if executor is not None else "a worker process of the sweep died"
+                raise SweepStopped(f"{what} ({type(exc).__name__}: {exc}); the {kept} case(s) stored so far are "
+                                   f"kept in {output}: run the same command again to resume") from None
             reserved = max(reserved, _reserve(lock, output, _case_bytes(outcome, len(rows) + 1),
                                               len(skipped) + len(ran)))
             rows[outcome.key] = _row(outcome)
