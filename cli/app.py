@@ -11,6 +11,7 @@ Exit codes (one table, also in README and `mbs --help`):
 """
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Annotated, Optional
@@ -121,6 +122,8 @@ def run(
     rerun_signals: Annotated[str, typer.Option("--rerun-signals", help="envelope: per frame the first, smallest "
                              "and largest sample of each signal (peaks kept); full: every output sample.")]
     = "envelope",
+    force: Annotated[bool, typer.Option("--force", help="Run even when the estimated output is beyond 10^8 rows "
+                     "or larger than the free disk space (the run then stops cleanly if the disk fills).")] = False,
 ) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
@@ -158,6 +161,7 @@ def run(
         rerun_signals = check_choice(rerun_signals, ("envelope", "full"), "--rerun-signals")
         check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
+        _check_output_size(m, changes, out, model, force)
         if output is None and not out.parent.exists():  # results/, ignored by git wherever it is made
             out.parent.mkdir(parents=True)
             (out.parent / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
@@ -167,7 +171,7 @@ def run(
         if rerun is not None:
             check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
         with _Progress(quiet) as progress:
-            res = simulate(m, output=out, progress=progress.update, **changes)
+            res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, **changes)
     except SimulationError as err:
         if err.results is not None:
             _print_summary(err.results, out)
@@ -204,6 +208,12 @@ def default_output(model: Path, sets: dict[str, str]) -> Path:
 
     tag = "".join(f"_{name}={re.sub(r'[^A-Za-z0-9.+-]', '', value)}" for name, value in sets.items())
     return Path("results") / f"{model.stem}{tag}.h5"
+def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) -> None:
+    """Refuse (exit 2) before running what asks for too many rows or more disk than is free."""
+    from planar_mbs.output_size import check_output, estimate
+    from planar_mbs.simulation import run_settings
+
+    check_output(estimate(m, run_settings(m, **changes)), out, str(model), force=force)
 
 
 def _print_summary(res, out: Path) -> None:

@@ -23,7 +23,19 @@ def check_model(model, sets: list[str]) -> int:
     except MbsError as err:
         return fail_code(err)
     _print_model(m)
+    _print_output_size(m)
     return 0
+
+
+def _print_output_size(m) -> None:
+    """The rows and file size a run with the model's own settings writes (and whether `run` would refuse it)."""
+    from planar_mbs.output_size import MAX_ROWS, estimate
+
+    est = estimate(m, m.settings)
+    console().print(f"output: {est.describe()}", markup=False)
+    if est.rows > MAX_ROWS:
+        console(stderr=True).print(f"warning: more than {MAX_ROWS:,} output rows: `mbs run` refuses this without "
+                                   "--force (check output_step and t_end)", markup=False, style="yellow")
 
 
 def _print_model(m) -> None:

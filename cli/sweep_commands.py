@@ -149,6 +149,9 @@ def sweep(
         "--worker-timeout", help="With --scheduler: stop (keeping the finished cases) once the cluster has had no "
         "worker, or no scheduler, for this many seconds.", min=1.0)] = 60.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Run even when a case asks for more than 10^8 output rows "
+                     "or the cases do not fit on the free disk space (the sweep stops cleanly if the disk fills).")]
+    = False,
 ) -> None:
     """Run a model for every combination of parameter values, in parallel, into one HDF5 file.
 
@@ -183,7 +186,7 @@ def sweep(
             summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
                                 jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
-                                progress=bar.update, worker_timeout=worker_timeout)
+                                progress=bar.update, worker_timeout=worker_timeout, force=force)
     except MbsError as err:
         _fail(err)
     except KeyboardInterrupt:

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import SimulationError
+from .errors import ModelError, SimulationError
 from .kinematics import assemble
 from .model import (
     ST_CONTACT_EVENTS,
@@ -42,6 +42,7 @@ from .model import (
     Status,
     observation_size,
 )
+from .output_size import MAX_ROWS, estimate
 from .results import DiskFull, FileResults, Results, ResultsWriter
 from .signals import signal_table
 
@@ -264,6 +265,14 @@ def _deepest(table, rows: np.ndarray, deepest: dict[str, float]) -> None:
                 deepest[s.name] = max(deepest.get(s.name, -np.inf), float(x.max()))
 
 
+def _check_rows(model: Model, settings: Settings, max_rows: float) -> None:
+    est = estimate(model, settings, columns=1)
+    if est.rows > max_rows:
+        raise ModelError(f"the run would write {est.describe()}, beyond the limit of {max_rows:,.0f} rows",
+                         model.source_path, hint="check `output_step` and `t_end` (a unit typo?); pass a larger "
+                         "max_rows (math.inf: no limit) to run it anyway")
+
+
 def select_signals(table, wanted):
     """The signals of `table` named in `wanted` (full names ``slider.x`` or whole
     entities ``slider``), with their columns renumbered onto the kept columns.
@@ -288,6 +297,7 @@ def simulate(
     output: str | Path | None = None,
     progress: Callable[[float, float], None] | None = None,
     signals: list[str] | None = None,
+    max_rows: float = MAX_ROWS,
     **settings_changes,
 ) -> Results:
     """Integrate `model` from its assembled initial state to ``t_end``.
@@ -297,11 +307,14 @@ def simulate(
     path written in chunks during the run; ``progress(t, t_end)`` is called
     after each chunk.  ``signals`` (names like ``slider.x`` or whole entities)
     keeps only those signals in memory and in the file (default: all).
+    A run asking for more than ``max_rows`` output rows (``math.inf``: no limit) is refused
+    with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
     Raises `SimulationError` (with ``.results``) on failure.
     """
     from .kernel import advance, make_workspace
 
     settings = run_settings(model, **settings_changes)
+    _check_rows(model, settings, max_rows)
     q, qd = assemble(model)
     km = model.kernel
     cfg = settings.cfg()

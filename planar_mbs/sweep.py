@@ -502,23 +502,44 @@ def check_section(model, section: dict | None) -> None:
                          hint=did_you_mean(clock, model.body_names) or "bodies: " + ", ".join(model.body_names))
 
 
-def check_cases(specs: Sequence[CaseSpec]) -> None:
+def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, force: bool = True) -> None:
     """Compile every case once in the parent, so a bad value, a misspelt `--keep` signal or a
-    section signal the model lacks stops the sweep before it starts."""
+    section signal the model lacks stops the sweep before it starts; unless ``force``, refuse a case
+    beyond `output_size.MAX_ROWS` output rows (each case's rows are held in a worker's memory) or
+    cases that together do not fit on the disk holding ``output``."""
     from .compile import load_model
+    from .output_size import check_output, estimate
     from .simulation import run_settings
 
+    largest, total = None, 0.0
     for spec in specs:
         try:
             m = load_model(spec.model_path, {**spec.sets, **spec.values})
-            run_settings(m, **case_settings(m, spec))  # e.g. an unknown integrator name
+            changes = case_settings(m, spec)
+            settings = run_settings(m, **changes)  # e.g. an unknown integrator name
+            columns = None
             if spec.keep is not None:
-                kept_signals(m, spec.keep)
+                columns = len(kept_signals(m, spec.keep)) + 1
             check_section(m, spec.section)
+            est = estimate(m, settings, columns)
+            total += est.bytes
+            if largest is None or est.rows > largest.rows:
+                largest = est
+            check_output(est, None, spec.model_path, force=force)
         except ModelError as err:
             where = ", ".join(f"{k}={v}" for k, v in spec.values.items())
             raise ModelError(f"case {spec.index} ({where}): {err.message}", err.file, err.line, err.column,
                              err.hint, err.source_line, err.width) from None
+    if specs and output is not None and not force:  # all of them on the disk (uncompressed: an upper bound)
+        from .output_size import free_bytes, _size
+
+        free = free_bytes(output)
+        if total > free:
+            raise ModelError(f"the {len(specs)} case(s) to run would write about {_size(total)} of results "
+                             f"(uncompressed; the largest case {largest.describe()}), more than the {_size(free)} "
+                             f"free on the disk holding {output}", str(specs[0].model_path),
+                             hint="write elsewhere (-o), make room, or store fewer signals (--keep); pass --force to "
+                                  "run anyway (the sweep stops cleanly when the disk is full, and resumes)")
 
 
 def default_executor(jobs: int | None) -> Executor:
@@ -640,6 +661,7 @@ def run_sweep(
     compression: str | None = None,
     progress: Callable[[int, int, CaseOutcome | None], None] | None = None,
     worker_timeout: float = 60.0,
+    force: bool = False,
 ) -> SweepSummary:
     """Run every case of the sweep not yet in ``output`` and store it there.
 
@@ -653,7 +675,8 @@ def run_sweep(
     per 10-revolution case), and the parent process alone writes, so it would cap ``jobs``.
     With an ``executor`` (a cluster), the cases carry the model's text, not its path, and a cluster
     left without a worker for ``worker_timeout`` seconds, or without its scheduler, stops the sweep
-    (`SweepStopped`; the cases stored so far are kept and a rerun resumes).
+    (`SweepStopped`; the cases stored so far are kept and a rerun resumes).  Unless ``force``, a
+    case beyond `output_size.MAX_ROWS` rows or cases that do not fit on the disk are refused first.
     """
     start = time.perf_counter()
     output = Path(output)
@@ -687,7 +710,7 @@ def run_sweep(
         raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
     try:
         f, rows, merged, numbered, pending, skipped = _open_sweep(
-            output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path)
+            output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path, force)
     except BaseException:
         lock.release()
         if not existed:
@@ -697,7 +720,7 @@ def run_sweep(
                       jobs, executor, compression, progress, start, worker_timeout)
 
 
-def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path):
+def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path, force):
     """Read what the file already holds (under the lock), number and check the cases to run, and
     open the file for writing."""
     import h5py
@@ -745,7 +768,7 @@ def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, 
     done_status = {FINISHED} | (set() if retry_failed else {FAILED})
     pending = [s for s in numbered if rows.get(s.key, {}).get("status") not in done_status]
     skipped = [s.index for s in numbered if s not in pending]
-    check_cases(pending)
+    check_cases(pending, output, force)
 
     mode = "w" if overwrite or not existed else "a"
     try:

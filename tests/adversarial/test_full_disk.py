@@ -67,7 +67,7 @@ def test_run_stops_cleanly_and_keeps_a_readable_prefix(tmp_path):
     with small_disk(disk, "4m") as mounted:
         env = None if mounted else _inject_env(tmp_path, 4 << 20)
         out = disk / "a.h5"
-        r = _mbs("run", MODEL, "-o", out, "--t-end", "0.2s", "-q", env=env)
+        r = _mbs("run", MODEL, "-o", out, "--t-end", "0.2s", "-q", "--force", env=env)
         assert r.returncode == 3, r.stdout + r.stderr
         text = r.stdout + r.stderr
         assert "Traceback" not in text
@@ -90,7 +90,7 @@ def test_full_disk_before_the_first_row_is_a_clean_error(tmp_path):
     disk = tmp_path / "disk"
     with small_disk(disk, "64k") as mounted:
         env = None if mounted else _inject_env(tmp_path, 64 << 10)
-        r = _mbs("run", MODEL, "-o", disk / "a.h5", "--t-end", "0.01s", "-q", env=env)
+        r = _mbs("run", MODEL, "-o", disk / "a.h5", "--t-end", "0.01s", "-q", "--force", env=env)
         assert r.returncode in (2, 3), r.stdout + r.stderr
         assert "Traceback" not in r.stdout + r.stderr
 
@@ -104,7 +104,7 @@ def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
     with small_disk(disk, "1200k") as mounted:
         env = None if mounted else _inject_env(tmp_path, 1200 << 10)
         out = disk / "s.h5"
-        r = _mbs("sweep", MODEL, *SWEEP, "-o", out, env=env)
+        r = _mbs("sweep", MODEL, *SWEEP, "-o", out, "--force", env=env)
         text = r.stdout + r.stderr
         assert r.returncode == 3, text
         assert "Traceback" not in text and "full" in text
