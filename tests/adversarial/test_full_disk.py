@@ -113,7 +113,7 @@ def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
             status = [s.decode() if isinstance(s, bytes) else s for s in f["cases_table/status"][()]]
             for k in done:
                 g = f[f"cases/{k}"]
-                assert g["time"].shape == g["signals/slider/vx"].shape and g["time"].shape[0] > 0
+                assert g["time"].shape == g["signals/slider"].shape and g["time"].shape[0] > 0
         assert 0 < len(done) < 4 and status.count("finished") == len(done)
         if mounted:  # room again: the same file on a bigger disk resumes the missing cases only
             big = tmp_path / "big.h5"

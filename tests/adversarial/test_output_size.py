@@ -56,7 +56,7 @@ def test_estimated_size_bounds_the_file(tmp_path):
     size = out.stat().st_size
     data = 4096 * est.columns * 8  # 2001 rows fill one chunk of 4096 rows per column
     assert data <= size <= est.bytes
-    assert est.bytes - size < 0.1 * size
+    assert est.bytes - size <= est.columns * 4096 + 65536  # beyond the whole chunks: only the metadata allowance
 
 
 @pytest.mark.parametrize("step", ["1e-6 us", "1e-12 us", "1e-300 us", "1e-9 ms", "1e-10 s"])
