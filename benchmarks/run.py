@@ -395,7 +395,8 @@ def plot_divergence(sec):
     plt.close(fig)
 
 
-SECTIONS = ["rhs", "wp_ideal", "wp_pendulum", "wp_clearance", "ratios", "startup", "skip", "scaling", "stress", "process"]
+SECTIONS = ["rhs", "wp_ideal", "wp_pendulum", "wp_clearance", "ratios", "startup", "skip", "scaling", "stress", "process",
+            "memory"]
 
 
 def main() -> None:
@@ -428,6 +429,10 @@ def main() -> None:
             import process
 
             data[sec] = process.section_process()
+        elif sec == "memory":
+            import memory
+
+            data[sec] = memory.section_memory()
         else:
             data[sec] = getattr(extra_sections, f"section_{sec}")()
         data.setdefault("section_seconds", {})[sec] = time.perf_counter() - t0
