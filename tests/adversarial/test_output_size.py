@@ -71,7 +71,7 @@ def test_typo_in_output_step_is_refused_before_running(tmp_path, step):
     assert time.monotonic() - start < 30  # refused, not run: a bound against a run that grows for minutes
 
 
-@pytest.mark.parametrize("t_end", ["1e9s", "1e300s", "1000000 h"])
+@pytest.mark.parametrize("t_end", ["1e5s", "2 h", "30 min", "1001 s"])
 def test_absurd_t_end_is_refused(tmp_path, t_end):
     out = tmp_path / "a.h5"
     r = _cli("run", MODEL, "-o", out, "--t-end", t_end, "-q")
