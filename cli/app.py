@@ -124,6 +124,11 @@ def run(
     = "envelope",
     force: Annotated[bool, typer.Option("--force", help="Run even when the estimated output is beyond 10^8 rows "
                      "or larger than the free disk space (the run then stops cleanly if the disk fills).")] = False,
+    until_settled: Annotated[bool, typer.Option("--until-settled", help="Run revolution by revolution until the "
+                             "Poincaré points have settled on a periodic orbit (checked every 50 revolutions), at "
+                             "most --max-revolutions; see docs/sweeps.md.")] = False,
+    max_revolutions: Annotated[int, typer.Option("--max-revolutions", help="Upper bound of --until-settled.",
+                               min=1)] = 2000,
 ) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
@@ -169,9 +174,12 @@ def run(
         check_output(out, "--output", inputs)
         if rerun is not None:
             check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
-        _check_output_size(m, changes, out, model, force)
-        with _Progress(quiet) as progress:
-            res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, **changes)
+        if until_settled:
+            res = _run_until_settled(m, out, max_revolutions, quiet, changes)
+        else:
+            _check_output_size(m, changes, out, model, force)
+            with _Progress(quiet) as progress:
+                res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, **changes)
     except SimulationError as err:
         if err.results is not None:
             _print_summary(err.results, out)
@@ -216,6 +224,29 @@ def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) ->
     check_output(estimate(m, run_settings(m, **changes)), out, str(model), force=force)
 
 
+def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes: dict):
+    """`planar_mbs.study.long_run` until the section settles; the results written to ``out``."""
+    from planar_mbs.results import write_results
+    from planar_mbs.study import long_run
+
+    changes = {k: v for k, v in changes.items() if k != "t_end" and v is not None}
+    with _Progress(quiet, "revolution", "revolution {task.fields[t]:.0f}") as progress:
+        run = long_run(m, max_revolutions, PER_REV_UNTIL_SETTLED, until_settled=True,
+                       progress=lambda done, total: progress.update(done, total), **changes)
+    res = run.results
+    res.attrs.update(t_reached=float(res.time[-1]), revolutions=run.revolutions,
+                     settled_at=run.settled_at if run.settled_at is not None else -1)
+    out.unlink(missing_ok=True)
+    write_results(str(out), res)
+    text = (f"settled on a periodic orbit at revolution {run.settled_at}" if run.settled_at is not None
+            else f"not settled on a periodic orbit after {run.revolutions} revolutions")
+    _console().print(f"{text}; {run.revolutions} revolutions run", markup=False)
+    return res
+
+
+PER_REV_UNTIL_SETTLED = 90  # output samples per revolution of a run --until-settled
+
+
 def _print_summary(res, out: Path) -> None:
     from planar_mbs.results import peak, row_count
 
@@ -239,8 +270,8 @@ class _Progress:
 
     DELAY = 1.0
 
-    def __init__(self, quiet: bool):
-        self.quiet = quiet
+    def __init__(self, quiet: bool, what: str = "simulating", field: str = "t = {task.fields[t]:.4g} s"):
+        self.quiet, self.what, self.field = quiet, what, field
         self.start = time.perf_counter()
         self.bar = None
         self.task = None
@@ -257,7 +288,7 @@ class _Progress:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
             self.bar = Progress(
-                TextColumn("simulating"), BarColumn(), TextColumn("t = {task.fields[t]:.4g} s"),
+                TextColumn(self.what), BarColumn(), TextColumn(self.field),
                 TimeElapsedColumn(), TimeRemainingColumn(), console=_console(stderr=True), transient=True,
             )
             self.bar.start()

@@ -93,14 +93,17 @@ PoincareOpt = Annotated[Optional[str], typer.Option(
     "--poincare", "-p", help="Signals of the Poincaré section X:Y.",
     show_default="the slider's vx:ax")]
 PeriodOpt = Annotated[Optional[str], typer.Option(
-    "--period", help="Section period with units.", show_default="from the rotation driver's constant speed")]
+    "--period", help="A stroboscopic section every PERIOD (with units).",
+    show_default="once per revolution of the clock body")]
 AngleOpt = Annotated[Optional[str], typer.Option(
     "--angle", help="Section at this angle of the clock body (90deg, 1.5rad) instead of once per period.",
     show_default=False)]
 TransientOpt = Annotated[float, typer.Option(
-    "--transient", help="Driver periods (revolutions) dropped before the section.", min=0)]
+    "--transient", help="Section crossings (revolutions) dropped at the start; where the motion settles "
+    "is then found from the points.", min=0)]
 ClockOpt = Annotated[Optional[str], typer.Option(
-    "--clock", help="Body whose angle clocks an --angle section.", show_default="the driven body")]
+    "--clock", help="Body whose angle clocks the section.",
+    show_default="the driven body, else the body that turns most")]
 
 
 def sweep(
@@ -369,12 +372,7 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
         _print_table(rows, params)
         return
     res = read_results(results)
-    signals = opts.pop("signals", None)
-    if signals is None:
-        slider = [n[:-3] for n in res.signals if n.endswith(".vx") and f"{n[:-3]}.phi" in res.signals
-                  and len(res.time) and float(np.ptp(res[f"{n[:-3]}.phi"])) < 1e-9]
-        body = slider[0] if slider else "slider"
-        signals = [f"{body}.vx", f"{body}.ax"]
+    signals = opts.pop("signals", None)  # None: the slider, chosen as plots and sweeps do
     sec = poincare_section(res, signals, **opts)
     verdict = classify(sec)
     con = _console()
@@ -384,9 +382,15 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
     if sec.method == "interpolated":
         con.print("  interpolation error (relative to each signal's spread): "
                   + ", ".join(f"{k} {v:.1e}" for k, v in sec.interp_error.items()), markup=False)
+    if verdict.settled_revolution is not None:
+        con.print(f"settled at revolution {verdict.settled_revolution} (of {int(sec.revolution[-1])}); "
+                  f"classified on the {verdict.n_points} section points after it", markup=False)
+    elif verdict.n_total:
+        con.print(f"not settled after {int(sec.revolution[-1])} revolutions: the last half classified "
+                  "(run longer, e.g. `mbs run --until-settled`)", markup=False)
     con.print(f"[bold]{verdict.label()}[/]  K = {verdict.K:.3f}   λ = {verdict.lyapunov:.3f} per period   "
               f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}" +
-              (f"   ({verdict.note})" if verdict.note else ""))
+              (f"   ({verdict.note})" if verdict.note and verdict.settled_revolution is not None else ""))
     if store:
         with h5py.File(file, "a") as f:
             write_section(f[group or "/"], sec, verdict)

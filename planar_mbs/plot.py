@@ -11,14 +11,11 @@ Two layers:
   `sweep_grid_figure`, `poincare_grid_figure`, `bifurcation_figure`, and
   `plot_file`, which the ``mbs plot`` command calls.
 
-Poincaré sampling (documented in docs/plots.md): the section is "the turning body
-has completed another full revolution".  The turning body is the body driven by a
-rotation driver when a `Model` is given, otherwise the body whose angle ``phi``
-changes most over the run (the crank).  Crossing times of
-``phi(t) - phi(0) = 2 pi k`` are found by linear interpolation between samples and
-the two signals are interpolated linearly at those times.  The first ``skip``
-crossings (default 1: the end of the first, transient revolution) are dropped.
-For a constant-speed driver this is exactly sampling at ``t = k T``, ``T = 2 pi / omega``.
+Poincaré sampling: `planar_mbs.section`, the one section of the project (the same
+points as a sweep's stored verdict and `mbs analyze`): once per revolution of the
+clock body (the body of the rotation driver, else the body that turns most),
+crossings located by interpolation, the first ``skip`` crossings dropped.  For a
+constant-speed driver this is exactly sampling at ``t = k T``, ``T = 2 pi / omega``.
 """
 from __future__ import annotations
 
@@ -38,7 +35,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from .results import Results
 
 FORMATS = ("png", "svg", "pdf")
-SLIDER_WORDS = ("slider", "piston", "block", "carriage", "cart", "ram", "crosshead")
 MAX_LINE_POINTS = 50_000  # longer series are reduced to a min/max envelope (peaks kept)
 
 
@@ -87,65 +83,25 @@ def check_signals(results: "Results", names: Sequence[str]) -> None:
 
 
 def slider_body(results: "Results", model: "Model | None" = None) -> str | None:
-    """The body to show as "the slider": the body a translational joint ties to ground
-    (from the model when given); else a body that moves without turning; else a body
-    named like a slider; else the last body."""
-    bodies = body_names(results)
-    if not bodies:
-        return None
-    if model is not None:
-        from .model import JointType
+    """The body shown as "the slider" (`planar_mbs.section.slider_body`, the one rule)."""
+    from .section import slider_body as _slider
 
-        k = model.kernel
-        for j in range(model.njoint):
-            if int(k.joint_type[j]) == JointType.TRANSLATIONAL:
-                i1, i2 = (int(b) for b in k.joint_body[j])
-                if i1 < 0 <= i2 or i2 < 0 <= i1:
-                    return model.body_names[max(i1, i2)]
-    still = [b for b in bodies
-             if np.ptp(results[f"{b}.phi"]) < 1e-9 and np.ptp(results[f"{b}.x"]) + np.ptp(results[f"{b}.y"]) > 0]
-    if len(still) == 1:
-        return still[0]
-    named = [b for b in (still or bodies) if any(w in b.lower() for w in SLIDER_WORDS)]
-    if named:
-        return named[0]
-    return (still or bodies)[-1]
+    return _slider(results, model) if body_names(results) or model is not None else None
 
 
 def turning_body(results: "Results", model: "Model | None" = None) -> str | None:
-    """The body whose revolutions clock the Poincaré section: the body of the first
-    rotation driver (absolute angle) of the model, else the body that turns most."""
-    if model is not None:
-        from .model import DriverType
+    """The body whose revolutions clock the Poincaré section (`planar_mbs.section.clock_body`)."""
+    from .section import clock_body
 
-        k = model.kernel
-        for d in range(model.ndriver):
-            if int(k.driver_type[d]) == DriverType.ANGLE and int(k.driver_body[d, 0]) < 0:
-                return model.body_names[int(k.driver_body[d, 1])]
-    best, turn = None, 0.0
-    for b in body_names(results):
-        phi = results[f"{b}.phi"]
-        if len(phi) and abs(phi[-1] - phi[0]) > turn:
-            best, turn = b, abs(phi[-1] - phi[0])
-    return best
+    return clock_body(results, model)
 
 
 def revolution_times(time: np.ndarray, phi: np.ndarray, skip: int = 1) -> np.ndarray:
-    """Times at which ``phi - phi[0]`` crosses ``±2 pi k`` (k = skip+1, skip+2, ...)."""
-    if len(phi) < 2:
-        return np.zeros(0)
-    turn = (phi - phi[0]) * (1.0 if phi[-1] >= phi[0] else -1.0)
-    k = np.floor(turn / (2 * math.pi) + 1e-12)
-    idx = np.nonzero(np.diff(k) > 0)[0]  # crossing between samples idx and idx+1
-    out_t, out_k = [], []
-    for i in idx:
-        for level in range(int(k[i]) + 1, int(k[i + 1]) + 1):
-            target = 2 * math.pi * level
-            frac = (target - turn[i]) / (turn[i + 1] - turn[i])
-            out_t.append(time[i] + frac * (time[i + 1] - time[i]))
-            out_k.append(level)
-    out_t, out_k = np.asarray(out_t), np.asarray(out_k)
-    return out_t[out_k > skip]
+    """Times at which ``phi - phi[0]`` crosses ``±2 pi k``, the first ``skip`` dropped
+    (`planar_mbs.section.crossings`)."""
+    from .section import crossings
+
+    return crossings(time, phi)[skip:]
 
 
 @dataclass
@@ -161,15 +117,21 @@ class PoincareSet:
 
 def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
              model: "Model | None" = None) -> PoincareSet:
-    """Poincaré points ``(x, y)``, one per revolution of `body` after the first `skip`."""
+    """Poincaré points ``(x, y)``, one per revolution of `body` after the first `skip`:
+    the section of `planar_mbs.section.poincare_section` (the one used by sweeps and
+    `mbs analyze`)."""
+    from .section import AnalysisError, poincare_section
+
     check_signals(results, [x, y])
     body = body or turning_body(results, model)
     if body is None or f"{body}.phi" not in results:
         raise PlotError(f"error: no body `{body}` to clock the Poincaré section"
                         + (f"\nhint: {did_you_mean(str(body), body_names(results))}" if body else ""))
-    t = revolution_times(results.time, results[f"{body}.phi"], skip)
-    return PoincareSet(np.interp(t, results.time, results[x]), np.interp(t, results.time, results[y]),
-                       t, x, y, body, skip)
+    try:
+        sec = poincare_section(results, (x, y) if x != y else (x,), clock=body, transient=skip, model=model)
+    except AnalysisError as err:
+        raise PlotError(f"error: {err}") from None
+    return PoincareSet(sec.points[x], sec.points[y], sec.time, x, y, body, skip)
 
 
 def clearance_radius(results: "Results", joint: str) -> float:
@@ -741,3 +703,53 @@ def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
         if fig is not None:
             _save(fig, outdir / f"{stem}_bifurcation_{_slug(pair[0])}.{fmt}", written)
     return written
+
+
+def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None, *, scale: float = 1.0,
+                       unit: str = "", title: str = "", ax=None, where: dict | None = None):
+    """Poincaré samples of ``signal`` (default: the first section signal) against the swept
+    parameter ``param``, from the ``poincare`` groups of a sweep file; points coloured by the
+    verdict of their case (the stored sections: the points `mbs plot` draws for the same file).  ``where`` keeps only cases whose other parameters have these
+    values (text, as in the case table).  ``scale`` multiplies the parameter (e.g. to rpm)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .analysis import VERDICT_COLOURS, read_section
+    from .sweep import parameter_number, parameter_si, read_case_table
+
+    table = read_case_table(sweep_path)
+    # plot numbers in the unit the values were given in when they share one, else in SI
+    parsed = [parameter_number(r["values"].get(param, "")) for r in table]
+    units = {p[1] for p in parsed if p is not None}
+    same_unit = len(units) == 1 and None not in parsed
+    if same_unit and not unit:
+        unit = units.pop()
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(8, 4))
+    seen = set()
+    from .results import open_results
+
+    with open_results(sweep_path) as f:
+        for row in table:
+            if where and any(row["values"].get(k) != v for k, v in where.items()):
+                continue
+            g = f.get(f"cases/{row['index']}")
+            if g is None or "poincare" not in g:
+                continue
+            sec, verdict = read_section(g)
+            name = signal or sec.names[0]
+            text = row["values"][param]
+            p = (parameter_number(text)[0] if same_unit else parameter_si(text)) * scale
+            v = verdict.verdict if verdict else "undetermined"
+            ax.plot(np.full(len(sec), p), sec.points[name], ".", ms=2, color=VERDICT_COLOURS[v],
+                    label=v if v not in seen else None)
+            seen.add(v)
+    ax.set_xlabel(f"{param}" + (f" [{unit}]" if unit else ""))
+    ax.set_ylabel(f"{signal or 'section'} at the Poincaré section")
+    if title:
+        ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=8, markerscale=4)
+    return fig or ax.figure

@@ -130,7 +130,7 @@ def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Set
 
     changes = {k: _setting(model, k, v) for k, v in changes.items() if v is not None}
     if revolutions is not None or per_rev is not None:
-        from .analysis import driver_period
+        from .section import driver_period
 
         found = driver_period(model)
         what = "revolutions" if revolutions is not None else "per_rev"

@@ -289,7 +289,7 @@ class CaseOutcome:
 def case_settings(model, spec: CaseSpec) -> dict:
     """simulate() setting changes of a case: the spec's, plus t_end and output_step from
     the driver period when ``revolutions`` / ``per_rev`` are given."""
-    from .analysis import driver_period
+    from .section import driver_period
 
     changes = dict(spec.settings)
     if spec.revolutions is not None or spec.per_rev is not None:
@@ -306,29 +306,23 @@ def case_settings(model, spec: CaseSpec) -> dict:
 
 
 def default_section_signals(model) -> tuple[str, str] | None:
-    """Muvengei et al.'s Poincaré plane: slider velocity against slider acceleration, the slider being
-    the body a translational joint ties to ground (else the last body)."""
-    from .model import JointType
+    """The default Poincaré plane, slider velocity against slider acceleration
+    (`planar_mbs.section.default_signals`, the rule plots and `mbs analyze` use)."""
+    from .section import AnalysisError, default_signals
 
-    k = model.kernel
-    for j in range(model.njoint):
-        if int(k.joint_type[j]) == JointType.TRANSLATIONAL:
-            i1, i2 = (int(b) for b in k.joint_body[j])
-            if i1 < 0 <= i2 or i2 < 0 <= i1:
-                b = model.body_names[max(i1, i2)]
-                return f"{b}.vx", f"{b}.ax"
-    if model.nbody:
-        b = model.body_names[-1]
-        return f"{b}.vx", f"{b}.ax"
-    return None
+    try:
+        return default_signals(None, model)
+    except AnalysisError:
+        return None
 
 
 def run_case(spec: CaseSpec) -> CaseOutcome:
     """Compile, simulate and analyse one case, in memory (the worker side of a sweep)."""
     from . import simulate
-    from .analysis import AnalysisError, classify, poincare_section
+    from .analysis import classify
     from .compile import load_model  # errors worded for `--set`, as the sweep's values are given
     from .errors import SimulationError
+    from .section import AnalysisError, poincare_section
 
     start = time.perf_counter()
     try:
@@ -345,7 +339,7 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     section = verdict = None
     if spec.section is not None and res is not None and len(res.time) > 1:
         opts = dict(spec.section)
-        signals = tuple(opts.pop("signals", None) or default_section_signals(model) or ())
+        signals = opts.pop("signals", None)
         try:
             section = poincare_section(res, signals, model=model, **opts)
             verdict = classify(section)

@@ -225,7 +225,7 @@ def test_interrupted_sweep_resumes(tmp_path):
 
 
 def test_bifurcation_figure_from_a_sweep(tmp_path):
-    from planar_mbs.analysis import bifurcation_figure
+    from planar_mbs.plot import verdict_bifurcation_figure as bifurcation_figure
 
     out = tmp_path / "s.h5"
     run_sweep(IDEAL, SPEEDS, out, **OPTS)

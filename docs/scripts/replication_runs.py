@@ -1,0 +1,84 @@
+"""The long runs behind docs/replication.md (run by docs/scripts/replicate.py, cached in --work).
+
+Each job is one case of the paper's study (joint, Young's modulus, speed) run for a number of
+crank revolutions; its section signals and final kernel state go to ``<work>/<job>.npz``, so the
+Lyapunov exponents can start from the settled state.  Jobs that are done are skipped.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+MODELS = {"A": ROOT / "models" / "slider_crank_clearance_a.mbs", "B": ROOT / "models" / "slider_crank_clearance_b.mbs"}
+PER_REV = 8
+
+
+def kept(joint: str) -> list[str]:
+    return ["slider.vx", "slider.ax", "crank.phi", f"{joint}.ex", f"{joint}.ey", f"{joint}.contact_force",
+            f"{joint}.in_contact", f"{joint}.impact_velocity"]
+
+
+def job_name(kind: str, joint: str, modulus: str, speed: str, law: str = "lankarani_nikravesh") -> str:
+    tail = "" if law == "lankarani_nikravesh" else f"_{law}"
+    return f"{kind}_{joint}_{modulus}_{speed}{tail}"
+
+
+def git_commit() -> str:
+    try:
+        return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    except OSError:
+        return "unknown"
+
+
+def run_long(work: Path, kind: str, joint: str, modulus: str, speed: str, revolutions: int,
+             settings: dict | None = None, law: str = "lankarani_nikravesh") -> str:
+    """One long run; writes <work>/<name>.npz.  ``kind`` "long" (the model's tolerance) or
+    "tight" (``settings``, e.g. a tighter rtol)."""
+    from planar_mbs import load_model
+    from planar_mbs.errors import SimulationError
+    from planar_mbs.study import long_run
+
+    work.mkdir(parents=True, exist_ok=True)
+    name = job_name(kind, joint, modulus, speed, law)
+    out = work / f"{name}.npz"
+    if out.exists():
+        return f"{name}: cached"
+    model = load_model(MODELS[joint], speed=speed, youngs_modulus=modulus, law=law)
+    start, cpu = time.perf_counter(), time.process_time()
+    status = "finished"
+    try:
+        run = long_run(model, revolutions, PER_REV, kept(joint), **(settings or {}))
+        res, st, settled = run.results, run.stepper, run.settled_at
+    except SimulationError as err:
+        return f"{name}: FAILED {err}"
+    meta = {"joint": joint, "modulus": modulus, "speed": speed, "law": law, "revolutions": run.revolutions,
+            "period": run.period, "settings": {k: str(v) for k, v in (settings or {}).items()},
+            "rtol": float(st.settings.rtol), "atol": float(st.settings.atol), "integrator": st.settings.integrator.name,
+            "wall": time.perf_counter() - start, "cpu": time.process_time() - cpu, "commit": git_commit(),
+            "status": status, "settled_at": settled, "n_steps": int(st.stats[0])}
+    np.savez_compressed(out.with_suffix(".tmp.npz"), time=res.time, **{k: v for k, v in res.signals.items()},
+                        y=st.y, contact=st.contact, clock=st.clock, stats=st.stats, meta=json.dumps(meta))
+    os.replace(out.with_suffix(".tmp.npz"), out)
+    return f"{name}: {run.revolutions} rev, settled at {settled}, {meta['cpu']:.0f} s cpu"
+
+
+def main(jobs: list[tuple], work: Path, processes: int = 2) -> None:
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    work.mkdir(parents=True, exist_ok=True)
+    with ProcessPoolExecutor(processes) as ex:
+        futs = {ex.submit(run_long, work, *job): job for job in jobs}
+        for f in as_completed(futs):
+            try:
+                print(time.strftime("%H:%M:%S"), f.result(), flush=True)
+            except Exception as err:  # noqa: BLE001  (report and go on with the others)
+                print(time.strftime("%H:%M:%S"), futs[f], "ERROR", repr(err), flush=True)

@@ -1,0 +1,132 @@
+"""Where the motion settles: the rule on synthetic sequences with a known transient, the verdict
+on the settled part only, and `mbs analyze` reporting the settling revolution."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from planar_mbs.analysis import classify
+from planar_mbs.results import Results, write_results
+from planar_mbs.section import poincare_section, settling
+
+
+def logistic(n: int, x0: float = 0.1234) -> np.ndarray:
+    """The logistic map at r = 4: chaotic (Lyapunov exponent ln 2)."""
+    x = np.empty(n)
+    x[0] = x0
+    for i in range(1, n):
+        x[i] = 4 * x[i - 1] * (1 - x[i - 1])
+    return x
+
+
+def transient_then_periodic(n_chaos: int, n_total: int, period: int) -> np.ndarray:
+    """(n_total, 2) points: chaotic (logistic map, delay embedding) for n_chaos iterations,
+    then exactly periodic with the given period (values inside the chaotic range)."""
+    c = logistic(n_chaos + 1)
+    cycle = np.array([[0.2 + 0.5 * k / period, 0.7 - 0.4 * k / period] for k in range(period)])
+    tail = np.array([cycle[k % period] for k in range(n_total - n_chaos)])
+    return np.vstack([np.column_stack([c[:-1], c[1:]]), tail])
+
+
+@pytest.mark.parametrize("n_chaos,period", [(300, 1), (557, 2), (120, 3)])
+def test_known_transient_then_periodic(n_chaos, period):
+    pts = transient_then_periodic(n_chaos, 1000, period)
+    start, p = settling(pts)
+    assert p == period
+    assert n_chaos - period <= start <= n_chaos  # the last chaotic point may happen to recur
+    v = classify(pts)
+    assert (v.verdict, v.period) == ("periodic", period)
+    assert v.settled_at == start and v.n_points == 1000 - start and v.n_total == 1000
+
+
+def test_the_second_half_rule_would_have_called_it_chaotic():
+    """The old rule (recurrence over the second half) fails when the transient is longer
+    than half the run; the settled-part rule does not."""
+    pts = transient_then_periodic(700, 1000, 1)
+    tail = pts[500:]
+    assert np.max(np.linalg.norm(tail[1:] - tail[:-1], axis=1)) > 0.1  # second half does not recur
+    v = classify(pts)
+    assert (v.verdict, v.period, v.settled_at) == ("periodic", 1, 700)
+
+
+def test_chaos_is_stationary_from_the_start():
+    c = logistic(1001)
+    pts = np.column_stack([c[:-1], c[1:]])
+    start, p = settling(pts)
+    assert p is None and start is not None and start <= 100
+    v = classify(pts)
+    assert v.verdict == "chaotic" and v.lyapunov == pytest.approx(math.log(2), abs=0.25)
+
+
+def test_a_drift_is_not_settled():
+    n = np.arange(600)
+    pts = np.column_stack([n / 600.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)])  # a trend: never stationary
+    assert settling(pts) == (None, None)
+    v = classify(pts)
+    assert v.settled_at is None and "not settled after 600 revolutions" in v.note
+
+
+# ---------------------------------------------------------------- `mbs analyze` on a long run
+def fake_long_run(n_chaos: int, revolutions: int, per_rev: int = 8, period: float = 0.012) -> Results:
+    """A crank turning at constant speed and a slider whose section values (at t = kT) are
+    chaotic for the first n_chaos revolutions and period-1 after: a piecewise-linear signal
+    through prescribed values at every output time."""
+    pts = transient_then_periodic(n_chaos, revolutions + 1, 1)
+    t = np.arange(revolutions * per_rev + 1) * period / per_rev
+    rng = np.random.default_rng(1)
+    vx = np.repeat(pts[:, 0], per_rev)[: len(t)] + 0.0
+    ax = np.repeat(pts[:, 1], per_rev)[: len(t)] + 0.0
+    between = np.arange(len(t)) % per_rev != 0  # off the section: anything
+    vx[between] = rng.uniform(size=between.sum())
+    ax[between] = rng.uniform(size=between.sum())
+    w = 2 * math.pi / period
+    sig = {"crank.phi": w * t, "crank.x": 0 * t, "crank.y": 0 * t, "slider.phi": 0 * t,
+           "slider.x": 0.1 + 0.05 * np.cos(w * t), "slider.y": 0 * t, "slider.vx": vx, "slider.ax": ax}
+    return Results(time=t, signals=sig, units={k: "" for k in sig}, attrs={"complete": True})
+
+
+def test_section_of_the_fake_run_is_the_prescribed_points():
+    res = fake_long_run(300, 1000)
+    sec = poincare_section(res)
+    assert sec.names == ["slider.vx", "slider.ax"] and sec.method == "grid"
+    assert list(sec.revolution[:3]) == [2, 3, 4]
+    pts = transient_then_periodic(300, 1001, 1)
+    np.testing.assert_array_equal(sec.array(), pts[2:])
+
+
+def test_mbs_analyze_reports_the_settling_revolution(tmp_path):
+    import typer
+
+    from planar_mbs.cli.sweep_commands import analyze
+
+    path = tmp_path / "long.h5"
+    write_results(str(path), fake_long_run(640, 1000))
+    app = typer.Typer()
+    app.command()(analyze)
+    out = CliRunner().invoke(app, [str(path)])
+    assert out.exit_code == 0, out.output
+    # point k of the prescribed sequence is taken at revolution k: the cycle starts at 640
+    assert "settled at revolution 640" in out.output or "settled at revolution 639" in out.output
+    assert "periodic" in out.output and "chaotic" not in out.output
+
+
+def test_mbs_analyze_without_a_slider_names_the_option(tmp_path):
+    import typer
+
+    from planar_mbs.cli.sweep_commands import analyze
+
+    t = np.linspace(0, 1, 2001)
+    sig = {"wheel.phi": 40 * t, "wheel.x": 0 * t, "wheel.y": 0 * t, "wheel.omega": 40 + 0 * t,
+           "arm.phi": np.sin(40 * t), "arm.x": np.cos(t), "arm.y": 0 * t}
+    path = tmp_path / "noslider.h5"
+    write_results(str(path), Results(time=t, signals=sig, units={k: "" for k in sig}, attrs={"complete": True}))
+    app = typer.Typer()
+    app.command()(analyze)
+    out = CliRunner().invoke(app, [str(path)])
+    assert out.exit_code == 2
+    assert "-p X:Y" in out.output and "Traceback" not in out.output
+    ok = CliRunner().invoke(app, [str(path), "-p", "arm.phi:arm.x"])
+    assert ok.exit_code == 0, ok.output
