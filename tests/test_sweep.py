@@ -235,3 +235,19 @@ def test_bifurcation_figure_from_a_sweep(tmp_path):
     xs = sorted({float(x) for line in ax.get_lines() for x in line.get_xdata()})
     assert xs == [600.0, 900.0, 1200.0]
     fig.savefig(tmp_path / "b.png")
+
+
+def test_stored_verdict_and_mbs_plot_bifurcation_use_the_same_section_points(tmp_path):
+    """One Poincaré section: the points a sweep stores with its verdict are the points
+    `mbs plot`'s bifurcation diagram draws from the same file."""
+    from planar_mbs import plot as P
+
+    out = tmp_path / "s.h5"
+    run_sweep(IDEAL, SPEEDS, out, **{**OPTS, "keep": None})
+    stored = {row["values"]["speed"]: sec for row, sec, _ in sweep_sections(out)}
+    fig = P.bifurcation_figure(P.sweep_cases(out), "slider.vx")
+    drawn = {float(line.get_xdata()[0]): np.asarray(line.get_ydata()) for line in fig.axes[0].get_lines()}
+    assert len(drawn) == len(stored) == 3
+    for text, sec in stored.items():
+        assert len(sec) > 5
+        np.testing.assert_array_equal(drawn[float(text.removesuffix("rpm"))], sec.points["slider.vx"])

@@ -1,14 +1,19 @@
 """Regenerate every figure and every generated table of docs/replication.md.
 
-    .venv/bin/python docs/scripts/replicate.py                # everything, ~2 cores
-    .venv/bin/python docs/scripts/replicate.py --jobs 4 --work /tmp/rep
-    .venv/bin/python docs/scripts/replicate.py --quick        # a smoke run: few speeds, short runs
+    .venv/bin/python docs/scripts/replicate.py            # runs what is missing, then draws and fills the page
+    .venv/bin/python docs/scripts/replicate.py --draw     # only draw and fill, from the runs in --work
+    .venv/bin/python docs/scripts/replicate.py --full     # also the tighter-tolerance runs of 1200 and 800 rpm,
+                                                          # of 207 MPa, and the 207 MPa bifurcation scans
 
-The runs are `mbs sweep`s (planar_mbs.sweep.run_sweep) kept in ``--work``
-(default build/replication/); rerunning resumes them, ``--fresh`` starts over.
-Figures go to docs/images/replication_*.png; the tables between the
-``<!-- BEGIN generated:... -->`` / ``<!-- END generated:... -->`` markers of
-docs/replication.md are rewritten, including the wall time of the run.
+The claims of Muvengei, Kihiu and Ikua, "Effects of input speed on the dynamic response of
+planar multi-body systems with differently located frictionless revolute clearance joints",
+are checked on long runs (docs/scripts/replication_runs.py: 1000 crank revolutions each,
+cached in ``--work``, default build/replication/): the verdict on the settled part of the
+run, the settling revolution, Benettin's Lyapunov exponent from 5 perturbed states, and the
+verdict at a tighter tolerance.  The figures of revolutions 2–5 come from short, finely
+sampled sweeps (`planar_mbs.sweep.run_sweep`).  Figures go to docs/images/replication_*.png;
+the tables between ``<!-- BEGIN generated:... -->`` / ``<!-- END generated:... -->`` markers of
+docs/replication.md are rewritten; the numbers to docs/replication_data.json.
 """
 from __future__ import annotations
 
@@ -16,7 +21,6 @@ import argparse
 import json
 import math
 import re
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -25,41 +29,32 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 
+import replication_runs as R  # noqa: E402
 from planar_mbs import read_results  # noqa: E402
-from planar_mbs.analysis import VERDICT_COLOURS, bifurcation_figure, section_figure  # noqa: E402
-from planar_mbs.sweep import Axis, read_case_table, run_sweep, sweep_sections  # noqa: E402
+from planar_mbs.analysis import VERDICT_COLOURS, classify  # noqa: E402
+from planar_mbs.results import Results  # noqa: E402
+from planar_mbs.section import poincare_section  # noqa: E402
+from planar_mbs.sweep import Axis, read_case_table, run_sweep  # noqa: E402,F401
 
 IMAGES = ROOT / "docs" / "images"
 PAGE = ROOT / "docs" / "replication.md"
-MODELS = {"A": ROOT / "models" / "slider_crank_clearance_a.mbs", "B": ROOT / "models" / "slider_crank_clearance_b.mbs"}
+MODELS = R.MODELS
 LAWS = ["hertz", "dubowsky_freudenstein", "esdu78035", "lankarani_nikravesh"]
 LAW_TITLES = {"hertz": "Hertz", "dubowsky_freudenstein": "Dubowsky–Freudenstein", "esdu78035": "ESDU-78035",
               "lankarani_nikravesh": "Lankarani–Nikravesh"}
 SPEEDS = ["800rpm", "1200rpm", "2500rpm", "5000rpm"]
 MODULI = {"GPa": "207GPa", "MPa": "207MPa"}
-REVOLUTIONS = 101  # 1 transient + 100 section points
+REVOLUTIONS = 1000
+BIF_SPEEDS = [f"{v}rpm" for v in range(500, 6001, 250)]
 PER_REV_SERIES = 1440  # output samples per revolution of the runs whose time series are drawn
-PER_REV_BIF = 360
-SHOWN = (1, 5)  # revolutions drawn: "four cycles after the first" (Muvengei et al. §III.A)
+SHOWN = (1, 5)  # revolutions drawn: "four cycles after the first" (the paper, §III.A)
 PAPER_CLAIMS = {  # §III.C
     "A": {"800rpm": "chaotic", "1200rpm": "quasi-periodic", "2500rpm": "quasi-periodic", "5000rpm": "periodic"},
     "B": {"800rpm": "periodic", "1200rpm": "quasi-periodic", "2500rpm": "quasi-periodic", "5000rpm": "chaotic"},
 }
-
-
-def available_laws() -> list[str]:
-    from planar_mbs import load_model
-    from planar_mbs.errors import ModelError
-
-    out = []
-    for law in LAWS:
-        try:
-            load_model(MODELS["A"], law=law)
-            out.append(law)
-        except ModelError:
-            pass
-    return out
+TIGHT = {"rtol": 1e-8, "atol": 1e-11}
 
 
 def signal_of(joint: str) -> str:
@@ -67,54 +62,100 @@ def signal_of(joint: str) -> str:
 
 
 # ---------------------------------------------------------------- runs
-def run_all(work: Path, jobs: int, quick: bool, fresh: bool) -> dict:
-    work.mkdir(parents=True, exist_ok=True)
-    if fresh:
-        for f in work.glob("*.h5"):
-            f.unlink()
-    revs = 21 if quick else REVOLUTIONS
-    n_bif = {"GPa": 5 if quick else 45, "MPa": 4 if quick else 23}
-    laws = available_laws()
-    files = {"laws": {}, "speeds": {}, "bif": {}}
+def long_jobs(full: bool) -> tuple[list[tuple], list[tuple]]:
+    """(long-run jobs, Lyapunov cases), most important first."""
+    jobs, lyap = [], []
+    for tag in ("GPa", "MPa"):
+        for s in reversed(SPEEDS):
+            for j in "AB":
+                jobs.append(("long", j, MODULI[tag], s, REVOLUTIONS))
+                lyap.append((j, MODULI[tag], s))
+    for s in reversed(SPEEDS):
+        for j in "AB":
+            if full or s in ("5000rpm", "2500rpm"):
+                jobs.append(("tight", j, "207GPa", s, REVOLUTIONS, TIGHT))
+    for tag in ("GPa", "MPa") if full else ("GPa",):
+        for s in reversed(BIF_SPEEDS):
+            for j in "AB":
+                jobs.append(("long", j, MODULI[tag], s, REVOLUTIONS))
+    if full:
+        for s in SPEEDS:
+            for j in "AB":
+                jobs.append(("tight", j, "207MPa", s, REVOLUTIONS, TIGHT))
+    seen, out = set(), []
+    for job in jobs:
+        if R.job_name(*job[:4]) not in seen:
+            seen.add(R.job_name(*job[:4]))
+            out.append(job)
+    return out, lyap
 
-    def progress(tag):
-        def cb(done, total, outcome):
-            if outcome is not None:
-                v = outcome.verdict.label() if outcome.verdict else ""
-                print(f"  [{tag}] {done}/{total} {outcome.values} {outcome.status} {v} ({outcome.wall_time:.1f} s)",
-                      flush=True)
-        return cb
 
+def short_sweeps(work: Path, jobs: int | None) -> dict:
+    """The finely sampled 5-revolution sweeps behind the time-series figures and the peaks."""
+    files = {"laws": {}, "speeds": {}}
     for joint, model in MODELS.items():
         keep = ["slider.vx", "slider.ax", "crank_speed.torque", signal_of(joint)]
         out = work / f"laws_{joint}.h5"
-        print(f"laws at {joint}: {', '.join(laws)}", flush=True)
-        run_sweep(model, [Axis("law", tuple(laws))], out, revolutions=SHOWN[1], per_rev=PER_REV_SERIES, keep=keep,
-                  section=None, jobs=jobs, progress=progress(f"laws {joint}"))
+        run_sweep(model, [Axis("law", tuple(LAWS))], out, revolutions=SHOWN[1], per_rev=PER_REV_SERIES, keep=keep,
+                  section=None, jobs=jobs)
         files["laws"][joint] = out
         for tag, modulus in MODULI.items():
-            out = work / f"speeds_{joint}_{tag}.h5"
-            print(f"speeds at {joint}, E = {modulus}", flush=True)
+            out = work / f"series_{joint}_{tag}.h5"
             run_sweep(model, [Axis("speed", tuple(SPEEDS))], out, sets={"youngs_modulus": modulus},
-                      revolutions=revs, per_rev=PER_REV_SERIES, keep=keep, section={}, jobs=jobs,
-                      progress=progress(f"speeds {joint} {tag}"))
+                      revolutions=SHOWN[1], per_rev=PER_REV_SERIES, keep=keep, section=None, jobs=jobs)
             files["speeds"][(joint, tag)] = out
-    for tag, modulus in MODULI.items():
-        for joint, model in MODELS.items():
-            out = work / f"bifurcation_{joint}_{tag}.h5"
-            print(f"bifurcation at {joint}, E = {modulus}: {n_bif[tag]} speeds", flush=True)
-            run_sweep(model, [Axis("speed", _speeds(500, 6000, n_bif[tag]))], out,
-                      sets={"youngs_modulus": modulus}, revolutions=revs, per_rev=PER_REV_BIF, keep=[],
-                      section={}, jobs=jobs, progress=progress(f"bif {joint} {tag}"))
-            files["bif"][(joint, tag)] = out
     return files
 
 
-def _speeds(lo: float, hi: float, n: int) -> tuple[str, ...]:
-    return tuple(f"{v:.6g}rpm" for v in np.linspace(lo, hi, n))
+# ---------------------------------------------------------------- reading the long runs
+def load_run(work: Path, kind: str, joint: str, modulus: str, speed: str) -> tuple[Results, dict] | None:
+    path = work / f"{R.job_name(kind, joint, modulus, speed)}.npz"
+    if not path.exists():
+        return None
+    d = np.load(path)
+    meta = json.loads(str(d["meta"]))
+    sig = {k: d[k] for k in d.files if "." in k}
+    return Results(time=d["time"], signals=sig, units={k: "" for k in sig}, attrs={}), meta
 
 
-# ---------------------------------------------------------------- figures
+def verdict_of(res: Results):
+    sec = poincare_section(res, ("slider.vx", "slider.ax"))
+    return sec, classify(sec)
+
+
+def lyapunov_of(work: Path, joint: str, modulus: str, speed: str) -> dict | None:
+    path = work / f"{R.job_name('lyap', joint, modulus, speed)}.json"
+    if not path.exists():
+        return None
+    d = json.loads(path.read_text())
+    main = [r for r in d["runs"] if r["d0"] == R.LYAP_D0 and r["value"] is not None]
+    small = [r for r in d["runs"] if r["d0"] != R.LYAP_D0 and r["value"] is not None]
+    vals = np.array([r["value"] for r in main])
+    return {"mean": float(vals.mean()) if len(vals) else float("nan"), "std": float(vals.std()) if len(vals) else float("nan"),
+            "n": len(vals), "values": vals.tolist(), "small_d0": small[0]["value"] if small else None,
+            "revolutions": d["revolutions"], "from_revolution": d["from_revolution"], "runs": d["runs"]}
+
+
+def case_summary(work: Path, joint: str, modulus: str, speed: str) -> dict | None:
+    got = load_run(work, "long", joint, modulus, speed)
+    if got is None:
+        return None
+    res, meta = got
+    sec, v = verdict_of(res)
+    out = {"joint": joint, "E": modulus, "speed": speed, "revolutions": meta["revolutions"],
+           "settled_revolution": v.settled_revolution, "verdict": v.label(), "class": v.verdict, **{
+               k: getattr(v, k) for k in ("K", "lyapunov", "dimension", "recurrence", "n_points", "agree", "note")},
+           "rtol": meta["rtol"], "cpu": meta["cpu"], "commit": meta["commit"]}
+    tight = load_run(work, "tight", joint, modulus, speed)
+    if tight is not None:
+        _, vt = verdict_of(tight[0])
+        out["tight"] = {"rtol": tight[1]["rtol"], "verdict": vt.label(), "class": vt.verdict,
+                        "settled_revolution": vt.settled_revolution, "cpu": tight[1]["cpu"]}
+    out["benettin"] = lyapunov_of(work, joint, modulus, speed)
+    return out
+
+
+# ---------------------------------------------------------------- time series (short sweeps)
 def _plt():
     import matplotlib
 
@@ -129,8 +170,6 @@ def _cases(path: Path) -> list[tuple[dict, object]]:
 
 
 def _window(res, revs=SHOWN):
-    from planar_mbs.analysis import driver_period  # noqa: F401  (period from the speed parameter)
-
     speed = float(re.match(r"[\d.eE+-]+", res.attrs["parameters"]["speed"]).group()) / 60.0  # rev/s
     period = 1.0 / speed
     t = res.time
@@ -165,30 +204,99 @@ def series_grid(path: Path, signals: list[tuple[str, str]], label_of, title: str
     plt.close(fig)
 
 
-def poincare_grid(path: Path, title: str, out: Path) -> None:
+# ---------------------------------------------------------------- figures
+def poincare_grid(work: Path, joint: str, modulus: str, title: str, out: Path) -> None:
+    """Fig. 12 / 16 again: the Poincaré map of each speed from the 1000-revolution run; the
+    settled points in the verdict's colour, the transient in grey."""
     plt = _plt()
-    secs = sweep_sections(path)
-    fig, axes = plt.subplots(2, 2, figsize=(8.5, 7.5))
-    for ax, (i, (row, sec, verdict)) in zip(axes.flat, enumerate(secs)):
-        section_figure(sec, verdict, title=f"({chr(97 + i)}) {row['values']['speed']}", ax=ax)
+    fig, axes = plt.subplots(2, 2, figsize=(9, 8))
+    for i, (ax, speed) in enumerate(zip(axes.flat, SPEEDS)):
+        got = load_run(work, "long", joint, modulus, speed)
+        if got is None:
+            ax.text(0.5, 0.5, f"{speed}: not run", ha="center", va="center")
+            ax.set_axis_off()
+            continue
+        sec, v = verdict_of(got[0])
+        first = v.settled_at if v.settled_at is not None else len(sec) // 2
+        vx, axx = sec.points["slider.vx"], sec.points["slider.ax"]
+        ax.plot(vx[:first], axx[:first], ".", ms=1.5, color="0.75", label=f"before revolution {sec.revolution[first]}")
+        ax.plot(vx[first:], axx[first:], "o" if v.verdict == "periodic" else ".", ms=4 if v.verdict == "periodic" else 2,
+                color=VERDICT_COLOURS[v.verdict], label=v.label())
+        settle = f"settled at rev. {v.settled_revolution}" if v.settled_revolution else "not settled"
+        ax.set_title(f"({chr(97 + i)}) {speed}: {v.label()}, {settle}\n({len(sec)} points, revolutions 2–{sec.revolution[-1]})",
+                     fontsize=8)
+        ax.set_xlabel("slider.vx [m/s]", fontsize=8)
+        ax.set_ylabel("slider.ax [m/s²]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=7, markerscale=2)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
 
 
-def bifurcation(path: Path, title: str, out: Path) -> None:
+def bifurcation(work: Path, joint: str, modulus: str, title: str, out: Path) -> list[dict]:
+    """Settled Poincaré values of slider vx and ax against crank speed, coloured by verdict;
+    the transient points in light grey."""
     plt = _plt()
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
-    bifurcation_figure(path, "speed", "slider.vx", unit="rpm", ax=axes[0], title=title)
-    bifurcation_figure(path, "speed", "slider.ax", unit="rpm", ax=axes[1])
-    axes[0].set_xlabel("")
+    fig, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    rows, seen = [], set()
+    for speed in BIF_SPEEDS:
+        got = load_run(work, "long", joint, modulus, speed)
+        if got is None:
+            continue
+        sec, v = verdict_of(got[0])
+        rpm = float(speed[:-3])
+        first = v.settled_at if v.settled_at is not None else len(sec) // 2
+        for ax, name in zip(axes, ("slider.vx", "slider.ax")):
+            y = sec.points[name]
+            ax.plot(np.full(first, rpm), y[:first], ".", ms=1, color="0.85")
+            ax.plot(np.full(len(y) - first, rpm), y[first:], ".", ms=2, color=VERDICT_COLOURS[v.verdict],
+                    label=v.verdict if (v.verdict not in seen and name == "slider.vx") else None)
+        seen.add(v.verdict)
+        rows.append({"speed": speed, "verdict": v.label(), "class": v.verdict, "settled_revolution": v.settled_revolution,
+                     "revolutions": got[1]["revolutions"], "K": v.K, "lyapunov": v.lyapunov, "note": v.note})
+    axes[0].set_ylabel("slider.vx at the section [m/s]")
+    axes[1].set_ylabel("slider.ax at the section [m/s²]")
+    axes[1].set_xlabel("crank speed [rpm]")
+    axes[0].set_title(title, fontsize=9)
+    if seen:
+        axes[0].legend(fontsize=8, markerscale=4)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return rows
+
+
+def convergence_figure(summaries: list[dict], out: Path) -> None:
+    """Running mean of Benettin's exponent for every perturbed state, per case."""
+    plt = _plt()
+    cases = [s for s in summaries if s.get("benettin")]
+    if not cases:
+        return
+    n = len(cases)
+    cols = 4
+    fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(12, 2.4 * math.ceil(n / cols)), squeeze=False)
+    for ax, s in zip(axes.flat, cases):
+        for r in s["benettin"]["runs"]:
+            if r["value"] is None:
+                continue
+            logs = np.array(r["logs"])[r["discard"]:]
+            style = "-" if r["d0"] == R.LYAP_D0 else "k--"
+            ax.plot(np.arange(1, len(logs) + 1), np.cumsum(logs) / np.arange(1, len(logs) + 1), style, lw=0.8)
+        ax.axhline(0, color="0.5", lw=0.5)
+        ax.set_title(f"{s['joint']}, {s['E']}, {s['speed']}: {s['verdict']}", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for ax in axes.flat[n:]:
+        ax.set_axis_off()
+    fig.supxlabel("revolutions after the start state (first 10 discarded)", fontsize=8)
+    fig.supylabel("running mean of λ per revolution", fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
 
 
-def make_figures(files: dict, laws: list[str]) -> list[Path]:
+def make_figures(work: Path, files: dict, summaries: list[dict]) -> tuple[list[Path], dict]:
     IMAGES.mkdir(parents=True, exist_ok=True)
     written = []
 
@@ -197,16 +305,15 @@ def make_figures(files: dict, laws: list[str]) -> list[Path]:
         written.append(p)
         return p
 
-    pending = [LAW_TITLES[law] for law in LAWS if law not in laws]
     law_label = lambda row: LAW_TITLES.get(row["values"]["law"], row["values"]["law"])  # noqa: E731
     for joint, fig_v, fig_t in (("A", 5, 6), ("B", 7, 8)):
         path = files["laws"][joint]
         series_grid(path, [("slider.vx", "m/s"), ("slider.ax", "m/s²")], law_label,
                     f"Fig. {fig_v}: slider velocity and acceleration, 0.3 mm clearance at {joint}, 5000 rpm, "
-                    "E = 207 GPa, revolutions 2–5", save(f"fig{fig_v:02d}_{joint}_laws_slider"), pending)
+                    "E = 207 GPa, revolutions 2–5", save(f"fig{fig_v:02d}_{joint}_laws_slider"))
         series_grid(path, [("crank_speed.torque", "N m")], law_label,
                     f"Fig. {fig_t}: driving torque, 0.3 mm clearance at {joint}, 5000 rpm, E = 207 GPa",
-                    save(f"fig{fig_t:02d}_{joint}_laws_torque"), pending)
+                    save(f"fig{fig_t:02d}_{joint}_laws_torque"))
     speed_label = lambda row: row["values"]["speed"]  # noqa: E731
     for joint, base in (("A", 9), ("B", 13)):
         for tag, modulus in MODULI.items():
@@ -218,14 +325,21 @@ def make_figures(files: dict, laws: list[str]) -> list[Path]:
                         save(f"fig{base + 1:02d}_{joint}_force_{tag}"))
             series_grid(path, [("crank_speed.torque", "N m")], speed_label, f"Fig. {base + 2}: crank torque, {e}",
                         save(f"fig{base + 2:02d}_{joint}_torque_{tag}"))
-            poincare_grid(path, f"Fig. {base + 3}: Poincaré maps (slider vx against ax, once per revolution, "
-                          f"revolutions 2–{REVOLUTIONS}), 0.3 mm clearance at {joint}, E = {modulus}",
+            poincare_grid(work, joint, modulus, f"Fig. {base + 3}: Poincaré maps (slider vx against ax, once per "
+                          f"revolution, {REVOLUTIONS}-revolution runs), 0.3 mm clearance at {joint}, E = {modulus}",
                           save(f"fig{base + 3:02d}_{joint}_poincare_{tag}"))
-    for (joint, tag), path in files["bif"].items():
-        bifurcation(path, f"Bifurcation diagram, 0.3 mm clearance at {joint}, E = {MODULI[tag]}:\nslider vx and ax "
-                    f"once per revolution (revolutions 2–{REVOLUTIONS}) against crank speed",
-                    save(f"bifurcation_{joint}_{tag}"))
-    return written
+    bif = {}
+    for tag, modulus in MODULI.items():
+        for joint in "AB":
+            if not any((work / f"{R.job_name('long', joint, modulus, s)}.npz").exists() for s in BIF_SPEEDS
+                       if s not in SPEEDS):
+                continue
+            bif[f"{joint}_{tag}"] = bifurcation(
+                work, joint, modulus, f"Bifurcation diagram, 0.3 mm clearance at {joint}, E = {modulus}: slider vx "
+                f"and ax once per revolution after the motion settled (grey: before), {REVOLUTIONS}-revolution runs",
+                save(f"bifurcation_{joint}_{tag}"))
+    convergence_figure(summaries, save("lyapunov_convergence"))
+    return written, bif
 
 
 # ---------------------------------------------------------------- numbers
@@ -240,23 +354,48 @@ def peaks(path: Path, joint: str, from_rev: int = 1) -> dict[str, dict[str, floa
     return out
 
 
-def tables(files: dict, laws: list[str], wall: float, figures: list[Path], fresh: bool = True) -> dict[str, str]:
-    gen = {}
-    # verdicts per speed
-    lines = ["| joint | E | speed | paper says | our verdict | K | λ per rev | D2 | recurrence | N | agrees with paper |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-    data = {"verdicts": [], "peaks": {}, "laws": {}}
-    for (joint, tag), path in files["speeds"].items():
-        for row, sec, v in sweep_sections(path):
-            speed = row["values"]["speed"]
-            claim = PAPER_CLAIMS[joint][speed]
-            ok = "yes" if v.verdict == claim else "no"
-            lam = "–" if v.lyapunov != v.lyapunov else f"{v.lyapunov:.2f}"
-            lines.append(f"| {joint} | {MODULI[tag]} | {speed} | {claim} | **{v.label()}** | {v.K:.2f} | {lam} | "
-                         f"{v.dimension:.2f} | {v.recurrence:.1e} | {v.n_points} | {ok} |")
-            data["verdicts"].append({"joint": joint, "E": MODULI[tag], "speed": speed, **v.as_dict()})
+# ---------------------------------------------------------------- tables
+def _lam(b: dict | None) -> str:
+    if not b or not b["n"]:
+        return "not run"
+    return f"{b['mean']:.2f} ± {b['std']:.2f} ({b['n']})"
+
+
+def _agree_lyapunov(s: dict) -> str:
+    """Where Benettin's exponent and the verdict (nearest-neighbour λ, recurrence) disagree."""
+    b = s.get("benettin")
+    if not b or not b["n"]:
+        return ""
+    positive = b["mean"] - b["std"] > 0.1
+    negative = b["mean"] + b["std"] < 0
+    if s["class"] == "periodic" and not negative:
+        return "Benettin λ not negative on a periodic orbit"
+    if s["class"] == "chaotic" and not positive:
+        return "Benettin λ not clearly positive"
+    if s["class"] == "chaotic" and not math.isnan(s["lyapunov"]) and abs(b["mean"] - s["lyapunov"]) > 0.5 * abs(b["mean"]):
+        return f"both positive, magnitudes differ ({b['mean']:.1f} vs {s['lyapunov']:.1f})"
+    if b.get("small_d0") is not None and b["mean"] > 0 and abs(b["small_d0"] - b["mean"]) > 0.25 * abs(b["mean"]) + 2 * b["std"]:
+        return f"depends on d0 (d0/100: {b['small_d0']:.2f})"
+    return ""
+
+
+def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: list[Path], wall: float) -> dict[str, str]:
+    gen, data = {}, {"cases": summaries, "bifurcation": bif, "peaks": {}, "laws": {}}
+    lines = ["| joint | E | speed | paper says | verdict after the transient | settled at revolution | revolutions run "
+             "| λ Benettin, per rev (mean ± sd, states) | λ nearest-neighbour | K | rtol 1e-8 gives | agrees with paper | note |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for s in summaries:
+        paper = PAPER_CLAIMS[s["joint"]][s["speed"]]
+        ok = "yes" if s["class"] == paper else "no"
+        nn = "–" if s["lyapunov"] != s["lyapunov"] else f"{s['lyapunov']:.2f}"
+        settled = s["settled_revolution"] if s["settled_revolution"] is not None else f"not settled after {s['revolutions']}"
+        t = s.get("tight")
+        tight = (f"{t['verdict']}, settled at {t['settled_revolution']}" if t and t["settled_revolution"] is not None
+                 else (f"{t['verdict']}, not settled" if t else "not run"))
+        note = "; ".join(filter(None, [_agree_lyapunov(s), s["note"] if not s["agree"] else ""]))
+        lines.append(f"| {s['joint']} | {s['E']} | {s['speed']} | {paper} | **{s['verdict']}** | {settled} | "
+                     f"{s['revolutions']} | {_lam(s.get('benettin'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")
     gen["verdicts"] = "\n".join(lines)
-    # peaks against speed
     lines = ["| joint | E | quantity | " + " | ".join(SPEEDS) + " | grows with speed |",
              "| --- | --- | --- | " + " | ".join("---" for _ in SPEEDS) + " | --- |"]
     for (joint, tag), path in files["speeds"].items():
@@ -268,37 +407,44 @@ def tables(files: dict, laws: list[str], wall: float, figures: list[Path], fresh
             lines.append(f"| {joint} | {MODULI[tag]} | max {q} [{unit}] | " + " | ".join(f"{x:.4g}" for x in vals)
                          + f" | {mono} |")
     gen["peaks"] = "\n".join(lines)
-    # laws
     lines = ["| joint | law | max abs slider ax [m/s²] | max contact force [N] | max abs torque [N m] |",
              "| --- | --- | --- | --- | --- |"]
     for joint, path in files["laws"].items():
         p = peaks(path, joint)
         data["laws"][joint] = p
         for law in LAWS:
-            if law in p:
-                lines.append(f"| {joint} | {LAW_TITLES[law]} | {p[law]['ax']:.4g} | {p[law]['force']:.4g} | "
-                             f"{p[law]['torque']:.4g} |")
-            else:
-                lines.append(f"| {joint} | {LAW_TITLES[law]} | pending | pending | pending |")
+            lines.append(f"| {joint} | {LAW_TITLES[law]} | {p[law]['ax']:.4g} | {p[law]['force']:.4g} | "
+                         f"{p[law]['torque']:.4g} |")
     gen["laws"] = "\n".join(lines)
-    # bifurcation summary: verdict counts
-    lines = ["| joint | E | speeds | periodic | quasi-periodic | chaotic | undetermined |", "| --- | --- | --- | --- | --- | --- | --- |"]
-    for (joint, tag), path in files["bif"].items():
-        rows = read_case_table(path)
-        count = lambda v: sum(1 for r in rows if r["verdict"].startswith(v))  # noqa: E731
-        lines.append(f"| {joint} | {MODULI[tag]} | {len(rows)} | {count('periodic')} | {count('quasi')} | "
-                     f"{count('chaotic')} | {count('undetermined')} |")
-        data.setdefault("bifurcation", {})[f"{joint}_{tag}"] = [
-            {"speed": r["values"]["speed"], "verdict": r["verdict"], "K": r["K"], "lyapunov": r["lyapunov"],
-             "dimension": r["dimension"]} for r in rows]
+    lines = ["| joint | E | speeds run | periodic | quasi-periodic | chaotic | not settled |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for key, rows in bif.items():
+        joint, tag = key.split("_")
+        c = lambda k: sum(1 for r in rows if r["class"] == k)  # noqa: E731
+        lines.append(f"| {joint} | {MODULI[tag]} | {len(rows)} of {len(BIF_SPEEDS)} | {c('periodic')} | "
+                     f"{c('quasi-periodic')} | {c('chaotic')} | {sum(1 for r in rows if r['settled_revolution'] is None)} |")
+    lines += ["", "| speed | " + " | ".join(f"{k.replace('_', ', ')}" for k in bif) + " |",
+              "| --- | " + " | ".join("---" for _ in bif) + " |"]
+    for speed in BIF_SPEEDS:
+        cells = []
+        for rows in bif.values():
+            r = next((r for r in rows if r["speed"] == speed), None)
+            cells.append("not run" if r is None else f"{r['verdict']}" + (
+                f" (from {r['settled_revolution']})" if r["settled_revolution"] is not None else " (not settled)"))
+        lines.append(f"| {speed} | " + " | ".join(cells) + " |")
     gen["bifurcation"] = "\n".join(lines)
-    pending = [LAW_TITLES[law] for law in LAWS if law not in laws]
-    gen["run"] = (f"Last regeneration: {len(figures)} figures, wall time **{wall / 60:.1f} min** "
-                  f"({wall:.0f} s) on this machine (2 cores, `--fresh --jobs 2`, {sum(len(read_case_table(p)) for d in files.values() for p in d.values())} runs of 5 to {REVOLUTIONS} crank revolutions)"
-                  + (f"; pending (law not implemented): {', '.join(pending)}" if pending else "") + ".")
-    (ROOT / "docs" / "replication_data.json").write_text(json.dumps(data, indent=1, default=float))
-    if not fresh:  # a resumed run only redraws: the page keeps its from-scratch wall time
-        print(gen.pop("run") + " (resumed run: the page keeps its from-scratch wall time; use --fresh)")
+    commits = sorted({s["commit"] for s in summaries})
+    n_long = len(list(work.glob("long_*.npz")))
+    n_tight = len(list(work.glob("tight_*.npz")))
+    n_lyap = len(list(work.glob("lyap_*.json")))
+    cpu = sum(json.loads(str(np.load(p)["meta"]))["cpu"] for p in work.glob("*.npz"))
+    cpu += sum(json.loads(p.read_text())["cpu"] for p in work.glob("lyap_*.json"))
+    gen["run"] = (f"Runs behind this page: {n_long} runs of {REVOLUTIONS} revolutions, {n_tight} of them again at "
+                  f"rtol 1e-8, Lyapunov exponents of {n_lyap} cases; {cpu / 60:.0f} min of CPU in the time loops "
+                  f"(kernel of commit {', '.join(c[:10] for c in commits)}); {len(figures)} figures; "
+                  f"drawing and analysis {wall:.0f} s.")
+    data["commits"] = commits
+    (ROOT / "docs" / "replication_data.json").write_text(json.dumps(data, indent=1, default=_json))
     return gen
 
 
@@ -315,27 +461,33 @@ def fill_page(gen: dict[str, str]) -> None:
     PAGE.write_text(text, encoding="utf-8")
 
 
+def _json(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--jobs", type=int, default=None, help="parallel processes (default: cores)")
-    ap.add_argument("--work", type=Path, default=ROOT / "build" / "replication", help="where the sweep files go")
-    ap.add_argument("--quick", action="store_true", help="a smoke run (short runs, few speeds): figures go to WORK/images, the page is not touched")
-    ap.add_argument("--fresh", action="store_true", help="delete the sweep files first (from scratch)")
+    ap.add_argument("--jobs", type=int, default=2, help="parallel processes for the runs")
+    ap.add_argument("--work", type=Path, default=ROOT / "build" / "replication", help="where the runs are kept")
+    ap.add_argument("--draw", action="store_true", help="run nothing: draw and fill the page from the runs in --work")
+    ap.add_argument("--full", action="store_true", help="also the optional runs (see the module docstring)")
     args = ap.parse_args()
-    global IMAGES
-    if args.quick:
-        IMAGES = args.work / "images"
+    jobs, lyap = long_jobs(args.full)
+    if not args.draw:
+        R.main(jobs, args.work, args.jobs)
+        R.main_lyapunov(lyap, args.work)
+    files = short_sweeps(args.work, args.jobs)
     start = time.perf_counter()
-    laws = available_laws()
-    files = run_all(args.work, args.jobs, args.quick, args.fresh)
-    figures = make_figures(files, laws)
-    wall = time.perf_counter() - start
-    gen = tables(files, laws, wall, figures, fresh=args.fresh)
-    if not args.quick:
-        fill_page(gen)
-    else:
-        print("\n\n".join(gen.values()))
-    print(f"{len(figures)} figures in {IMAGES}, wall time {wall:.0f} s")
+    summaries = [s for s in (case_summary(args.work, j, MODULI[tag], sp) for tag in MODULI for j in "AB"
+                             for sp in SPEEDS) if s is not None]
+    figures, bif = make_figures(args.work, files, summaries)
+    gen = tables(args.work, files, summaries, bif, figures, time.perf_counter() - start)
+    fill_page(gen)
+    print(gen["run"])
 
 
 if __name__ == "__main__":

@@ -82,3 +82,53 @@ def main(jobs: list[tuple], work: Path, processes: int = 2) -> None:
                 print(time.strftime("%H:%M:%S"), f.result(), flush=True)
             except Exception as err:  # noqa: BLE001  (report and go on with the others)
                 print(time.strftime("%H:%M:%S"), futs[f], "ERROR", repr(err), flush=True)
+
+
+LYAP_SETTINGS = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-13}
+LYAP_REVOLUTIONS, LYAP_PER_REV, LYAP_SEEDS, LYAP_D0 = 60, 16, 5, 1e-6
+
+
+def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "lankarani_nikravesh") -> str:
+    """Benettin exponents from the final state of the long run: LYAP_SEEDS perturbed companions
+    (d0 = LYAP_D0), one more at d0/100 to show whether the estimate depends on d0."""
+    from planar_mbs import load_model
+    from planar_mbs.errors import SimulationError
+    from planar_mbs.lyapunov import mechanism_exponent
+    from planar_mbs.stepper import Stepper
+
+    name = job_name("lyap", joint, modulus, speed, law)
+    out = work / f"{name}.json"
+    src = work / f"{job_name('long', joint, modulus, speed, law)}.npz"
+    if out.exists():
+        return f"{name}: cached"
+    if not src.exists():
+        return f"{name}: no long run yet"
+    d = np.load(src)
+    meta = json.loads(str(d["meta"]))
+    model = load_model(MODELS[joint], speed=speed, youngs_modulus=modulus, law=law)
+    T = meta["period"]
+    cpu = time.process_time()
+    runs = []
+    for seed, d0 in [(s, LYAP_D0) for s in range(LYAP_SEEDS)] + [(0, LYAP_D0 / 100)]:
+        st = Stepper.restore(model, d["y"], d["contact"], float(d["clock"][0]), output_step=T / LYAP_PER_REV,
+                             **LYAP_SETTINGS)
+        try:
+            e = mechanism_exponent(st, T, LYAP_REVOLUTIONS, d0=d0, seed=seed, per_rev=LYAP_PER_REV)
+            runs.append({"seed": seed, "d0": d0, "value": e.value, "logs": e.logs.tolist(), "discard": e.discard})
+        except SimulationError as err:
+            runs.append({"seed": seed, "d0": d0, "value": None, "error": str(err)})
+    res = {"runs": runs, "settings": LYAP_SETTINGS, "revolutions": LYAP_REVOLUTIONS, "per_rev": LYAP_PER_REV,
+           "from_revolution": meta["revolutions"], "cpu": time.process_time() - cpu, "commit": git_commit()}
+    out.write_text(json.dumps(res))
+    vals = [r["value"] for r in runs[:LYAP_SEEDS] if r["value"] is not None]
+    return f"{name}: {np.mean(vals):.3g} ± {np.std(vals):.2g} per period, {res['cpu']:.0f} s cpu"
+
+
+def main_lyapunov(cases: list[tuple], work: Path) -> None:
+    for case in cases:
+        for attempt in range(240):  # wait for the long run of the case
+            msg = run_lyapunov(work, *case)
+            if not msg.endswith("no long run yet"):
+                break
+            time.sleep(30)
+        print(time.strftime("%H:%M:%S"), msg, flush=True)
