@@ -226,6 +226,7 @@ def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) ->
 
 def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes: dict):
     """`planar_mbs.study.long_run` until the section settles; the results written to ``out``."""
+    from planar_mbs.model import ST_CONTACT_EVENTS, ST_REJECTED, ST_RHS, ST_STEPS
     from planar_mbs.results import write_results
     from planar_mbs.study import long_run
 
@@ -234,8 +235,11 @@ def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes:
         run = long_run(m, max_revolutions, PER_REV_UNTIL_SETTLED, until_settled=True,
                        progress=lambda done, total: progress.update(done, total), **changes)
     res = run.results
-    res.attrs.update(t_reached=float(res.time[-1]), revolutions=run.revolutions,
-                     settled_at=run.settled_at if run.settled_at is not None else -1)
+    stats = run.stepper.stats
+    res.attrs.update(t_reached=float(res.time[-1]), revolutions=run.revolutions, wall_time=run.wall_time,
+                     settled_at=run.settled_at if run.settled_at is not None else -1,
+                     n_steps=int(stats[ST_STEPS]), n_rejected=int(stats[ST_REJECTED]), n_rhs=int(stats[ST_RHS]),
+                     n_contact_events=int(stats[ST_CONTACT_EVENTS]))
     out.unlink(missing_ok=True)
     write_results(str(out), res)
     text = (f"settled on a periodic orbit at revolution {run.settled_at}" if run.settled_at is not None

@@ -228,8 +228,9 @@ def _classify_part(points, scale, tol_periodic, max_period, seed) -> Verdict:
     best = float(np.min(r))
     periodic = [p + 1 for p in range(len(r)) if r[p] < tol_periodic]
     # the 0-1 test on each coordinate that moves at the scale of the motion (a coordinate
-    # whose section values agree to 1e-6 of its spread is constant: K = 0 for it)
-    ks = [zero_one_test(x[:, i], seed=seed) if np.ptp(x[:, i]) > 1e-6 else 0.0 for i in range(x.shape[1])]
+    # whose section values agree within the periodicity tolerance is constant: K = 0 for it;
+    # the test would only see integration noise)
+    ks = [zero_one_test(x[:, i], seed=seed) if np.ptp(x[:, i]) > tol_periodic else 0.0 for i in range(x.shape[1])]
     K = float(np.mean(ks)) if ks else 0.0
     if periodic:
         # the points coincide: nearest-neighbour growth and dimension measure round-off only

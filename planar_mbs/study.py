@@ -8,6 +8,7 @@ hand back the final kernel state (for a Lyapunov exponent from there, see
 """
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -26,6 +27,7 @@ class LongRun:
     period: float
     revolutions: int
     settled_at: int | None  # revolution from which the motion is settled (None: not settled)
+    wall_time: float = 0.0  # s in the time loop and the settling checks
 
 
 def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_settled: bool = False,
@@ -51,6 +53,7 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
         table, cols = select_signals(st.table, list(signals))
     times, blocks = [], []
     settled, done = None, 0
+    start = time.perf_counter()
     block = 10
     while done < revolutions:
         nxt = min(revolutions, done + block)
@@ -70,7 +73,7 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
     res = _results(model, table, times, blocks)
     if settled is None:
         settled = settling_of_results(res, model, periodic_only=until_settled)
-    return LongRun(res, st, period, done, settled)
+    return LongRun(res, st, period, done, settled, time.perf_counter() - start)
 
 
 def _results(model, table, times, blocks) -> Results:

@@ -130,3 +130,26 @@ def test_mbs_analyze_without_a_slider_names_the_option(tmp_path):
     assert "-p X:Y" in out.output and "Traceback" not in out.output
     ok = CliRunner().invoke(app, [str(path), "-p", "arm.phi:arm.x"])
     assert ok.exit_code == 0, ok.output
+
+
+@pytest.mark.slow
+def test_mbs_run_until_settled_and_analyze_agree(tmp_path):
+    """`mbs run --until-settled` on the clearance slider-crank; `mbs analyze` on its file finds
+    the same settling revolution, and the points after it recur (checked here directly)."""
+    from planar_mbs import read_results
+    from planar_mbs.cli.app import app
+
+    out = tmp_path / "long.h5"
+    run = CliRunner().invoke(app, ["run", "models/slider_crank_clearance_a.mbs", "--until-settled",
+                                   "--max-revolutions", "300", "--rtol", "1e-6", "-q", "-o", str(out)])
+    assert run.exit_code == 0, run.output
+    got = CliRunner().invoke(app, ["analyze", str(out)])
+    assert got.exit_code == 0, got.output
+    if "settled on a periodic orbit at revolution" in run.output:
+        rev = int(run.output.split("at revolution ")[1].split(";")[0])
+        assert f"settled at revolution {rev} " in got.output
+        sec = poincare_section(read_results(out))
+        tail = sec.array()[sec.revolution >= rev] / np.array([sec.scale[n] for n in sec.names])
+        assert any(np.max(np.linalg.norm(tail[p:] - tail[:-p], axis=1)) < 1e-3 for p in range(1, 17))
+    else:
+        assert "not settled" in run.output
