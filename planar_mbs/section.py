@@ -138,7 +138,7 @@ def crossings(t: np.ndarray, phi: np.ndarray, angle: float | None = None) -> np.
     sign = 1.0 if phi[-1] >= phi[0] else -1.0
     if angle is None:
         s = sign * (phi - phi[0]) / (2 * math.pi)
-        lvl = np.floor(s + 1e-12)
+        lvl = np.floor(s + 1e-9)  # a turn completed to round-off at the last sample counts
     else:
         s = sign * (phi - angle) / (2 * math.pi)
         lvl = np.floor(s)

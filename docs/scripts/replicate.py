@@ -75,7 +75,8 @@ def long_jobs(full: bool) -> tuple[list[tuple], list[tuple]]:
             if full or s in ("5000rpm", "2500rpm"):
                 jobs.append(("tight", j, "207GPa", s, REVOLUTIONS, TIGHT))
     for tag in ("GPa", "MPa") if full else ("GPa",):
-        for s in reversed(BIF_SPEEDS):
+        coarse = [s for s in BIF_SPEEDS if int(s[:-3]) % 500 == 0]  # every 500 rpm first, then the rest
+        for s in coarse[::-1] + [s for s in BIF_SPEEDS if s not in coarse][::-1]:
             for j in "AB":
                 jobs.append(("long", j, MODULI[tag], s, REVOLUTIONS))
     if full:
@@ -115,7 +116,15 @@ def load_run(work: Path, kind: str, joint: str, modulus: str, speed: str) -> tup
     d = np.load(path)
     meta = json.loads(str(d["meta"]))
     sig = {k: d[k] for k in d.files if "." in k}
-    return Results(time=d["time"], signals=sig, units={k: "" for k in sig}, attrs={}), meta
+    t = d["time"]
+    cont = path.with_name(path.stem + "_cont.npz")
+    if cont.exists():  # a continuation from the saved final state (replication_runs.continue_run)
+        c = np.load(cont)
+        meta = json.loads(str(c["meta"]))
+        keep = c["time"] > t[-1]
+        t = np.concatenate([t, c["time"][keep]])
+        sig = {k: np.concatenate([v, c[k][keep]]) for k, v in sig.items()}
+    return Results(time=t, signals=sig, units={k: "" for k in sig}, attrs={}), meta
 
 
 def verdict_of(res: Results):
@@ -358,7 +367,15 @@ def peaks(path: Path, joint: str, from_rev: int = 1) -> dict[str, dict[str, floa
 def _lam(b: dict | None) -> str:
     if not b or not b["n"]:
         return "not run"
-    return f"{b['mean']:.2f} ± {b['std']:.2f} ({b['n']})"
+    return f"{b['mean']:.3g} ± {b['std']:.2g} ({b['n']} states, {b['revolutions'] - 10} rev)"
+
+
+def _settled(cls: str, rev, revolutions: int, short: bool = False) -> str:
+    if rev is None:
+        return f"not settled after {revolutions}"
+    if cls == "periodic":
+        return f"from revolution {rev}" if short else f"{rev}"
+    return f"stationary from revolution {rev}" if short else f"{rev} (stationary {cls})"
 
 
 def _agree_lyapunov(s: dict) -> str:
@@ -382,16 +399,15 @@ def _agree_lyapunov(s: dict) -> str:
 def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: list[Path], wall: float) -> dict[str, str]:
     gen, data = {}, {"cases": summaries, "bifurcation": bif, "peaks": {}, "laws": {}}
     lines = ["| joint | E | speed | paper says | verdict after the transient | settled at revolution | revolutions run "
-             "| λ Benettin, per rev (mean ± sd, states) | λ nearest-neighbour | K | rtol 1e-8 gives | agrees with paper | note |",
+             "| λ Benettin per rev (mean ± sd) | λ nearest-neighbour | K | rtol 1e-8 gives | agrees with paper | note |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for s in summaries:
         paper = PAPER_CLAIMS[s["joint"]][s["speed"]]
         ok = "yes" if s["class"] == paper else "no"
         nn = "–" if s["lyapunov"] != s["lyapunov"] else f"{s['lyapunov']:.2f}"
-        settled = s["settled_revolution"] if s["settled_revolution"] is not None else f"not settled after {s['revolutions']}"
+        settled = _settled(s["class"], s["settled_revolution"], s["revolutions"])
         t = s.get("tight")
-        tight = (f"{t['verdict']}, settled at {t['settled_revolution']}" if t and t["settled_revolution"] is not None
-                 else (f"{t['verdict']}, not settled" if t else "not run"))
+        tight = f"{t['verdict']}, {_settled(t['class'], t['settled_revolution'], s['revolutions'], True)}" if t else "not run"
         note = "; ".join(filter(None, [_agree_lyapunov(s), s["note"] if not s["agree"] else ""]))
         lines.append(f"| {s['joint']} | {s['E']} | {s['speed']} | {paper} | **{s['verdict']}** | {settled} | "
                      f"{s['revolutions']} | {_lam(s.get('benettin'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")

@@ -133,3 +133,34 @@ def main_lyapunov(cases: list[tuple], work: Path) -> None:
                 break
             time.sleep(30)
         print(time.strftime("%H:%M:%S"), msg, flush=True)
+
+
+def continue_run(work: Path, kind: str, joint: str, modulus: str, speed: str, more: int,
+                 law: str = "lankarani_nikravesh") -> str:
+    """Continue a finished long run from its saved state by ``more`` revolutions, with the same
+    settings; writes <name>_cont.npz (read back after the run by replicate.load_run)."""
+    from planar_mbs import load_model
+    from planar_mbs.stepper import Stepper
+
+    name = job_name(kind, joint, modulus, speed, law)
+    src, out = work / f"{name}.npz", work / f"{name}_cont.npz"
+    if out.exists() or not src.exists():
+        return f"{name}: continuation cached or no run"
+    d = np.load(src)
+    meta = json.loads(str(d["meta"]))
+    model = load_model(MODELS[joint], speed=speed, youngs_modulus=modulus, law=law)
+    T = meta["period"]
+    st = Stepper.restore(model, d["y"], d["contact"], float(d["clock"][0]), output_step=T / PER_REV,
+                         rtol=meta["rtol"], atol=meta["atol"], t_end=(meta["revolutions"] + more) * T)
+    cpu = time.process_time()
+    times, rows = [], []
+    for k in range(meta["revolutions"] + 10, meta["revolutions"] + more + 1, 10):
+        t, r = st.run_to(k * T)
+        times.append(t)
+        rows.append(r)
+    sig = st.signals(np.concatenate(rows))
+    meta.update(revolutions=meta["revolutions"] + more, cpu=meta["cpu"] + time.process_time() - cpu,
+                continued_from=meta["revolutions"])
+    np.savez_compressed(out, time=np.concatenate(times), **{k: sig[k] for k in kept(joint)}, y=st.y,
+                        contact=st.contact, clock=st.clock, stats=st.stats, meta=json.dumps(meta))
+    return f"{name}: continued to {meta['revolutions']} revolutions"
