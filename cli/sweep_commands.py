@@ -390,7 +390,8 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
                   "(run longer, e.g. `mbs run --until-settled`)", markup=False)
     con.print(f"[bold]{verdict.label()}[/]  K = {verdict.K:.3f}   λ = {verdict.lyapunov:.3f} per period   "
               f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}" +
-              (f"   ({verdict.note})" if verdict.note and verdict.settled_revolution is not None else ""))
+              (f"   ({verdict.note})" if verdict.note and (verdict.settled_revolution is not None
+                                                      or verdict.verdict == "undetermined") else ""))
     if store:
         with h5py.File(file, "a") as f:
             write_section(f[group or "/"], sec, verdict)
