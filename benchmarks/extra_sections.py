@@ -54,12 +54,12 @@ def lap(k, t=[T0]):
     now = time.perf_counter(); laps[k] = now - t[0]; t[0] = now
 import numpy; lap("python + numpy")
 import planar_mbs as mbs
-from planar_mbs import units; units.registry(); lap("pint registry")
 from planar_mbs import parse; parse.parser(); lap("lark parser")
-m = mbs.load_model(%r); lap("rest of load_model")
+m = mbs.load_model(%r); lap("rest of load_model (units from our table: no pint)")
+from planar_mbs.kinematics import assemble; assemble(m); lap("assembly (constraint kernels as plain Python)")
 import numba; lap("numba import")
-from planar_mbs.kinematics import assemble; assemble(m); lap("assembly (first numba call: registry + cache load)")
-r = mbs.simulate(m, output=%r); lap("simulate incl. time loop and HDF5")
+from planar_mbs import kernel; lap("kernel modules (dispatchers, not yet loaded)")
+r = mbs.simulate(m, output=%r); lap("simulate: first compiled call (numba target + cache load), time loop, HDF5")
 laps["of which time loop"] = r.attrs["wall_time"]
 print(repr(laps))
 """ % (model, str(tmp / "b.h5"))

@@ -156,6 +156,36 @@ def loop_vs_scipy() -> dict:
     return dict(ours=ours, scipy=theirs, ratio=theirs / ours, target=100.0)
 
 
+def loop_stages(scipy_wall: float) -> dict:
+    """Where the clearance slider-crank's time loop goes (A, 5000 rpm, 5 revolutions, DOPRI5 rtol 1e-6):
+    outputs (the loop with outputs every 10 µs minus the loop with one output at the end), right-hand
+    sides (their count times one rhs's cost, measured here against the hand-specialised yardstick), and
+    the rest (integrator arithmetic, error control, event location, dense output).  The yardstick is what
+    a per-model generated straight-line kernel would at best be, so replacing the library's rhs cost by
+    the yardstick's bounds what code generation could bring to the whole loop."""
+    import planar_mbs as mbs
+    import run as R
+
+    model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
+    t_end = 5 * REV
+
+    def best(dt):
+        runs = [mbs.simulate(model, t_end=t_end, output_step=dt, rtol=1e-6, atol=1e-9) for _ in range(3)]
+        r = min(runs, key=lambda r: r.attrs["wall_time"])
+        return r.attrs["wall_time"], r.attrs["n_rhs"], len(r.time)
+
+    full, n_rhs, rows = best(10e-6)
+    end, n_rhs_end, _ = best(t_end)
+    rhs = R.section_rhs()
+    lib = (rhs["free flight"]["library"] + rhs["contact"]["library"]) / 2 * 1e-6
+    hand = (rhs["free flight"]["hand"] + rhs["contact"]["hand"]) / 2 * 1e-6
+    stages = {"outputs (observation of 53 signals per row)": full - end, "right-hand sides": n_rhs_end * lib,
+              "integrator, error control, events, dense output": end - n_rhs_end * lib}
+    return dict(loop=full, rows=rows, n_rhs=n_rhs_end, stages=stages, rhs_us=lib * 1e6, hand_us=hand * 1e6,
+                scipy=scipy_wall, ratio=scipy_wall / full, ratio_no_outputs=scipy_wall / end,
+                ratio_hand_rhs=scipy_wall / (full - n_rhs_end * (lib - hand)))
+
+
 def output_rows(tmp: Path) -> dict:
     """What one output row costs: the ideal slider-crank, 5 revolutions, outputs every 1 µs (30 001 rows)
     against one row at the end; in the time loop (observation) and in total with an HDF5 file."""
@@ -240,7 +270,8 @@ def section_process() -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="mbs_bench_"))
     out = {}
     for name, fn in (("startup", lambda: startup(tmp)), ("sweep", lambda: sweep(tmp)),
-                     ("loop_vs_scipy", loop_vs_scipy), ("output", lambda: output_rows(tmp)),
+                     ("loop_vs_scipy", loop_vs_scipy),
+                     ("stages", lambda: loop_stages(out["loop_vs_scipy"]["scipy"])), ("output", lambda: output_rows(tmp)),
                      ("chain40", lambda: chain40(tmp))):
         t0 = time.perf_counter()
         out[name] = fn()

@@ -65,6 +65,18 @@ def process_table(pr) -> list[str]:
     out.append(f"| one output row ({o['signals']} signals), in the time loop | {o['loop_us']:.2f} µs | | | | |")
     out.append(f"| one output row, in total with the HDF5 file | {o['total_us']:.2f} µs | | | | "
                f"{verdict(o['total_us'], o['target_us'], '≤')} (< {o['target_us']:g} µs) |")
+    if "stages" in pr:
+        sg = pr["stages"]
+        out.append(f"\nWhere the clearance slider-crank's time loop goes ({sg['loop']:.4f} s, {sg['rows']} output rows, "
+                   f"{sg['n_rhs']} rhs; one rhs {sg['rhs_us']:.2f} µs, the hand-specialised yardstick "
+                   f"{sg['hand_us']:.2f} µs):\n")
+        out.append("| stage | seconds | share |\n| --- | ---: | ---: |")
+        for k, v in sg["stages"].items():
+            out.append(f"| {k} | {v:.4f} | {v / sg['loop']:.0%} |")
+        out.append(f"\nAgainst the scipy baseline's time loop: **{sg['ratio']:.0f}×** as measured; "
+                   f"{sg['ratio_no_outputs']:.0f}× with outputs only at the end (scipy's `t_eval` interpolates the state "
+                   f"and computes no signals); {sg['ratio_hand_rhs']:.0f}× if every rhs cost what the yardstick costs "
+                   "(the most a per-model generated straight-line kernel could give; see the text below the table).\n")
     out.append("\n40-link chain (0.5 s, DOPRI5 rtol 1e-6, outputs every 1 ms), one process:\n")
     out.append("| phase | seconds |\n| --- | ---: |")
     for k, v in ch.items():
@@ -276,19 +288,12 @@ rhs, so a faster rhs does not change the ratio. A 50× ratio would need ~2 500 r
 """
 
 STARTUP_TEXT = """
-`mbs --help` imports typer and the CLI only (numpy, numba, pint, lark, h5py load on first use). The warm
-`mbs run` overhead is dominated by numba: importing it, and on the first compiled call numba's target context
-loads all its registries, which imports `scipy.linalg` (numba's BLAS check) — about 0.5 s that no option skips.
-Then pint's registry (cached by pint in its `:auto:` cache folder) and the lark grammar (owned by the language
-front end; lark's `cache=True` would save a few tens of ms). Two entry points are loaded from numba's cache:
-`constraint_rows_eval` (assembly) and `advance`. Writing the HDF5 file used to cost 0.9 s for this run (200
-appends of 54 datasets); rows are now appended in blocks of at most 65 536 rows or once a second.
-
-**Cache location.** Kernels are cached with `cache=True` next to the sources (`planar_mbs/kernel/__pycache__`).
-When that directory is not writable (a read-only or system-wide install), numba falls back by itself to the user's
-cache directory (`~/.cache/numba`, or `$XDG_CACHE_HOME/numba`); `NUMBA_CACHE_DIR=/some/dir` chooses one
-explicitly (measured above: the second run with a fresh `NUMBA_CACHE_DIR` is warm). First-run compilation of the
-kernels takes most of the "first run" figure.
+`mbs --help` imports typer and the CLI only; `mbs check` neither typer (a plain `check MODEL [--set ...]` command
+line bypasses it: typer's argument handling imports pydantic) nor numba (assembly runs the constraint kernels'
+source as plain Python, `planar_mbs.pykernel`) nor pint (units come from our own table, checked against pint
+entry by entry; pint is imported only for a unit outside it).  The warm `mbs run` overhead is now mostly numba:
+importing it, and on the first compiled call numba's target context loads its registries (which imports
+`scipy.linalg`, numba's BLAS check) and then the two entry points from its cache; no option skips that.
 """
 
 SKIP_TEXT = """* **No clearance joint → no contact code**: `accelerations` skips the contact loop when `nclearance = 0`, the
