@@ -130,7 +130,17 @@ def sweep(tmp: Path, rounds: int = 2) -> dict:
         for j in ("1", "2"):
             times[f"-j {j}"].append(wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}_{r}.h5")]))
     t = {k: statistics.median(v) for k, v in times.items()}
-    return dict(times=t, speedup=t["-j 1"] / t["-j 2"], target=1.6, cases=8, rounds=rounds)
+    case = {f"-j {j}": case_seconds(tmp / f"sweep{j}_{rounds - 1}.h5") for j in ("1", "2")}
+    return dict(times=t, speedup=t["-j 1"] / t["-j 2"], target=1.6, cases=8, rounds=rounds, case_seconds=case)
+
+
+def case_seconds(path: Path) -> float:
+    """Mean wall time of one case inside its process (stored by the sweep): equal for -j 1 and -j 2
+    when each worker gets a core of its own; larger in the workers when the machine cannot give two."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return statistics.mean(float(g.attrs["case_wall_time"]) for g in f["cases"].values())
 
 
 # ---------------------------------------------------------------- in-process: time loop vs scipy, output rows
