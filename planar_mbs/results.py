@@ -423,22 +423,26 @@ def open_for_writing(path: Path, mode: str):
 
 
 def _entity_extractors(table: list[Signal]):
-    """[(entity, compound dtype, units, extract(rows) -> (n, k) block)] for a signal table: the
-    plain columns of an entity are taken with one fancy index, the few combined ones added."""
+    """[(entity, compound dtype, units, records(rows) -> (n,) records to write)] for a signal table.
+    An entity of plain columns is a view of the rows with a strided compound type (the field offsets
+    are its columns), so HDF5 gathers the fields while it writes: no copy here; the few combined
+    signals (magnitudes, sums) are computed and packed."""
     out = []
     by_entity: dict[str, list[Signal]] = {}
     for sig in table:
         by_entity.setdefault(sig.entity, []).append(sig)
     for entity, sigs in by_entity.items():
+        packed = _compound([s.quantity for s in sigs])
         if all(s.op == "col" for s in sigs):
-            cols = np.array([s.columns[0] for s in sigs], dtype=np.int64)
-
-            def extract(rows, cols=cols):
-                return rows[:, cols]
+            def records(rows, sigs=sigs):
+                rows = np.ascontiguousarray(rows, dtype=np.float64)
+                view = np.dtype({"names": [s.quantity for s in sigs], "formats": ["<f8"] * len(sigs),
+                                 "offsets": [8 * s.columns[0] for s in sigs], "itemsize": 8 * rows.shape[1]})
+                return rows.view(view).reshape(-1)
         else:
-            def extract(rows, sigs=sigs):
-                return np.column_stack([s.extract(rows) for s in sigs])
-        out.append((entity, _compound([s.quantity for s in sigs]), [s.unit for s in sigs], extract))
+            def records(rows, sigs=sigs, packed=packed):
+                return _as_records(np.column_stack([s.extract(rows) for s in sigs]), packed)
+        out.append((entity, packed, [s.unit for s in sigs], records))
     return out
 
 
@@ -512,9 +516,9 @@ class ResultsWriter:
         try:
             self.time.resize((end,))
             self.time[self.n:end] = t
-            for (_, dtype, _, extract), ds in zip(self.entities, self.datasets):
+            for (_, _, _, records), ds in zip(self.entities, self.datasets):
                 ds.resize((end,))
-                ds[self.n:end] = _as_records(extract(rows), dtype)
+                ds[self.n:end] = records(rows)
             self.file.flush()
         except (OSError, RuntimeError) as exc:
             self.broken = True
