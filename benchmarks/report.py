@@ -73,9 +73,12 @@ def process_table(pr, before=None) -> list[str]:
         c = sw["case_seconds"]
         out.append(f"| … one case inside a worker of `-j 2` | {c['-j 2']:.2f} | one case in the `-j 1` process | "
                    f"{c['-j 1']:.2f} | {c['-j 2'] / c['-j 1']:.2f}× slower | 1× on two free cores | |")
+    spread = f" (rounds: {lv['ratio_min']:.0f}–{lv['ratio_max']:.0f}×)" if "ratio_min" in lv else ""
     out.append(f"| time loop, clearance slider-crank (A, 5000 rpm, 5 rev, rtol 1e-6) | {lv['ours']:.4f} | "
-               f"scipy baseline's time loop, same settings | {lv['scipy']:.3f} | {lv['ratio']:.0f}× faster | "
-               f"{verdict(lv['ratio'], lv['target'], '≥')} | {was(b.get('loop_vs_scipy', {}).get('ratio'), '.0f')}× |")
+               f"scipy baseline's time loop, same settings | {lv['scipy']:.3f} | {lv['ratio']:.0f}× faster{spread} | "
+               f"{verdict(lv['ratio'], lv['target'], '≥')}"
+               f"{' on the median, not in every round' if lv.get('ratio_min', lv['ratio']) < lv['target'] <= lv['ratio'] else ''}"
+               f" | {was(b.get('loop_vs_scipy', {}).get('ratio'), '.0f')}× (one round) |")
     ob = b.get("output", {})
     out.append(f"| one output row ({o['signals']} signals), in the time loop | {o['loop_us']:.2f} µs | | | | | "
                f"{was(ob.get('loop_us'), '.2f')} µs |")
@@ -91,9 +94,12 @@ def process_table(pr, before=None) -> list[str]:
             out.append(f"| {k} | {v:.4f} | {v / sg['loop']:.0%} |")
         out.append(f"\nAgainst the scipy baseline's time loop: **{sg['ratio']:.0f}×** as measured; "
                    f"{sg['ratio_no_outputs']:.0f}× with outputs only at the end (scipy's `t_eval` interpolates the state "
-                   f"and computes no signals); {sg['ratio_hand_rhs']:.0f}× if every rhs cost what the yardstick costs "
-                   "(the yardstick is what per-model generated straight-line code would at best be, so code generation of the rhs "
-                   "alone cannot reach 100× here and was not built; the next section has the rhs measurement).\n")
+                   f"and computes no signals); {sg['ratio_hand_rhs']:.0f}× if every rhs cost what the yardstick costs. "
+                   f"The yardstick is what per-model generated straight-line code would at best be: it would take "
+                   f"{sg['stages']['right-hand sides'] * (1 - sg['hand_us'] / sg['rhs_us']) / sg['loop']:.0%} off this "
+                   "loop, about what the outputs cost. Per-model code generation (one compilation per model, "
+                   "cached by a hash of it) was measured through this bound only, not built: the 100× goal rests as "
+                   "much on the outputs and the integrator as on the rhs.\n")
     out.append("\n40-link chain (0.5 s, DOPRI5 rtol 1e-6, outputs every 1 ms), one process:\n")
     out.append("| phase | seconds | before the start-up work |\n| --- | ---: | ---: |")
     for k, v in ch.items():
