@@ -160,7 +160,7 @@ class FileResults(Results):
         best = -np.inf
         with h5py.File(self.path, "r") as f:
             g = f[self.group] if self.group else f
-            step, n = 1 << 20, g[TIME].shape[0]
+            step, n = 1 << 16, g[TIME].shape[0]  # HDF5 buffers whole compound records per slice
             for i in range(0, n, step):
                 x = read_signal(g, name, slice(i, i + step))
                 x = x[np.isfinite(x)]

@@ -48,7 +48,7 @@ from .signals import signal_table
 
 BUFFER_ROWS = 2048  # observation rows per chunk handed back by the kernel (at most)
 PROGRESS_SLICES = 200  # the kernel returns at least this often (in outputs) for progress and Ctrl-C
-FLUSH_ROWS = 65536  # rows kept in memory before they are appended to the HDF5 file ...
+FLUSH_ROWS = 8192  # rows kept in memory before they are appended to the HDF5 file (2 chunks: a bounded peak) ...
 FLUSH_SECONDS = 1.0  # ... or after this much wall time since the last write, whichever comes first
 
 
