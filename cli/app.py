@@ -108,8 +108,12 @@ def run(
         show_default=False)] = None,
     integrator: Annotated[Optional[str], typer.Option(help=_INTEGRATOR_HELP,
                           show_default="the model's simulate block, else dopri5")] = None,
-    rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance of the adaptive integrator.",
+    rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance of the adaptive integrator "
+                    "(floor: 10 x machine epsilon, 2.2e-15).",
                     show_default="the model's simulate block, else 1e-6")] = None,
+    atol: Annotated[Optional[float], typer.Option(help="Absolute tolerance of the adaptive integrator (> 0; "
+                    "SI units of each coordinate, e.g. 1e-3 x rtol).",
+                    show_default="the model's simulate block, else 1e-9")] = None,
     step: Annotated[Optional[str], typer.Option(help="Fixed step of rk4 (first trial step of dopri5), with units "
                     "(1us).", show_default="the model's simulate block, else 1us")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
@@ -150,6 +154,7 @@ def run(
             step=positive_time(step, "--step"),
             output_step=positive_time(output_step, "--output-step"),
             rtol=check_rtol(rtol),
+            atol=atol,
             integrator=integrator,
         )
         if t_end is not None and revolutions is not None:
@@ -197,7 +202,7 @@ def run(
         if kept is not None:
             _print_summary(kept, out)
         _console(stderr=True).print(f"interrupted; results so far kept in {out} (marked incomplete)")
-        raise typer.Exit(128 + getattr(err, "signum", ExitCode.INTERRUPTED - 128))
+        _exit_now(128 + getattr(err, "signum", ExitCode.INTERRUPTED - 128))
     _print_summary(res, out)
     if rerun is not None:
         record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals)
@@ -251,8 +256,28 @@ def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes:
 PER_REV_UNTIL_SETTLED = 90  # output samples per revolution of a run --until-settled
 
 
+def _exit_now(code: int) -> None:
+    """Leave at once after an interrupt (the results file is already closed): skip the
+    interpreter's teardown, which takes about 2 s once the compiled kernels are loaded
+    (native code, no Python frame), so that Ctrl-C/SIGTERM end a run within a second.
+    Inside a test runner (no real stdout) it raises typer.Exit as usual."""
+    import os
+    import sys
+
+    try:
+        sys.stdout.fileno()
+        sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        raise typer.Exit(code) from None
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 def _print_summary(res, out: Path) -> None:
     from planar_mbs.results import peak, row_count
+
+    from .check_command import print_assembly
 
     a = res.attrs
     worst = peak(res, "system.position_error") if "system.position_error" in res.signals else float("nan")
@@ -265,6 +290,7 @@ def _print_summary(res, out: Path) -> None:
     )
     con.print(f"  time-loop wall time {a.get('wall_time', 0.0):.3f} s   "
               f"largest constraint error {worst:.3g}   outputs {row_count(res):,}")
+    print_assembly(list(a.get("assembly_changes", [])))
     for warning in a.get("warnings") or []:
         _console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
 

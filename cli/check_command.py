@@ -15,15 +15,16 @@ def check_model(model, sets: list[str]) -> int:
     """Check one model; print its summary or its errors (with file:line:col).  Returns the exit code."""
     from planar_mbs.compile import load_model  # errors worded for --set
     from planar_mbs.errors import MbsError
-    from planar_mbs.kinematics import assemble
+    from planar_mbs.kinematics import assemble, assembly_changes
 
     try:
         m = load_model(model, parse_sets(sets))
-        assemble(m)
+        q, qd = assemble(m)
     except MbsError as err:
         return fail_code(err)
     _print_model(m)
     _print_output_size(m)
+    print_assembly(assembly_changes(m, q, qd))
     return 0
 
 
@@ -36,6 +37,14 @@ def _print_output_size(m) -> None:
     if est.rows > MAX_ROWS:
         console(stderr=True).print(f"warning: more than {MAX_ROWS:,} output rows: `mbs run` refuses this without "
                                    "--force (check output_step and t_end)", markup=False, style="yellow")
+
+
+def print_assembly(changes) -> None:
+    """What the assembly changed in the stated initial state (beyond the tolerance)."""
+    if changes:
+        con = console()
+        for line in changes:
+            con.print(line, markup=False)
 
 
 def _print_model(m) -> None:

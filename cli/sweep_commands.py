@@ -132,6 +132,8 @@ def sweep(
                                                       show_default="the model's simulate block, else dopri5")] = None,
     rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance.",
                                                     show_default="the model's simulate block, else 1e-6")] = None,
+    atol: Annotated[Optional[float], typer.Option(help="Absolute tolerance (> 0).",
+                                                    show_default="the model's simulate block, else 1e-9")] = None,
     keep: Annotated[Optional[str], typer.Option(
         "--keep", help="Comma-separated signals to store per case; an entity name (slider) keeps all its "
         "signals; --keep \"\" stores none (the Poincaré "
@@ -175,7 +177,7 @@ def sweep(
             integrator_of(integrator, "--integrator")
         settings = {k: v for k, v in dict(
             t_end=positive_time(t_end, "--t-end"), output_step=positive_time(output_step, "--output-step"),
-            rtol=check_rtol(rtol), integrator=integrator.lower() if integrator else None).items()
+            rtol=check_rtol(rtol), atol=atol, integrator=integrator.lower() if integrator else None).items()
             if v is not None}
         check_number(revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS,
                      hint="the number of driver periods to simulate, e.g. `-n 101`")

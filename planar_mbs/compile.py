@@ -96,7 +96,11 @@ JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
         "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)",
         "friction": "Coulomb coefficient (default 0)",
         "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
-        "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)"},
+        "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
+        "offset": "initial journal centre minus bearing centre (dx, dy) in the bearing's frame (default: "
+                  "centred when the joint closes a loop)",
+        "relative_velocity": "initial velocity of the journal centre relative to the bearing centre (vx, vy), "
+                             "bearing frame"},
 }
 JOINT_TYPES = {spec.name: JointType(spec.code) for spec in catalog.JOINTS}
 LAWS = {name: law for law, name in CONTACT_LAW_NAMES.items()}
@@ -292,6 +296,7 @@ class _LayoutPasses:
             force_point=np.zeros((nf, 2, 2), f), force_param=np.zeros((nf, N_FORCE_PARAM), f),
         )
         self.q0, self.qd0 = np.zeros(3 * nb), np.zeros(3 * nb)
+        self.clearance_start = np.full((nc, 4), np.nan)  # offset (x, y), relative velocity (x, y); NaN: not given
         self.geometry: list[dict] = []
 
     # 6. fill ---------------------------------------------------------------
@@ -522,9 +527,22 @@ class _ClearancePass:
         p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL], p[CP_LENGTH] = cl, rb, rj, length
         p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = stiffness, exponent, ce, sigma_sum
         self._clearance_friction(f, p)
+        self._clearance_start(f, k, cl)
         self.a["clearance_body"][k] = (bi, bj)
         self.a["clearance_point"][k] = (pi, pj)
         self.a["clearance_law"][k] = int(law)
+
+    def _clearance_start(self, f: Fields, k: int, cl: float):
+        """The journal's initial `offset` and `relative_velocity` (bearing frame), when given."""
+        if f.has("offset"):
+            ox, oy = f.vector("offset", U.LENGTH, (0.0, 0.0))
+            self.clearance_start[k, :2] = ox, oy
+            if math.hypot(ox, oy) > cl * (1 + 1e-9):
+                raise f.expr("offset").pos.error(
+                    f"the journal's offset ({math.hypot(ox, oy) * 1e3:g} mm) exceeds the clearance ({cl * 1e3:g} mm)",
+                    hint="the journal starts inside its bearing: |offset| <= clearance")
+        if f.has("relative_velocity"):
+            self.clearance_start[k, 2:] = f.vector("relative_velocity", U.VELOCITY, (0.0, 0.0))
 
     def _clearance_fields(self, st: Statement, label: str) -> Fields:
         """The joint's fields, with the settings a law call carries
@@ -831,6 +849,7 @@ class _CheckPass:
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
             source_key=self.spec.key, source_includes=dict(self.spec.includes),
             source_files=list(self.spec.include_files),
+            clearance_start=self.clearance_start,
         )
 
 

@@ -1,11 +1,18 @@
 """Initial conditions: move the user's approximate pose onto the constraints.
 
-Muvengei et al. §III.A: the run starts from the ideal-joint kinematics with every
-clearance journal centred in its bearing.  So for assembly each clearance
-joint is treated as an ideal revolute joint; positions are found by
-Newton–Raphson with minimum-norm corrections (the assembled pose is the one
-closest to what the user wrote), velocities by the minimum-norm correction of
-the user's velocities onto ``Cq q' = -Ct``.
+What the model states is kept unless an ideal joint or a driver forbids it.
+A clearance joint that closes a loop of the mechanism (it lies on a cycle of
+the joint graph, as in a slider-crank) starts, unless told otherwise, with its
+journal centred and at rest relative to the bearing (Muvengei et al. §III.A:
+the run starts from the ideal-joint kinematics), so for assembly it is an
+ideal revolute joint.  Its ``offset`` (journal centre minus bearing centre,
+bearing frame) and ``relative_velocity``, when given, are assembled instead.
+A clearance joint that closes no loop (a journal held by nothing else) adds no
+rows: the journal keeps the position and velocity it is given.  Positions are
+found by Newton–Raphson with minimum-norm corrections (the assembled pose is
+the one closest to what the user wrote), velocities by the minimum-norm
+correction of the user's velocities onto ``Cq q' = -Ct`` (and the clearance
+rows' ``P_i' - P_j' = -A_i v_rel``).  `assembly_changes` says what moved.
 
 Redundant or singular constraints are found by adding the joints' rows one at a
 time and watching the rank of ``Cq``; the joints that add no rank are named.
@@ -24,14 +31,51 @@ POSITION_TOL = 1e-12  # m (and rad): residual of C at an assembled pose
 RANK_TOL = 1e-9  # singular values below this x the largest count as zero
 
 
-def assembly_kernel(model: Model) -> tuple[KernelModel, list[str]]:
-    """The model's kernel arrays with clearance joints turned into revolute joints,
+def clearance_start(model: Model) -> np.ndarray:
+    """(nclearance, 4): offset (x, y) and relative velocity (x, y) as written, NaN where not given."""
+    cs = model.clearance_start
+    if cs is None or len(cs) != model.nclearance:
+        return np.full((model.nclearance, 4), np.nan)
+    return np.asarray(cs, dtype=np.float64)
+
+
+def closes_loop(model: Model) -> list[bool]:
+    """For each clearance joint: does it lie on a cycle of the graph whose nodes are the
+    bodies and the ground and whose edges are all joints, clearance joints and drivers?
+    (Not a bridge: without it, its two bodies are still connected.)"""
+    k = model.kernel
+    nb = model.nbody
+    edges = [tuple(b) for b in np.asarray(k.joint_body)] + [tuple(b) for b in np.asarray(k.driver_body)]
+    clear = [tuple(b) for b in np.asarray(k.clearance_body)]
+    out = []
+    for c, (a, b) in enumerate(clear):
+        parent = list(range(nb + 1))
+
+        def find(x):
+            while parent[x] != x:
+                parent[x] = parent[parent[x]]
+                x = parent[x]
+            return x
+
+        for i, j in edges + clear[:c] + clear[c + 1:]:
+            parent[find(int(i) % (nb + 1))] = find(int(j) % (nb + 1))  # ground (-1) -> node nb
+        out.append(find(int(a) % (nb + 1)) == find(int(b) % (nb + 1)))
+    return out
+
+
+def assembly_kernel(model: Model, use=None, offset=None) -> tuple[KernelModel, list[str]]:
+    """The model's kernel arrays with the clearance joints `use` (default: all) turned into
+    revolute joints whose bearing point is shifted by `offset` (bearing frame; default 0),
     and the name of the element behind each constraint row."""
     k = model.kernel
-    nc = model.nclearance
+    use = list(range(model.nclearance)) if use is None else list(use)
+    nc = len(use)
+    cpoint = np.array(np.asarray(k.clearance_point)[use], dtype=np.float64).reshape(nc, 2, 2)
+    if offset is not None and nc:
+        cpoint[:, 0, :] += np.asarray(offset, dtype=np.float64)[use]
     jt = np.concatenate([k.joint_type, np.full(nc, int(JointType.REVOLUTE), dtype=np.int64)])
-    jb = np.concatenate([k.joint_body, k.clearance_body]).astype(np.int64)
-    jp = np.concatenate([k.joint_point, k.clearance_point])
+    jb = np.concatenate([k.joint_body, np.asarray(k.clearance_body)[use].reshape(nc, 2)]).astype(np.int64)
+    jp = np.concatenate([k.joint_point, cpoint])
     ja = np.concatenate([k.joint_axis, np.tile([1.0, 0.0], (nc, 1))])
     jpar = np.concatenate([k.joint_param, np.zeros((nc, k.joint_param.shape[1]))])
     rows = JOINT_ROWS[jt]
@@ -52,7 +96,7 @@ def assembly_kernel(model: Model) -> tuple[KernelModel, list[str]]:
         clearance_param=np.zeros((0, k.clearance_param.shape[1])),
     )
     owners = []
-    names = list(model.joint_names) + list(model.clearance_names)
+    names = list(model.joint_names) + [model.clearance_names[c] for c in use]
     for name, r in zip(names, rows):
         owners += [name] * int(r)
     owners += list(model.driver_names)
@@ -144,27 +188,8 @@ def _isolated_bodies(model: Model) -> list[str]:
     return [n for b, n in enumerate(model.body_names) if b not in used]
 
 
-def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Consistent (q, q') at time t from the user's pose ``model.q0`` and velocities ``model.qd0``."""
-    isolated = _isolated_bodies(model)
-    if isolated:
-        names = ", ".join(f"`{n}`" for n in isolated)
-        raise _model_error(
-            model,
-            f"body {names} is connected to nothing: no joint, driver or force acts on it and there is "
-            "no gravity" if len(isolated) == 1 else
-            f"bodies {names} are connected to nothing: no joint, driver or force acts on them and "
-            "there is no gravity",
-            isolated,
-            f"connect it, e.g. `joint pin = revolute(ground (0, 0), {isolated[0]})`, or remove it; a body "
-            "meant to fly free needs gravity or a force",
-        )
-    km, owners = assembly_kernel(model)
-    m = len(owners)
-    q = model.q0.astype(np.float64).copy()
-    qd = model.qd0.astype(np.float64).copy()
-    if m == 0:
-        return q, qd
+def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float, m: int) -> None:
+    """Newton-Raphson of the position rows (q in place), then the closure and rank checks."""
     for _ in range(MAX_NEWTON):
         C, Cq, _ = _evaluate(km, q, qd, t, m)
         if not np.all(np.isfinite(C)):
@@ -198,5 +223,75 @@ def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
             "these joints or drivers repeat what others already impose (or the pose is a "
             "singular, toggle position); remove one or move the initial pose",
         )
-    dqd, *_ = np.linalg.lstsq(Cq, -(Cq @ qd + Ct), rcond=None)
+
+
+def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Consistent (q, q') at time t from the user's pose ``model.q0`` and velocities ``model.qd0``."""
+    isolated = _isolated_bodies(model)
+    if isolated:
+        names = ", ".join(f"`{n}`" for n in isolated)
+        raise _model_error(
+            model,
+            f"body {names} is connected to nothing: no joint, driver or force acts on it and there is "
+            "no gravity" if len(isolated) == 1 else
+            f"bodies {names} are connected to nothing: no joint, driver or force acts on them and "
+            "there is no gravity",
+            isolated,
+            f"connect it, e.g. `joint pin = revolute(ground (0, 0), {isolated[0]})`, or remove it; a body "
+            "meant to fly free needs gravity or a force",
+        )
+    start = clearance_start(model)
+    loop = closes_loop(model)
+    has_offset = ~np.isnan(start[:, 0])
+    has_vel = ~np.isnan(start[:, 2])
+    pos_use = [c for c in range(model.nclearance) if loop[c] or has_offset[c]]
+    vel_use = [c for c in range(model.nclearance) if c in pos_use or has_vel[c]]
+    km, owners = assembly_kernel(model, pos_use, np.nan_to_num(start[:, :2]))
+    m = len(owners)
+    q = model.q0.astype(np.float64).copy()
+    qd = model.qd0.astype(np.float64).copy()
+    if m == 0 and not vel_use:
+        return q, qd
+    if m:
+        _positions(model, km, owners, q, qd, t, m)
+    # velocities: ideal rows and the (unshifted) revolute rows of the clearance joints in vel_use,
+    # whose P_i' - P_j' is -A_i v_rel (v_rel in the bearing's frame; 0 when not given)
+    kv, owners_v = assembly_kernel(model, vel_use)
+    mv = len(owners_v)
+    _, Cqv, Ctv = _evaluate(kv, q, qd, t, mv)
+    target = -Ctv
+    r0 = mv - model.ndriver - 2 * len(vel_use)
+    k = model.kernel
+    for i, c in enumerate(vel_use):
+        v = np.nan_to_num(start[c, 2:])
+        bi = int(k.clearance_body[c, 0])
+        phi = q[3 * bi + 2] if bi >= 0 else 0.0
+        rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
+        target[r0 + 2 * i:r0 + 2 * i + 2] = -(rot @ v)
+    dqd, *_ = np.linalg.lstsq(Cqv, target - Cqv @ qd, rcond=None)
     return q, qd + dqd
+
+
+def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | None = None,
+                     atol: float | None = None) -> list[str]:
+    """What the assembly changed in the model's stated initial state, as at most two lines:
+    the bodies it moved (pose corrections beyond the integrator's tolerance atol + rtol |value|,
+    the model's settings by default) and the bodies whose *stated* (non-zero) velocity it
+    changed.  Velocities left at their default 0 are simply what the drivers and joints impose."""
+    rtol = model.settings.rtol if rtol is None else rtol
+    atol = model.settings.atol if atol is None else atol
+    out = []
+    for what, given, got in (("pose", model.q0, q), ("velocity", model.qd0, qd)):
+        d = np.abs(got - given)
+        tol = atol + rtol * np.maximum(np.abs(given), np.abs(got))
+        moved = []
+        for b, name in enumerate(model.body_names):
+            s = slice(3 * b, 3 * b + 3)
+            if np.all(d[s] <= tol[s]) or (what == "velocity" and not np.any(given[s])):
+                continue
+            moved.append(f"`{name}` by {np.max(d[s]):.3g}")
+        if moved:
+            out.append(("assembly moved " + ", ".join(moved) + " (m or rad) to close the joints"
+                        if what == "pose" else "assembly changed the stated velocity of " + ", ".join(moved)
+                        + " (m/s or rad/s): the joints and drivers forbid it"))
+    return out

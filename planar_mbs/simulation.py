@@ -27,7 +27,7 @@ import numpy as np
 
 from . import __version__
 from .errors import ModelError, SimulationError
-from .kinematics import assemble
+from .kinematics import assemble, assembly_changes
 from .model import (
     ST_CONTACT_EVENTS,
     ST_INFO,
@@ -46,6 +46,9 @@ from .output_size import MAX_ROWS, estimate
 from .results import DiskFull, FileResults, Results, ResultsWriter
 from .signals import signal_table
 
+CALL_SECONDS = 0.1  # wall time of one kernel call (a work budget in right-hand sides calibrated per call)
+FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibration
+RTOL_FLOOR = 10 * float(np.finfo(np.float64).eps)  # smallest rtol (Hairer's codes: rtol > 10 uround)
 BUFFER_ROWS = 2048  # observation rows per chunk handed back by the kernel (at most)
 PROGRESS_SLICES = 200  # the kernel returns at least this often (in outputs) for progress and Ctrl-C
 FLUSH_ROWS = 8192  # rows kept in memory before they are appended to the HDF5 file (2 chunks: a bounded peak) ...
@@ -79,6 +82,33 @@ def _deferred_interrupts():
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def _next_budget(n_rhs: int, seconds: float, budget: float) -> float:
+    """Right-hand sides for the next kernel call so that it lasts about CALL_SECONDS: the
+    kernel returns to Python (signals, progress, the file) at least that often, however
+    hard the run grinds between two outputs."""
+    if n_rhs <= 0 or seconds <= 0.0:
+        return budget
+    return float(min(max(100.0, n_rhs / seconds * CALL_SECONDS), 4.0 * budget, 1e9))
+
+
+def check_tolerances(settings: Settings) -> None:
+    """Refuse (ModelError, exit 2) tolerances an adaptive method cannot deliver in double
+    precision.  As in Hairer's DOPRI5/DOP853 codes: rtol > 10 eps (below it the error
+    estimate is rounding noise and the step shrinks until it underflows, or forever) and
+    atol > 0."""
+    from .errors import ModelError
+
+    if settings.integrator == Integrator.RK4:
+        return
+    if not (settings.rtol > RTOL_FLOOR):
+        raise ModelError(f"rtol = {settings.rtol:g} is below what double precision can deliver: the floor is "
+                         f"rtol > {RTOL_FLOOR:.3g} (10 x machine epsilon)", "rtol",
+                         hint="use rtol >= 1e-14; DOP853 at 1e-12 is already at the limit of round-off")
+    if not (settings.atol > 0.0):
+        raise ModelError(f"atol = {settings.atol:g} must be positive", "atol",
+                         hint="e.g. 1e-3 x rtol for coordinates of about 0.1 m")
 
 
 # settings given as text take the units the CLI takes: t_end="1 s", step="1 us", alpha="5 1/s"
@@ -170,6 +200,16 @@ def integrator_of(name: str, where: str = "integrator") -> Integrator:
     return Integrator(catalog.integrator(name).code)
 
 
+def _state_name(model: Model, i: int) -> str:
+    """Name of component i of the state y = (q, q')."""
+    n = model.ncoord
+    if not 0 <= i < 2 * n:
+        return "?"
+    b, c = divmod(i % n, 3)
+    coord = ("x", "y", "angle")[c]
+    return f"{'velocity' if i >= n else 'position'} {coord} of body `{model.body_names[b]}`"
+
+
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
@@ -177,7 +217,11 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
         touching = [n for n, mode in zip(model.clearance_names, contact[:, 0]) if mode > 0.5]
         where = f" while clearance joint{'s' if len(touching) > 1 else ''} " + ", ".join(
             f"`{n}`" for n in touching) + " in contact" if touching else ""
-        return (f"step size fell below h_min = {settings.h_min:g} s {at}{where}: the motion is too stiff "
+        limit = ""
+        if settings.integrator != Integrator.RK4:
+            limit = (f"; the error estimate of the {_state_name(model, info)} limited it (rtol = "
+                     f"{settings.rtol:g}, atol = {settings.atol:g})")
+        return (f"step size fell below h_min = {settings.h_min:g} s {at}{where}{limit}: the motion is too stiff "
                 "or discontinuous here (try a looser rtol, a smaller h_min, or check the contact stiffness)")
     if status == Status.NONFINITE:
         what = f" (body `{model.body_names[info]}`)" if 0 <= info < model.nbody else ""
@@ -314,12 +358,15 @@ def simulate(
     from .kernel import advance, make_workspace
 
     settings = run_settings(model, **settings_changes)
+    check_tolerances(settings)
     _check_rows(model, settings, max_rows)
     q, qd = assemble(model)
+    changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
     km = model.kernel
     cfg = settings.cfg()
     y = np.concatenate([q, qd])
-    clock = np.zeros(3)
+    clock = np.zeros(4)  # t, h, t0, work budget of one call (right-hand sides)
+    clock[3] = FIRST_BUDGET
     contact = np.zeros((model.nclearance, 3))
     stats = np.zeros(N_STATS, dtype=np.int64)
     ws = make_workspace(km)
@@ -373,9 +420,11 @@ def simulate(
         try:
             while not received:
                 start = _time.perf_counter()
+                rhs_before = int(stats[ST_RHS])
                 status, n = advance(km, cfg, y, clock, contact, stats, ws, t_end, out_t[:cap], out[:cap])
                 now = _time.perf_counter()
                 wall += now - start
+                clock[3] = _next_budget(int(stats[ST_RHS]) - rhs_before, now - start, clock[3])
                 if n:
                     chunk_t = out_t[:n].copy()
                     chunk = out[:n].copy() if cols is None else out[:n, cols]
@@ -425,6 +474,7 @@ def simulate(
                 "n_outputs": int(stats[ST_OUTPUTS]),
             }
             run_attrs["warnings"] = _physics_warnings(model, deepest)
+            run_attrs["assembly_changes"] = changes
             if writer:
                 writer.close(run_attrs)
     units = {s.name: s.unit for s in table}

@@ -503,7 +503,7 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
     cases that together do not fit on the disk holding ``output``."""
     from .compile import load_model
     from .output_size import check_output, estimate
-    from .simulation import run_settings
+    from .simulation import check_tolerances, run_settings
 
     largest, total = None, 0.0
     for spec in specs:
@@ -511,6 +511,7 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
             m = load_model(spec.model_path, {**spec.sets, **spec.values})
             changes = case_settings(m, spec)
             settings = run_settings(m, **changes)  # e.g. an unknown integrator name
+            check_tolerances(settings)
             columns = None
             if spec.keep is not None:
                 columns = len(kept_signals(m, spec.keep)) + 1

@@ -7,7 +7,7 @@ import pytest
 import planar_mbs as mbs
 from planar_mbs.compile import compile_text
 from planar_mbs.errors import ModelError
-from planar_mbs.kinematics import assemble
+from planar_mbs.kinematics import assemble, assembly_changes
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 OMEGA = 5000 * 2 * np.pi / 60
@@ -95,3 +95,83 @@ def test_plain_python_constraints_match_the_compiled_kernel(name):
         out.append(arrays)
     for a, b in zip(*out):
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
+
+
+FREE_JOURNAL = """
+body journal {{ mass = 1 kg  inertia = 1e-3 kg*m^2  position = ({x}, {y})  velocity = ({vx}, {vy}) }}
+joint J = clearance_revolute(ground (0, 0), journal) {{
+    clearance = 0.1 mm  bearing_radius = 5 mm  stiffness = 1e9 N/m^1.5  law = hertz {extra}
+}}
+simulate {{ t_end = 12 ms  output_step = 0.5 ms  rtol = 1e-9  atol = 1e-13 }}
+"""
+
+
+def _point(q, b, s):
+    c, si = np.cos(q[3 * b + 2]), np.sin(q[3 * b + 2])
+    return q[3 * b:3 * b + 2] + np.array([c * s[0] - si * s[1], si * s[0] + c * s[1]])
+
+
+def _point_velocity(q, qd, b, s):
+    c, si = np.cos(q[3 * b + 2]), np.sin(q[3 * b + 2])
+    arm = np.array([c * s[0] - si * s[1], si * s[0] + c * s[1]])
+    return qd[3 * b:3 * b + 2] + qd[3 * b + 2] * np.array([-arm[1], arm[0]])
+
+
+def test_journal_held_only_by_its_clearance_joint_keeps_its_velocity():
+    """A free journal in a bearing on the ground given 10 mm/s keeps it (and its off-centre pose)
+    until its first impact at t = c / v = 10 ms; nothing is reported as changed."""
+    model = compile_text(FREE_JOURNAL.format(x="0.02 mm", y="0 m", vx="10 mm/s", vy="0 m/s", extra=""), "j.mbs")
+    q, qd = assemble(model)
+    np.testing.assert_array_equal(q, [2e-5, 0, 0])
+    np.testing.assert_array_equal(qd, [0.01, 0, 0])
+    assert assembly_changes(model, q, qd) == []
+    res = mbs.simulate(model)
+    t = res.time
+    before = t < (1e-4 - 2e-5) / 0.01
+    np.testing.assert_allclose(res["journal.x"][before], 2e-5 + 0.01 * t[before], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(res["journal.vx"][before], 0.01, rtol=1e-12)
+    assert res.attrs["n_contact_events"] >= 1 and res["journal.vx"][-1] < 0  # it bounced
+
+
+def test_offset_and_relative_velocity_of_a_loop_closing_joint_are_kept():
+    """In the clearance slider-crank (joint A closes the loop) the stated journal offset and
+    relative velocity (bearing frame: the crank's) are what the assembly produces; without
+    them the journal starts centred and at rest relative to the bearing."""
+    text = (MODELS / "slider_crank_clearance_a.mbs").read_text()
+    text = text.replace("restitution = restitution\n}",
+                        "restitution = restitution\n    offset = (0.1 mm, -0.05 mm)  relative_velocity = (20 mm/s, 10 mm/s)\n}")
+    model = compile_text(text, str(MODELS / "a_offset.mbs"))
+    q, qd = assemble(model)
+    crank, rod = model.body_names.index("crank"), model.body_names.index("rod")
+    c, s = np.cos(q[3 * crank + 2]), np.sin(q[3 * crank + 2])
+    rot = np.array([[c, -s], [s, c]])
+    e = _point(q, rod, (-0.06, 0)) - _point(q, crank, (0.025, 0))
+    np.testing.assert_allclose(e, rot @ [1e-4, -5e-5], atol=1e-13)
+    de = _point_velocity(q, qd, rod, (-0.06, 0)) - _point_velocity(q, qd, crank, (0.025, 0))
+    np.testing.assert_allclose(de, rot @ [0.02, 0.01], atol=1e-12)
+    plain = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
+    q, qd = assemble(plain)
+    np.testing.assert_allclose(_point(q, rod, (-0.06, 0)) - _point(q, crank, (0.025, 0)), 0, atol=1e-13)
+    np.testing.assert_allclose(_point_velocity(q, qd, rod, (-0.06, 0)) - _point_velocity(q, qd, crank, (0.025, 0)),
+                               0, atol=1e-12)
+
+
+def test_assembly_changes_are_reported():
+    model = compile_text(SLIDER_CRANK_ROUGH, "rough.mbs")
+    q, qd = assemble(model)
+    changes = assembly_changes(model, q, qd)
+    assert len(changes) == 1 and changes[0].startswith("assembly moved `crank` by")
+    assert "`rod`" in changes[0] and "`slider`" in changes[0]
+    # a stated velocity the driver forbids is reported too
+    stated = model.qd0.copy()
+    stated[2] = 1.0  # the crank's angular velocity, which the driver sets to 5000 rpm
+    model.qd0 = stated
+    q, qd = assemble(model)
+    changes = assembly_changes(model, q, qd)
+    assert changes[-1].startswith("assembly changed the stated velocity of `crank` by 523")
+
+
+def test_offset_beyond_the_clearance_is_refused():
+    with pytest.raises(ModelError, match="exceeds the clearance"):
+        compile_text(FREE_JOURNAL.format(x="0 m", y="0 m", vx="0 m/s", vy="0 m/s", extra="offset = (0.2 mm, 0 m)"),
+                     "j.mbs")

@@ -23,7 +23,9 @@ Contact *mode* (``contact[k, 0]``: 0 free flight, 1 contact) is switched by the
 event logic of the time loop; in free mode the joint applies no force even if
 delta > 0, in contact mode it applies ``law(delta, delta')`` when delta > 0.
 ``contact[k, 1]`` is the impact velocity ``delta'(-)`` of the current contact;
-``contact[k, 2]`` the last force of an implicit (cylindrical) law, its warm start.
+``contact[k, 2]`` is unused (it held a warm start of the implicit laws, which made
+the last bits of the force, and so the trajectory, depend on which states had
+been evaluated before: on the output step, the chunking and resuming).
 
 Laws (``ContactLaw`` codes; docs/contact.md has the equations and references):
 
@@ -38,8 +40,8 @@ Laws (``ContactLaw`` codes; docs/contact.md has the equations and references):
   sigma_1 + sigma_2 form) or ``B = 4 L c / h`` (ESDU-78035).  With x = F / B and
   s = delta / (A B): ``x (1 - ln x) = s``; this is monotone for 0 < x <= 1 and
   ends at ``delta_max = A B`` (where d delta/dF = A ln(B/F) = 0).  Solved by a
-  safeguarded Newton iteration in u = ln x (bracket, bisection fallback), warm
-  started from contact[k, 2].  Past the branch's end (delta > A B) there is no
+  safeguarded Newton iteration in u = ln x (bracket, bisection fallback), always
+  from the same start, so F is a function of delta alone, bit for bit.  Past the branch's end (delta > A B) there is no
   force: `normal_force` returns Status.CONTACT_SOLVE; the adaptive integrator
   treats it as a failed trial step (the branch end acts as a wall it steps up
   to) and the run stops with CONTACT_SOLVE (stats[ST_INFO] = joint) only when
@@ -187,11 +189,12 @@ def cylinder_penetration(law, p, F):
 @kernel
 def normal_force(law, p, delta, vn, v_impact, f_last):
     """Normal force F >= 0 of a law at penetration delta > 0, normal velocity vn
-    (> 0 approaching), impact velocity v_impact and (implicit laws) the last force
-    f_last; returns (F, status)."""
+    (> 0 approaching) and impact velocity v_impact; returns (F, status).  f_last is
+    ignored (the implicit laws start their iteration from the same point every time,
+    so that F depends on delta alone)."""
     if is_cylindrical(law):
         A, B = cylinder_scales(law, p)
-        x, st = cylinder_solve(delta / (A * B), f_last / B)
+        x, st = cylinder_solve(delta / (A * B), 0.0)
         return B * x, st
     K = p[CP_STIFFNESS]
     dn = K * delta ** p[CP_EXPONENT]
@@ -212,7 +215,7 @@ def elastic_energy(law, p, delta, f_last):
     or for the cylindrical laws int F d delta = A F^2 (1 + 2 ln(B/F)) / 4 at F(delta)."""
     if is_cylindrical(law):
         A, B = cylinder_scales(law, p)
-        x, st = cylinder_solve(delta / (A * B), f_last / B)
+        x, st = cylinder_solve(delta / (A * B), 0.0)
         F = B * x
         if F <= 0.0:
             return 0.0
@@ -276,8 +279,7 @@ def clearance_force(km, k, q, qd, cs, contact):
     """(F, Ft, nx, ny, vt, status, aix, aiy, ajx, ajy) of joint k in its current mode:
     normal force magnitude F, friction force Ft on the journal along t = (-ny, nx),
     slip velocity vt, and the arms from the centres of mass to the bearing and
-    journal centres; cs = the bodies' cos/sin (`body_trig`).  Stores the force of an
-    implicit law in contact[k, 2] (warm start)."""
+    journal centres; cs = the bodies' cos/sin (`body_trig`)."""
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
     Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
@@ -290,8 +292,6 @@ def clearance_force(km, k, q, qd, cs, contact):
     F, st = normal_force(law, p, delta, vn, contact[k, 1], contact[k, 2])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, aix, aiy, ajx, ajy
-    if is_cylindrical(law):
-        contact[k, 2] = F
     Ft = -friction_coefficient(p, vt) * F
     return F, Ft, nx, ny, vt, 0, aix, aiy, ajx, ajy
 
@@ -337,3 +337,57 @@ def contact_energy(km, q, qd, contact):
         if delta > 0.0:
             V += elastic_energy(km.clearance_law[k], km.clearance_param[k], delta, contact[k, 2])
     return V
+
+
+@kernel
+def _inverse_mass_along(km, b, ax, ay, nx, ny):
+    """1/m + (a x n)^2 / I of body b for a force along n at arm a (0 for ground)."""
+    if b < 0:
+        return 0.0
+    r = ax * ny - ay * nx
+    return 1.0 / km.body_mass[b] + r * r / km.body_inertia[b]
+
+
+@kernel
+def peak_penetration(law, p, m, v):
+    """Largest penetration of an elastic impact of effective mass m at speed v > 0:
+    the spring energy equals m v^2 / 2 (K d^(n+1)/(n+1), or for the cylindrical laws
+    A F^2 (1 + 2 ln(B/F))/4, solved for F by bisection in ln F; capped at the branch end)."""
+    E = 0.5 * m * v * v
+    if law == DUBOWSKY_FREUDENSTEIN or law == ESDU_78035:
+        A, B = cylinder_scales(law, p)
+        if E >= 0.25 * A * B * B:
+            return A * B
+        lo = -700.0
+        hi = 0.0
+        for it in range(80):  # u = ln(F / B): energy A B^2 x^2 (1 - 2 u)/4 increases with u
+            u = 0.5 * (lo + hi)
+            x = math.exp(u)
+            if 0.25 * A * B * B * x * x * (1.0 - 2.0 * u) < E:
+                lo = u
+            else:
+                hi = u
+        F = B * math.exp(hi)
+        return A * F * (math.log(B / F) + 1.0)
+    ne = p[CP_EXPONENT]
+    return ((ne + 1.0) * E / p[CP_STIFFNESS]) ** (1.0 / (ne + 1.0))
+
+
+@kernel
+def contact_time_scale(km, k, q, qd, v_impact):
+    """Time scale of the contact of joint k that has just begun: d_max / v_impact, with d_max
+    the peak penetration of an elastic impact of the two bodies' effective mass along the
+    normal (constraints ignored: they only add mass, so this is never longer than the real
+    one).  An impact of a law with exponent n lasts about 2.9 of these for n = 1.5
+    (Hertz: duration 2.94 d_max / v).  Returns inf when both bodies are ground."""
+    bi = km.clearance_body[k, 0]
+    bj = km.clearance_body[k, 1]
+    p = km.clearance_param[k]
+    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+    Pix, Piy, aix, aiy, vix, viy, wi = point_state(q, qd, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
+    Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_state(q, qd, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
+    w = _inverse_mass_along(km, bi, aix + p[CP_R_BEARING] * nx, aiy + p[CP_R_BEARING] * ny, nx, ny)
+    w += _inverse_mass_along(km, bj, ajx + p[CP_R_JOURNAL] * nx, ajy + p[CP_R_JOURNAL] * ny, nx, ny)
+    if not (w > 0.0) or not (v_impact > 0.0):
+        return math.inf
+    return peak_penetration(km.clearance_law[k], p, 1.0 / w, v_impact) / v_impact

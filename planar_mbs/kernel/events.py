@@ -2,117 +2,242 @@
 
 The event function of joint k is its penetration ``g = delta = e - c``.  In
 free-flight mode the event is a crossing from - to + (onset), in contact mode
-from + to - (separation).  After each accepted step, g is sampled on the dense
-output at theta = 1/4, 1/2, 3/4 and 1 (interior points catch grazing contacts
-that start and end inside one step); the first sample on the new side gives a
-bracket, refined by the Illinois variant of regula falsi (bisection safeguard)
-to about 1e-12 relative time.  The step is cut at the bracket end on the new
-side; the earliest root over all joints wins (cf. SciPy ``_ivp/ivp.py``:
-sign change, root on the dense output).
+from + to - (separation); ``sgn`` turns both into "g becomes positive".
+
+After each accepted step the *deepest point* of g inside the step is found:
+g and its rate dg/dtheta = h sgn delta' are known exactly at both ends (from
+the states); their cubic Hermite interpolant shows whether g has an interior
+maximum, which is then located as the zero of dg/dtheta on the dense output
+(the dense state holds the velocities), by the Illinois variant of regula falsi.
+A grazing contact that begins and ends inside one step (an apex penetration
+of a fraction of a micrometre in a long free-flight step) is found however
+short it is; fixed samples (1/4, 1/2, 3/4) missed those.  When g is positive
+at the deepest point (or at the step end), the crossing before it is refined
+by the same method to about 1e-12 relative time; the step is cut at the
+bracket end on the new side, and the earliest crossing over all joints wins
+(cf. SciPy ``_ivp/ivp.py``: sign change, root on the dense output).
 """
 from __future__ import annotations
+
+import math
 
 from .jit import kernel
 
 from ..model import ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
-from .integrators import dense_eval, hermite_eval
+from .integrators import dense_eval
+from .workspace import DN_H, DN_TA
 
-N_SAMPLES = 4
 ROOT_RTOL = 1e-12
+PEAK_TOL = 1e-9  # step fraction to which the deepest point is located
 MAX_ROOT_ITER = 200
 
 
 @kernel
 def _g(km, k, y, sgn):
+    """(g, dg/dt) of joint k at state y, signed so that the event is g becoming positive."""
     n = y.shape[0] // 2
     ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
-    return sgn * delta
+    return sgn * delta, sgn * vn
+
+
+@kernel
+def _cubic_peak(g0, d0, g1, d1):
+    """(theta, value) of the interior local maximum of the cubic Hermite interpolant with
+    p(0) = g0, p'(0) = d0, p(1) = g1, p'(1) = d1; theta = -1 when it has none in (0, 1)."""
+    c2 = 3.0 * (g1 - g0) - 2.0 * d0 - d1
+    c3 = 2.0 * (g0 - g1) + d0 + d1
+    # p'(x) = d0 + 2 c2 x + 3 c3 x^2; a maximum where p' = 0 and p'' = 2 c2 + 6 c3 x < 0
+    best = -1.0
+    a = 3.0 * c3
+    b = 2.0 * c2
+    if a == 0.0:
+        if b < 0.0:
+            best = -d0 / b
+    else:
+        disc = b * b - 4.0 * a * d0
+        if disc >= 0.0:
+            r = math.sqrt(disc)
+            for x in ((-b - r) / (2.0 * a), (-b + r) / (2.0 * a)):
+                if 2.0 * c2 + 6.0 * c3 * x < 0.0:
+                    best = x
+    if not (best > 0.0 and best < 1.0):
+        return -1.0, -math.inf
+    x = best
+    return x, g0 + x * (d0 + x * (c2 + x * c3))
+
+
+@kernel
+def _ends(km, ws, k, sgn):
+    """(g0, d0, g1, d1): g and dg/dtheta of joint k at the start and end of the last step."""
+    h = ws.dense[DN_H]
+    g0, v0 = _g(km, k, ws.ya, sgn)
+    g1, v1 = _g(km, k, ws.yb, sgn)
+    return g0, h * v0, g1, h * v1
 
 
 @kernel
 def event_possible(km, ws, contact, kend):
-    """Screening for DOP853 (whose accurate dense output costs three extra stages):
-    True when any joint's g, sampled like `locate_event` does but on the cubic
-    Hermite interpolant (no extra stage), is on the new side in the last step."""
+    """Screening for DOP853 (whose accurate dense output costs three extra stages): True
+    when any joint's g is positive at the step end, or its cubic Hermite interpolant from the
+    end values and rates has an interior maximum that could reach g > 0 (the cubic's rise above
+    the higher end is allowed a 100 % error)."""
     nc = km.clearance_body.shape[0]
-    for s in range(1, N_SAMPLES + 1):
-        if s == N_SAMPLES:
-            for i in range(ws.yt.shape[0]):
-                ws.yt[i] = ws.yb[i]
-        else:
-            hermite_eval(ws, s / N_SAMPLES, ws.yt, kend)
-        for k in range(nc):
-            sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
-            if _g(km, k, ws.yt, sgn) > 0.0:
-                return True
+    for k in range(nc):
+        sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
+        g0, d0, g1, d1 = _ends(km, ws, k, sgn)
+        if g1 > 0.0:
+            return True
+        x, p = _cubic_peak(g0, d0, g1, d1)
+        if x > 0.0 and 2.0 * p - max(g0, g1) > 0.0:
+            return True
     return False
 
 
 @kernel
+def _rate(km, ws, k, sgn, x):
+    """dg/dtheta of joint k on the dense output at step fraction x."""
+    dense_eval(ws, x, ws.yt)
+    g, v = _g(km, k, ws.yt, sgn)
+    return ws.dense[DN_H] * v
+
+
+@kernel
+def _peak(km, ws, k, sgn, g0, d0, g1, d1):
+    """Step fraction of the deepest interior point of g (the zero of dg/dtheta where it turns
+    from + to -, on the dense output), or -1 when g has no interior maximum that could reach
+    g > 0 (the same screening as `event_possible`)."""
+    xc, p = _cubic_peak(g0, d0, g1, d1)
+    if xc > 0.0 and 2.0 * p - max(g0, g1) <= 0.0:
+        return -1.0  # even with a 100 % error in its rise, the cubic's peak stays below g = 0
+    if d0 > 0.0 and d1 < 0.0:
+        lo, flo, hi, fhi = 0.0, d0, 1.0, d1
+    elif xc > 0.0:
+        # both ends rise (or both fall) and the cubic has a maximum xc and a minimum xo inside:
+        # bracket the maximum between an end and the midpoint of the two
+        c2 = 3.0 * (g1 - g0) - 2.0 * d0 - d1
+        c3 = 2.0 * (g0 - g1) + d0 + d1
+        xo = -2.0 * c2 / (3.0 * c3) - xc if c3 != 0.0 else xc  # sum of the roots of p'
+        if d0 > 0.0:  # maximum, then minimum
+            lo, flo = 0.0, d0
+            hi = min(1.0, 0.5 * (xc + max(xc, xo)))
+            fhi = _rate(km, ws, k, sgn, hi)
+        else:  # minimum, then maximum
+            lo = 0.5 * (xc + max(0.0, min(xc, xo)))
+            flo = _rate(km, ws, k, sgn, lo)
+            hi, fhi = 1.0, d1
+        if not (flo > 0.0 and fhi < 0.0):
+            return -1.0
+    else:
+        return -1.0
+    if xc > lo and xc < hi:  # the cubic's estimate as the first point
+        fx = _rate(km, ws, k, sgn, xc)
+        if fx > 0.0:
+            lo, flo = xc, fx
+        elif fx < 0.0:
+            hi, fhi = xc, fx
+        else:
+            return xc
+    return _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi)
+
+
+@kernel
+def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi):
+    """Zero of dg/dtheta in [lo, hi] (flo > 0 > fhi), Illinois regula falsi."""
+    side = 0
+    for it in range(MAX_ROOT_ITER):
+        if hi - lo <= PEAK_TOL:
+            break
+        x = (lo * fhi - hi * flo) / (fhi - flo) if it % 4 != 3 else 0.5 * (lo + hi)
+        if not (x > lo and x < hi):
+            x = 0.5 * (lo + hi)
+        fx = _rate(km, ws, k, sgn, x)
+        if fx > 0.0:
+            lo = x
+            flo = fx
+            if side == 1:
+                fhi *= 0.5
+            side = 1
+        elif fx < 0.0:
+            hi = x
+            fhi = fx
+            if side == -1:
+                flo *= 0.5
+            side = -1
+        else:
+            return x
+    return 0.5 * (lo + hi)
+
+
+@kernel
+def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
+    """Bracket end on the new side (g > 0) of the crossing of g in [lo, hi] (flo <= 0 < fhi),
+    refined by Illinois regula falsi (bisection safeguard) to tol."""
+    side = 0
+    for it in range(MAX_ROOT_ITER):
+        if hi - lo <= tol:
+            break
+        if it % 4 == 3 or not (fhi - flo > 0.0):
+            x = 0.5 * (lo + hi)
+        else:
+            x = (lo * fhi - hi * flo) / (fhi - flo)
+            if not (x > lo and x < hi):
+                x = 0.5 * (lo + hi)
+        dense_eval(ws, x, ws.yt)
+        fx, v = _g(km, k, ws.yt, sgn)
+        if fx > 0.0:
+            hi = x
+            fhi = fx
+            if side == 1:
+                flo *= 0.5
+            side = 1
+        else:
+            lo = x
+            flo = fx
+            if side == -1:
+                fhi *= 0.5
+            side = -1
+    return hi
+
+
+@kernel
 def locate_event(km, ws, contact):
-    """Earliest mode change inside the last step (dense segment ws.dense[0:2]).
+    """Earliest mode change inside the last step (dense segment ws.dense[DN_TA], ws.dense[DN_H]).
 
     Returns (k, theta): joint index (-1 if none) and the step fraction of the
     bracket end on the new side of the switching surface."""
     nc = km.clearance_body.shape[0]
-    ta = ws.dense[0]
-    h = ws.dense[1]
-    for k in range(nc):
-        sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
-        ws.gs[k, 0] = _g(km, k, ws.ya, sgn)
-    for s in range(1, N_SAMPLES + 1):
-        th = s / N_SAMPLES
-        if s == N_SAMPLES:
-            for i in range(ws.yt.shape[0]):
-                ws.yt[i] = ws.yb[i]
-        else:
-            dense_eval(ws, th, ws.yt)
-        for k in range(nc):
-            sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
-            ws.gs[k, s] = _g(km, k, ws.yt, sgn)
+    ta = ws.dense[DN_TA]
+    h = ws.dense[DN_H]
     best = 2.0
     kbest = -1
     tol = ROOT_RTOL * max(abs(ta), h) / h
     for k in range(nc):
-        s1 = -1
-        for s in range(1, N_SAMPLES + 1):
-            if ws.gs[k, s] > 0.0:
-                s1 = s
-                break
-        if s1 < 0:
-            continue
-        lo = (s1 - 1) / N_SAMPLES
-        hi = s1 / N_SAMPLES
-        if lo >= best:
-            continue
-        flo = ws.gs[k, s1 - 1]
-        fhi = ws.gs[k, s1]
         sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
-        side = 0
-        for it in range(MAX_ROOT_ITER):
-            if hi - lo <= tol:
-                break
-            if it % 4 == 3 or not (fhi - flo > 0.0):
-                x = 0.5 * (lo + hi)
-            else:
-                x = (lo * fhi - hi * flo) / (fhi - flo)
-                if not (x > lo and x < hi):
-                    x = 0.5 * (lo + hi)
+        g0, d0, g1, d1 = _ends(km, ws, k, sgn)
+        x = _peak(km, ws, k, sgn, g0, d0, g1, d1)
+        lo = 0.0
+        flo = min(g0, 0.0)
+        hi = 2.0
+        fhi = 0.0
+        if x > 0.0:
             dense_eval(ws, x, ws.yt)
-            fx = _g(km, k, ws.yt, sgn)
-            if fx > 0.0:
+            gx, v = _g(km, k, ws.yt, sgn)
+            if gx > 0.0:
                 hi = x
-                fhi = fx
-                if side == 1:
-                    flo *= 0.5
-                side = 1
-            else:
+                fhi = gx
+            elif g1 > 0.0:  # below the surface at the peak: the crossing comes after it
                 lo = x
-                flo = fx
-                if side == -1:
-                    fhi *= 0.5
-                side = -1
+                flo = gx
+        if hi > 1.0 and g1 > 0.0:
+            hi = 1.0
+            fhi = g1
+        if hi > 1.0 or hi >= best:
+            continue
+        if g0 > 0.0:  # already on the new side at the step start (roundoff at a switch)
+            hi = 0.0
+        else:
+            hi = _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol)
         if hi < best:
             best = hi
             kbest = k

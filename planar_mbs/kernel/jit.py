@@ -4,8 +4,11 @@
   later processes.  When the package directory is not writable (a read-only or
   system install) numba falls back to the user's cache directory
   (``~/.cache/numba`` or ``$XDG_CACHE_HOME/numba``); ``NUMBA_CACHE_DIR`` chooses
-  one explicitly.  Numba checks only each kernel's own source file: after
-  editing a module other kernels depend on, delete ``kernel/__pycache__``.
+  one explicitly.  Numba alone checks only each kernel's own source file, so
+  editing `contact.py` would leave the cached time loop (in `loop.py`) running
+  the old contact physics; here every kernel's cache stamp also holds a hash of
+  all the sources the kernels are compiled from (`KERNEL_SOURCES`), so a change
+  to any of them recompiles every kernel.
   First compilation of all kernels: about 30 s (docs/benchmarks.md).
 * ``error_model="numpy"``: a division by zero gives inf/NaN, which the time
   loop reports as a non-finite state, instead of raising inside compiled code.
@@ -15,6 +18,64 @@
   `KernelModel` and the workspace with atomic operations: measured 5.4 µs per
   right-hand side of Muvengei et al.'s slider-crank with it, 0.9 µs without.
 """
-from numba import njit
+from __future__ import annotations
 
-kernel = njit(cache=True, error_model="numpy", _nrt=False)
+import hashlib
+from pathlib import Path
+
+from numba import njit
+from numba.core import caching
+
+_HERE = Path(__file__).resolve().parent
+# every file a kernel is compiled from: the kernel modules and the model's codes and layouts
+KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "model.py",)
+
+
+def source_hash(paths=KERNEL_SOURCES) -> str:
+    """SHA-256 over the names and contents of `paths`."""
+    h = hashlib.sha256()
+    for p in paths:
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+SOURCE_HASH = source_hash()
+
+
+class _Stamped:
+    """A numba cache locator whose source stamp also holds SOURCE_HASH: a cached
+    kernel whose index was written with other kernel sources is not loaded."""
+
+    def get_source_stamp(self):
+        return (super().get_source_stamp(), SOURCE_HASH)
+
+
+class _UserProvided(_Stamped, caching.UserProvidedCacheLocator):
+    pass
+
+
+class _InTree(_Stamped, caching.InTreeCacheLocator):
+    pass
+
+
+class _UserWide(_Stamped, caching.UserWideCacheLocator):
+    pass
+
+
+class _Impl(caching.CompileResultCacheImpl):
+    _locator_classes = [_UserProvided, _InTree, _UserWide]
+
+
+class _FunctionCache(caching.FunctionCache):
+    _impl_class = _Impl
+
+
+_njit = njit(cache=True, error_model="numpy", _nrt=False)
+
+
+def kernel(func):
+    """``njit`` with the options above and the source-hash-stamped cache."""
+    dispatcher = _njit(func)
+    dispatcher._cache = _FunctionCache(func)
+    return dispatcher
