@@ -159,6 +159,7 @@ def case_summary(work: Path, joint: str, modulus: str, speed: str) -> dict | Non
     if tight is not None:
         _, vt = verdict_of(tight[0])
         out["tight"] = {"rtol": tight[1]["rtol"], "verdict": vt.label(), "class": vt.verdict,
+                        "revolutions": tight[1]["revolutions"],
                         "settled_revolution": vt.settled_revolution, "cpu": tight[1]["cpu"]}
     out["benettin"] = lyapunov_of(work, joint, modulus, speed)
     return out
@@ -345,7 +346,7 @@ def make_figures(work: Path, files: dict, summaries: list[dict]) -> tuple[list[P
                 continue
             bif[f"{joint}_{tag}"] = bifurcation(
                 work, joint, modulus, f"Bifurcation diagram, 0.3 mm clearance at {joint}, E = {modulus}: slider vx "
-                f"and ax once per revolution after the motion settled (grey: before), {REVOLUTIONS}-revolution runs",
+                f"and ax once per revolution\nafter the motion settled (grey: before), {REVOLUTIONS}-revolution runs",
                 save(f"bifurcation_{joint}_{tag}"))
     convergence_figure(summaries, save("lyapunov_convergence"))
     return written, bif
@@ -407,7 +408,8 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
         nn = "–" if s["lyapunov"] != s["lyapunov"] else f"{s['lyapunov']:.2f}"
         settled = _settled(s["class"], s["settled_revolution"], s["revolutions"])
         t = s.get("tight")
-        tight = f"{t['verdict']}, {_settled(t['class'], t['settled_revolution'], s['revolutions'], True)}" if t else "not run"
+        tight = (f"{t['verdict']}, {_settled(t['class'], t['settled_revolution'], t['revolutions'], True)}"
+                 + (f" ({t['revolutions']} rev)" if t["revolutions"] != s["revolutions"] else "")) if t else "not run"
         note = "; ".join(filter(None, [_agree_lyapunov(s), s["note"] if not s["agree"] else ""]))
         lines.append(f"| {s['joint']} | {s['E']} | {s['speed']} | {paper} | **{s['verdict']}** | {settled} | "
                      f"{s['revolutions']} | {_lam(s.get('benettin'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")
@@ -449,15 +451,17 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
                 f" (from {r['settled_revolution']})" if r["settled_revolution"] is not None else " (not settled)"))
         lines.append(f"| {speed} | " + " | ".join(cells) + " |")
     gen["bifurcation"] = "\n".join(lines)
-    commits = sorted({s["commit"] for s in summaries})
-    n_long = len(list(work.glob("long_*.npz")))
-    n_tight = len(list(work.glob("tight_*.npz")))
+    commits = sorted({json.loads(str(np.load(p)["meta"]))["commit"] for p in work.glob("*.npz")})
+    n_long = len([p for p in work.glob("long_*.npz") if not p.stem.endswith("_cont")])
+    n_tight = len([p for p in work.glob("tight_*.npz") if not p.stem.endswith("_cont")])
     n_lyap = len(list(work.glob("lyap_*.json")))
     cpu = sum(json.loads(str(np.load(p)["meta"]))["cpu"] for p in work.glob("*.npz"))
     cpu += sum(json.loads(p.read_text())["cpu"] for p in work.glob("lyap_*.json"))
     gen["run"] = (f"Runs behind this page: {n_long} runs of {REVOLUTIONS} revolutions, {n_tight} of them again at "
                   f"rtol 1e-8, Lyapunov exponents of {n_lyap} cases; {cpu / 60:.0f} min of CPU in the time loops "
-                  f"(kernel of commit {', '.join(c[:10] for c in commits)}); {len(figures)} figures; "
+                  f"(runs made from {len(commits)} working states of this repository, between commit eca561b "
+                  "and the commit that added this page, whose time loop was reorganised but computes the same "
+                  f"numbers; each run's commit is in docs/replication_data.json); {len(figures)} figures; "
                   f"drawing and analysis {wall:.0f} s.")
     data["commits"] = commits
     (ROOT / "docs" / "replication_data.json").write_text(json.dumps(data, indent=1, default=_json))
