@@ -460,8 +460,9 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
     gen["run"] = (f"Runs behind this page: {n_long} runs of {REVOLUTIONS} revolutions, {n_tight} of them again at "
                   f"rtol 1e-8, Lyapunov exponents of {n_lyap} cases; {cpu / 60:.0f} min of CPU in the time loops "
                   f"(runs made from {len(commits)} working states of this repository, between commit eca561b "
-                  "and the commit that added this page, whose time loop was reorganised but computes the same "
-                  f"numbers; each run's commit is in docs/replication_data.json); {len(figures)} figures; "
+                  "and commit aeb8a50, whose time loop was reorganised but computes the same numbers; the "
+                  "time-loop changes of commit f16adbe (contact detection) came after these runs and may move "
+                  f"contact onsets; each run's commit is in docs/replication_data.json); {len(figures)} figures; "
                   f"drawing and analysis {wall:.0f} s.")
     data["commits"] = commits
     (ROOT / "docs" / "replication_data.json").write_text(json.dumps(data, indent=1, default=_json))
