@@ -15,14 +15,14 @@ def check_model(model, sets: list[str]) -> int:
     """Check one model; print its summary or its errors (with file:line:col).  Returns the exit code."""
     from planar_mbs.compile import load_model  # errors worded for --set
     from planar_mbs.errors import MbsError
-    from planar_mbs.kinematics import assemble, assembly_changes
+    from planar_mbs.kinematics import assemble, assembly_changes, constraint_report
 
     try:
         m = load_model(model, parse_sets(sets))
         q, qd = assemble(m)
     except MbsError as err:
         return fail_code(err)
-    _print_model(m)
+    _print_model(m, constraint_report(m, q))
     _print_output_size(m)
     print_assembly(assembly_changes(m, q, qd))
     return 0
@@ -47,17 +47,23 @@ def print_assembly(changes) -> None:
             con.print(line, markup=False)
 
 
-def _print_model(m) -> None:
+def _print_model(m, report: dict) -> None:
     from rich.markup import escape
     from rich.table import Table
 
     from planar_mbs.model import CP_CLEARANCE, CP_STIFFNESS
     con = console()
     k = m.kernel
+    dof = report["dof"]
     con.print(f"[bold]{m.source_path}[/]: {m.nbody} bodies, {m.ncoord} coordinates, "
-              f"{m.nconstraint} constraint{'s' if m.nconstraint != 1 else ''}, "
-              f"{m.dof} degree{'s' if m.dof != 1 else ''} of freedom "
+              f"{m.nconstraint} constraint{'s' if m.nconstraint != 1 else ''}"
+              f"{'' if report['rank'] == m.nconstraint else ' (rank ' + str(report['rank']) + ')'}, "
+              f"{dof} degree{'s' if dof != 1 else ''} of freedom "
               f"({m.nclearance} clearance joint{'s' if m.nclearance != 1 else ''})")
+    if report["redundant"]:
+        names = ", ".join(f"`{escape(n)}`" for n in report["redundant"])
+        con.print(f"redundant at the initial pose: {names} (rows that repeat what the other joints impose; "
+                  "the run splits their reactions by least squares, docs/signals.md)")
 
     def table(title, *columns):
         t = Table(title=title, title_justify="left")

@@ -33,6 +33,7 @@ from .model import (
     INTEGRATOR_NAMES, DriverType, ForceType, Integrator, JointType, KernelModel, Model, MotionType, Settings,
     SourceRef,
 )
+from .ordering import reorder
 from .parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from .spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
 
@@ -834,7 +835,7 @@ class _CheckPass:
         for name, arr in self.a.items():
             if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
                 raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
-        kernel = KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()})
+        kernel = reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()}))
 
         def refs(sts):
             return [SourceRef(s.pos.file, s.pos.line, s.pos.column) for s in sts]

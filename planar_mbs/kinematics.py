@@ -16,6 +16,8 @@ rows' ``P_i' - P_j' = -A_i v_rel``).  `assembly_changes` says what moved.
 
 Redundant or singular constraints are found by adding the joints' rows one at a
 time and watching the rank of ``Cq``; the joints that add no rank are named.
+A redundant joint is accepted (the solver splits its reaction, docs/signals.md);
+a redundant driver is an error (it repeats or contradicts a prescribed motion).
 """
 from __future__ import annotations
 
@@ -215,13 +217,14 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
             "close with these lengths",
         )
     dependent = _dependent_rows(Cq, owners, sv)
-    if dependent:
+    drivers = [n for n in dependent if n in set(model.driver_names)]
+    if drivers:
         raise _model_error(
             model,
-            "redundant or singular constraints at the assembled pose: " + ", ".join(f"`{n}`" for n in dependent),
-            dependent,
-            "these joints or drivers repeat what others already impose (or the pose is a "
-            "singular, toggle position); remove one or move the initial pose",
+            "redundant or conflicting driver: " + ", ".join(f"`{n}`" for n in drivers) + " prescribes a motion "
+            "the joints and the other drivers already fix",
+            drivers,
+            "remove it, or drive another coordinate (or move the initial pose off a singular, toggle position)",
         )
 
 
@@ -295,3 +298,18 @@ def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | 
                         if what == "pose" else "assembly changed the stated velocity of " + ", ".join(moved)
                         + " (m/s or rad/s): the joints and drivers forbid it"))
     return out
+
+
+def constraint_report(model: Model, q: np.ndarray, t: float = 0.0) -> dict:
+    """Rank of the constraints at pose q, degrees of freedom (coordinates - rank) and the
+    joints whose rows add no rank (in declaration order: the later of two equal joints
+    is the redundant one; drivers are kept last).  For `mbs check`."""
+    km, owners = assembly_kernel(model)
+    m = len(owners)
+    if m == 0:
+        return dict(rank=0, dof=model.ncoord, redundant=[])
+    _, Cq, _ = _evaluate(km, q, np.zeros_like(q), t, m)
+    sv = np.linalg.svd(Cq, compute_uv=False)
+    tol = RANK_TOL * max(sv[0] if len(sv) else 0.0, 1.0)
+    rank = int(np.count_nonzero(sv > tol))
+    return dict(rank=rank, dof=model.ncoord - rank, redundant=_dependent_rows(Cq, owners, sv))

@@ -8,9 +8,10 @@ Names stay here on the Python side; the numba kernels only see
 
 Coordinates (Nikravesh): body ``b`` owns ``q[3b:3b+3] = (x, y, phi)`` of its
 centre of mass; ground has no coordinates.  A point of a body is given in the
-body frame (origin at the centre of mass).  Constraint rows are ordered: ideal
-joints in declaration order (``JOINT_ROWS[type]`` rows each), then drivers
-(one row each); ``joint_row`` / ``driver_row`` hold the first row.
+body frame (origin at the centre of mass).  Each ideal joint owns
+``JOINT_ROWS[type]`` consecutive constraint rows, each driver one;
+``joint_row`` / ``driver_row`` hold the first row.  The elements are placed in
+the fill-reducing order of `planar_mbs.ordering`, not in the order of the text.
 
 Sign conventions shared by kernels, signals and tests:
 
@@ -130,6 +131,7 @@ class Status(IntEnum):
     MAX_STEPS = 5
     CONTACT_SOLVE = 6  # an implicit contact law found no force
     BAD_INPUT = 7
+    DRIFT = 8  # fixed-step RK4 left the constraints (residual above the documented bound)
 
 
 # stats: int64 counters kept across calls of the time loop

@@ -228,6 +228,12 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
         return f"the state became NaN or infinite {at}{what}: the run blew up"
     if status == Status.SINGULAR:
         return f"the constraint matrix became singular {at}{_row_owner(model, info)}: a toggle or locked position"
+    if status == Status.DRIFT:
+        from .kernel.dynamics import DRIFT_POSITION, DRIFT_VELOCITY
+
+        return (f"the constraints drifted beyond |C| = {DRIFT_POSITION:g} or |C'| = {DRIFT_VELOCITY:g} (m, rad, "
+                f"per second for C') {at}{_row_owner(model, info)}: the fixed RK4 step is too long for this "
+                "motion, or a singular position was crossed (use a shorter step, or dopri5/dop853)")
     if status == Status.MAX_STEPS:
         return f"the step limit max_steps = {settings.max_steps} was reached {at}"
     if status == Status.CONTACT_SOLVE:

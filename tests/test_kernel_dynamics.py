@@ -138,12 +138,21 @@ def test_projection_enforces_constraints():
     assert rows[:, -2].max() < 1e-4
 
 
-def test_redundant_constraint_is_singular():
-    km = K.build([(1.0, 0.1)], joints=[
-        dict(type=JointType.REVOLUTE, bodies=(-1, 0), points=((0, 0), (-1, 0))),
-        dict(type=JointType.REVOLUTE, bodies=(-1, 0), points=((0, 0), (-1, 0))),
-    ], gravity=(0, -K.G))
+def test_redundant_pin_moves_like_one_pin_and_splits_the_reaction_evenly():
+    """Two identical pins: the rows are dependent for good.  The motion is the single-pin
+    pendulum's, and the reaction of each pin is half the single pin's (least sum of
+    diag(S) lam^2 over two identical rows = an even split)."""
+    pin = dict(type=JointType.REVOLUTE, bodies=(-1, 0), points=((0, 0), (-1, 0)))
+    one = K.build([(1.0, 0.1)], joints=[pin], gravity=(0, -K.G))
+    two = K.build([(1.0, 0.1)], joints=[pin, pin], gravity=(0, -K.G))
     q0 = np.array([1.0, 0.0, 0.0])
-    st, t, rows, y, stats, _ = K.run(km, q0, np.zeros(3), K.cfg(), 1.0)
-    assert st == Status.SINGULAR
-    assert stats[5] == 2  # first dependent row: joint 1's x row
+    c = K.cfg(rtol=1e-10, atol=1e-12, output_step=0.05)
+    st1, t1, rows1, y1, _, _ = K.run(one, q0, np.zeros(3), c, 2.0)
+    st2, t2, rows2, y2, _, _ = K.run(two, q0, np.zeros(3), c, 2.0)
+    assert st1 == st2 == Status.DONE
+    np.testing.assert_allclose(rows2[:, :9], rows1[:, :9], atol=1e-9)
+    r1 = rows1[:, 9:12]
+    np.testing.assert_allclose(rows2[:, 9:12] + rows2[:, 12:15], r1, atol=1e-9 * np.abs(r1).max())
+    # the split carries rounding amplified by 1 / REG (1e8): ~1e-8 of the reaction
+    np.testing.assert_allclose(rows2[:, 9:12], r1 / 2, atol=1e-7 * np.abs(r1).max())
+    np.testing.assert_allclose(rows2[:, 12:15], r1 / 2, atol=1e-7 * np.abs(r1).max())

@@ -2,19 +2,28 @@
 
 ``M q'' + Cq^T lam = Qe``, ``Cq q'' = gamma - 2 alpha (Cq q' + Ct) - beta^2 C``.
 M is diagonal (``km.minv``), so with the Schur complement
-``S = Cq M^-1 Cq^T`` (m x m, symmetric positive definite for independent rows):
+``S = Cq M^-1 Cq^T`` (m x m, symmetric positive semi-definite):
 
-    lam = S^-1 (Cq M^-1 Qe - gamma_b),   q'' = M^-1 (Qe - Cq^T lam).
+    S lam = Cq M^-1 Qe - gamma_b,   q'' = M^-1 (Qe - Cq^T lam).
 
 Structure is used, never a dense m x n product: each constraint row touches
 at most two bodies (the row-sparse Jacobian ``ws.J (m, 2, 3)`` with the bodies
 in ``ws.rowbody``), so ``S[r, c]`` is non-zero only when rows r and c share a
 body.  ``ws.first[r]`` is the first such row; S is stored and factored in this
 *envelope* (profile) form: an envelope Cholesky has no fill outside it, so a
-chain of N bodies (block-tridiagonal S) costs O(N) per factorisation instead
-of the O(N^3) of a dense one, and small mechanisms lose nothing.  A pivot <=
-PIVOT_TOL times its original diagonal entry means dependent (redundant or
-singular) rows: Status.SINGULAR with the row index in stats[ST_INFO].
+chain of N bodies (block-tridiagonal S, rows in the order of
+`planar_mbs.ordering`) costs O(N) per factorisation instead of the O(N^3) of a
+dense one, and small mechanisms lose nothing.
+
+S loses rank at a singular position (for an instant) and with redundant joints
+(for good).  So ``S + REG D`` (D = diag S) is factored, which stays positive
+definite, and the system is solved by iterated Tikhonov regularisation
+(`multipliers`): exact to rounding for the well-conditioned part, the
+minimum-norm multipliers for redundant rows, and a soft constraint (a penalty of
+relative stiffness 1/REG) in the directions that vanish at a singular position,
+so the mechanism passes it on its momentum instead of being thrown onto another
+assembly branch by huge forces.  Only a row without any Jacobian (or a NaN)
+still gives Status.SINGULAR (row in stats[ST_INFO]).  docs/numerics.md says why.
 """
 from __future__ import annotations
 
@@ -27,14 +36,19 @@ from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
 
-PIVOT_TOL = 1e-12
 SINGULAR = 4
+DRIFT = 8
+REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (see the module docstring)
+REFINE = 4  # at most this many refinement sweeps of the regularised solve
+REFINE_TOL = 1e-14  # stop when the scaled residual is this small against the right side
+# (ws.solver holds [REG, REFINE, REFINE_TOL] so that experiments need no recompilation)
 
 
 @kernel
 def schur_factor(km, ws, stats):
-    """S = Cq M^-1 Cq^T from ws.J inside the envelope, Cholesky-factored in place
-    (lower triangle, rows r: columns first[r]..r)."""
+    """S = Cq M^-1 Cq^T from ws.J inside the envelope (diagonal kept in ws.sdiag), then
+    S + REG diag(S) Cholesky-factored in place (lower triangle, rows r: columns
+    first[r]..r).  Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
     J = ws.J
     S = ws.S
     rb = ws.rowbody
@@ -55,12 +69,13 @@ def schur_factor(km, ws, stats):
                               + J[r, a1, 2] * minv[k + 2] * J[c, a2, 2])
             S[r, c] = s
         ws.sdiag[r] = S[r, r]
+        S[r, r] = s * (1.0 + ws.solver[0])
     for j in range(m):
         fj = first[j]
         d = S[j, j]
         for k in range(fj, j):
             d -= S[j, k] * S[j, k]
-        if not (d > PIVOT_TOL * ws.sdiag[j]) or not (d > 0.0):
+        if not (d > 0.0) or not (ws.sdiag[j] > 0.0):
             stats[ST_INFO] = j
             return SINGULAR
         d = math.sqrt(d)
@@ -78,7 +93,7 @@ def schur_factor(km, ws, stats):
 
 @kernel
 def schur_solve(ws, x):
-    """Solve S x = x in place with the envelope factor in ws.S."""
+    """Solve (S + REG diag S) x = x in place with the envelope factor in ws.S."""
     L = ws.S
     first = ws.first
     m = x.shape[0]
@@ -92,6 +107,44 @@ def schur_solve(ws, x):
         x[i] = xi
         for k in range(first[i], i):
             x[k] -= L[i, k] * xi
+
+
+@kernel
+def multipliers(km, ws, x):
+    """Solve S x = ws.b by iterated Tikhonov regularisation
+    (x += (S + REG D)^-1 (b - S x), D = diag S; Riley 1955, the dual form of the
+    augmented-Lagrangian iteration of Bayo, Garcia de Jalon and Serna, "A modified
+    Lagrangian formulation for the dynamic analysis of constrained mechanical systems").
+    Converges to the solution of least sum_r D_rr x_r^2 (the minimum-norm split for
+    dependent rows); directions with eigenvalue below ~REG D stay damped (a singular
+    position).  Uses ws.res and ws.v as scratch."""
+    m = x.shape[0]
+    minv = km.minv
+    bnorm = 0.0
+    for r in range(m):
+        bnorm = max(bnorm, abs(ws.b[r]) / math.sqrt(ws.sdiag[r]))
+    for r in range(m):
+        x[r] = ws.b[r]
+    schur_solve(ws, x)
+    for it in range(64):
+        for k in range(ws.v.shape[0]):
+            ws.v[k] = 0.0
+        for r in range(m):  # v = M^-1 Cq^T x
+            for a in range(2):
+                b = ws.rowbody[r, a]
+                if b >= 0:
+                    k = 3 * b
+                    for i in range(3):
+                        ws.v[k + i] += minv[k + i] * ws.J[r, a, i] * x[r]
+        rnorm = 0.0
+        for r in range(m):
+            ws.res[r] = ws.b[r] - jac_dot(ws, r, ws.v)
+            rnorm = max(rnorm, abs(ws.res[r]) / math.sqrt(ws.sdiag[r]))
+        if not (rnorm > ws.solver[2] * bnorm) or it >= ws.solver[1]:
+            break
+        schur_solve(ws, ws.res)
+        for r in range(m):
+            x[r] += ws.res[r]
 
 
 @kernel
@@ -149,11 +202,11 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     for r in range(m):
         cd = ws.Ct[r] + jac_dot(ws, r, qd)
         gb = ws.gam[r] - 2.0 * alpha * cd - beta * beta * ws.C[r]
-        ws.lam[r] = jac_dot(ws, r, ws.qdd) - gb
+        ws.b[r] = jac_dot(ws, r, ws.qdd) - gb
     st = schur_factor(km, ws, stats)
     if st != 0:
         return st
-    schur_solve(ws, ws.lam)
+    multipliers(km, ws, ws.lam)
     for r in range(m):
         jac_t_sub(ws, r, ws.lam[r], minv, 1.0, ws.qdd)
     return 0
@@ -198,9 +251,9 @@ def project(km, t, y, ws, stats):
         st = schur_factor(km, ws, stats)
         if st != 0:
             return st
-        schur_solve(ws, ws.b)
+        multipliers(km, ws, ws.dl)
         for r in range(m):
-            jac_t_sub(ws, r, ws.b[r], minv, 1.0, q)
+            jac_t_sub(ws, r, ws.dl[r], minv, 1.0, q)
     body_trig(q, ws.cs)
     st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
     if st != 0:
@@ -210,7 +263,25 @@ def project(km, t, y, ws, stats):
     st = schur_factor(km, ws, stats)
     if st != 0:
         return st
-    schur_solve(ws, ws.b)
+    multipliers(km, ws, ws.dl)
     for r in range(m):
-        jac_t_sub(ws, r, ws.b[r], minv, 1.0, qd)
+        jac_t_sub(ws, r, ws.dl[r], minv, 1.0, qd)
+    return 0
+
+
+DRIFT_POSITION = 1e-6  # m or rad: bound on |C_r| for fixed-step RK4
+DRIFT_VELOCITY = 1e-4  # m/s or rad/s: bound on |Cq q' + Ct|_r for fixed-step RK4
+
+
+@kernel
+def drift_check(ws, qd, stats):
+    """Constraint residuals at the state of the last right-hand side (ws.C, ws.J, ws.Ct):
+    DRIFT (stats[ST_INFO] = row) when a position residual exceeds DRIFT_POSITION or a
+    velocity residual DRIFT_VELOCITY.  Fixed-step RK4 has no error control: this
+    stops a run that has left its constraints (a too long step, a singular position
+    taken on the wrong side) instead of returning wrong results."""
+    for r in range(ws.C.shape[0]):
+        if not (abs(ws.C[r]) <= DRIFT_POSITION) or not (abs(ws.Ct[r] + jac_dot(ws, r, qd)) <= DRIFT_VELOCITY):
+            stats[ST_INFO] = r
+            return DRIFT
     return 0

@@ -50,7 +50,7 @@ from ..model import (
 )
 from .constraints import _JOINT_ROWS, ANGLE, motion, point_state
 from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
-from .dynamics import accelerations, jac_dot, project, rhs
+from .dynamics import accelerations, drift_check, jac_dot, project, rhs
 from .events import event_possible, init_modes, locate_event, switch_mode
 from .forces import force_potential
 from .integrators import (
@@ -377,6 +377,8 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 hh = t_stop - t
                 last = True
             st = rk4_step(km, cfg, t, y, hh, contact, ws, stats)
+            if st == 0:
+                st = drift_check(ws, ws.yb[n:], stats)  # no error control: watch the constraints
             if st != 0:
                 clock[0] = t
                 return st, nw

@@ -41,7 +41,7 @@ class Workspace(NamedTuple):
     S: np.ndarray  # (m, m) Schur complement Cq M^-1 Cq^T (envelope only), factored in place
     sdiag: np.ndarray  # (m,) diagonal of S before factoring
     lam: np.ndarray  # (m,) Lagrange multipliers
-    b: np.ndarray  # (m,) right side / scratch of the Schur system
+    b: np.ndarray  # (m,) right side of the Schur system during `multipliers`
     Qe: np.ndarray  # (n,) applied forces
     qdd: np.ndarray  # (n,) accelerations
     K: np.ndarray  # (N_STAGES, 2n) stage derivatives; K[0] = f(ya), K[END_STAGE[method]] = f(yb)
@@ -55,6 +55,10 @@ class Workspace(NamedTuple):
     dense: np.ndarray  # (N_DENSE,) float, slots DN_*
     flags: np.ndarray  # (N_FLAGS,) int, slots FL_*
     sstats: np.ndarray  # (N_STATS,) scratch counters for `observe`
+    res: np.ndarray  # (m,) residual of the multiplier refinement
+    dl: np.ndarray  # (m,) projection corrections
+    v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
+    solver: np.ndarray  # (3,) [REG, REFINE, REFINE_TOL] of `dynamics.multipliers`
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -106,6 +110,18 @@ def envelope(rowbody: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first, lastrow
 
 
+def solver_settings() -> np.ndarray:
+    """[REG, REFINE, REFINE_TOL] of the regularised multiplier solve (`dynamics`)."""
+    import os
+
+    from .dynamics import REFINE, REFINE_TOL, REG
+
+    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol"
+    if env:
+        return np.array([float(v) for v in env.split(",")])
+    return np.array([REG, float(REFINE), REFINE_TOL])
+
+
 def make_workspace(km: KernelModel) -> Workspace:
     from .constraints import row_bodies
 
@@ -125,4 +141,5 @@ def make_workspace(km: KernelModel) -> Workspace:
         Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
+        res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(),
     )
