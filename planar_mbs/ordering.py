@@ -15,10 +15,33 @@ are the first rows of each element).
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from .model import JOINT_ROWS, KernelModel
+
+
+def reverse_cuthill_mckee(adj: list[list[int]]) -> list[int]:
+    """Reverse Cuthill-McKee order of a graph given as neighbour lists: breadth-first
+    from a node of least degree in each connected component, neighbours by increasing
+    degree, then reversed (George and Liu).  Plain Python: compiling a model loads no
+    scipy; O(E log E)."""
+    deg = [len(a) for a in adj]
+    seen = [False] * len(adj)
+    order: list[int] = []
+    for start in sorted(range(len(adj)), key=lambda i: (deg[i], i)):
+        if seen[start]:
+            continue
+        seen[start] = True
+        queue = [start]
+        head = 0
+        while head < len(queue):
+            v = queue[head]
+            head += 1
+            for w in sorted(adj[v], key=lambda i: (deg[i], i)):
+                if not seen[w]:
+                    seen[w] = True
+                    queue.append(w)
+        order += queue
+    return order[::-1]
 
 
 def element_order(joint_body: np.ndarray, driver_body: np.ndarray) -> np.ndarray:
@@ -35,15 +58,17 @@ def element_order(joint_body: np.ndarray, driver_body: np.ndarray) -> np.ndarray
     lo, hi = np.sort(bodies, axis=1).T
     canon = np.lexsort((np.arange(ne), hi, lo))  # text order only breaks exact ties
     b = bodies[canon]
-    e_idx = np.repeat(np.arange(ne), 2)
-    flat = b.ravel()
-    keep = flat >= 0
-    nb = int(flat.max()) + 1 if keep.any() else 0
-    if nb == 0:
-        return canon.astype(np.int64)
-    inc = csr_matrix((np.ones(int(keep.sum())), (e_idx[keep], flat[keep])), shape=(ne, nb))
-    adj = (inc @ inc.T).tocsr()
-    perm = reverse_cuthill_mckee(adj, symmetric_mode=True)
+    by_body: dict[int, list[int]] = {}
+    for e in range(ne):
+        for body in set(int(x) for x in b[e] if x >= 0):
+            by_body.setdefault(body, []).append(e)
+    adj: list[set[int]] = [set() for _ in range(ne)]
+    for elems in by_body.values():
+        for e in elems:
+            adj[e].update(elems)
+    for e in range(ne):
+        adj[e].discard(e)
+    perm = np.array(reverse_cuthill_mckee([sorted(a) for a in adj]), dtype=np.int64)
     return canon[perm].astype(np.int64)
 
 
