@@ -53,7 +53,9 @@ def test_slider_crank_arrays():
     np.testing.assert_allclose(k.minv, [1 / .3, 1 / .3, 1e5, 1 / .21, 1 / .21, 4e3, 1 / .14, 1 / .14, 1e4])
     assert k.joint_type.tolist() == [JointType.REVOLUTE] * 3 + [JointType.TRANSLATIONAL]
     assert k.joint_body.tolist() == [[-1, 0], [0, 1], [1, 2], [-1, 2]]
-    assert k.joint_row.tolist() == [0, 2, 4, 6] and k.driver_row.tolist() == [8]
+    # rows in the fill-reducing order (planar_mbs.ordering): two per joint, one for the driver, all used once
+    rows = sorted(k.joint_row.tolist() + (k.joint_row + 1).tolist() + k.driver_row.tolist())
+    assert rows == list(range(9))
     np.testing.assert_allclose(k.joint_point[1], [[0.025, 0], [-0.06, 0]])
     np.testing.assert_allclose(k.joint_axis[3], [1, 0])
     assert k.joint_param[3, JP_PHI0] == 0
@@ -77,7 +79,8 @@ def test_clearance_a_arrays_and_eq18_stiffness():
     m = load_model(MODELS / "slider_crank_clearance_a.mbs")
     k = m.kernel
     assert m.joint_names == ["O", "B", "S"] and m.clearance_names == ["A"]
-    assert k.joint_row.tolist() == [0, 2, 4] and k.driver_row.tolist() == [6] and m.dof == 2
+    rows = sorted(k.joint_row.tolist() + (k.joint_row + 1).tolist() + k.driver_row.tolist())
+    assert rows == list(range(7)) and m.dof == 2
     assert k.clearance_body.tolist() == [[0, 1]]
     np.testing.assert_allclose(k.clearance_point[0], [[0.025, 0], [-0.06, 0]])
     assert k.clearance_law[0] == ContactLaw.LANKARANI_NIKRAVESH
@@ -328,8 +331,11 @@ simulate { integrator = rk4  step = 1 us  projection = on  max_steps = 1e6  alph
 """
     m = compile_text(src, "t.mbs")
     k = m.kernel
-    assert k.joint_type.tolist() == [0, 1, 2, 3, 4] and k.joint_row.tolist() == [0, 2, 4, 7, 8]
-    assert k.driver_row.tolist() == [9, 10, 11, 12]
+    assert k.joint_type.tolist() == [0, 1, 2, 3, 4]
+    # rows 2, 2, 3, 1, 1 per joint and one per driver, each element's rows together, every row once
+    size = [2, 2, 3, 1, 1]
+    rows = sorted([k.joint_row[j] + i for j in range(5) for i in range(size[j])] + k.driver_row.tolist())
+    assert rows == list(range(13))
     assert k.joint_param[1, JP_PHI0] == pytest.approx(math.radians(30))
     np.testing.assert_allclose(k.joint_axis[1], [0, 1])
     np.testing.assert_allclose(k.joint_axis[4], [math.sqrt(.5)] * 2)
