@@ -7,8 +7,8 @@
   their tips joined by N couplers; 2N + 1 equal uniform bars (L = 1 m, 1 kg),
   gravity, the crank tips start at the top moving at `speed` to the right.  Every
   half turn all links line up horizontally: a singular position.
-  `held=True` adds a rotation driver holding each coupler at angle 0 (no singular
-  position, the same graph with closed loops).
+  `held=True` adds a rotation driver turning the first crank at the initial rate
+  (zero degrees of freedom; the driver is ordered with the joints).
 * `pendulum_chain(N)`: an open chain of N bars hanging from the ground.
 
 `order` writes the same joints in another order: "chain" (along the chain),
@@ -61,8 +61,8 @@ def parallelogram_chain(N: int, order: str = "chain", seed: int = 0, speed: floa
             joints.append(("b_right", f"{i}", f"joint B{i - 1} = revolute(coupler{i - 1} (L/2, 0), crank{i} (L/2, 0))\n"))
         if i < N:
             joints.append(("c_left", f"{i}", f"joint A{i} = revolute(crank{i} (L/2, 0), coupler{i} (-L/2, 0))\n"))
-            if held:
-                joints.append(("d_driver", f"{i}", f"driver hold{i} = rotation(coupler{i}, speed = 0 rpm)\n"))
+    if held:
+        joints.append(("d_driver", "0", f"driver turn = rotation(crank0, speed = {-speed} rad/s)\n"))
     lines += _ordered(joints, order, seed)
     lines.append("gravity (0, -9.81 m/s^2)\n")
     lines.append(_simulate(t_end, integrator, rtol, atol, output_step, extra))
@@ -76,7 +76,7 @@ def pendulum_chain(N: int, order: str = "chain", seed: int = 0, t_end: float = 1
     a = math.radians(30)
     for i in range(N):
         cx, cy = (i + 0.5) * 0.1 * math.sin(a), -(i + 0.5) * 0.1 * math.cos(a)
-        lines.append(f"body bar{i} {{ mass = 0.1 kg  inertia = 0.1 kg*L^2/12  position = ({cx!r} m, {cy!r} m)  "
+        lines.append(f"body bar{i} {{ mass = 0.1 kg  inertia = {0.1 * 0.01 / 12!r} kg*m^2  position = ({cx!r} m, {cy!r} m)  "
                      f"angle = -60 deg }}\n")
     joints = [("a_ground", "0", "joint P0 = revolute(ground (0, 0), bar0 (-L/2, 0))\n")]
     for i in range(1, N):
