@@ -8,7 +8,7 @@
   grouped by kind and shuffled, N = 10, 20, 40, 80;
 * cost per right-hand side from 41 to 321 bodies: an open pendulum chain
   (41 and 321 bars) and the closed-loop parallelogram chain (N = 20 and 160).
-Models come from tests/chains.py; every number is the best of 3 repeats.
+Models come from tests/chains.py; every number is the best of 3 (rhs) or 5 (steps) repeats.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def per_step(text: str) -> float:
     model = compile_text(text, "bench.mbs")
     mbs.simulate(model, t_end=0.01)  # compile / warm up
     best = math.inf
-    for _ in range(3):
+    for _ in range(5):
         res = mbs.simulate(model)
         best = min(best, res.attrs["wall_time"] / max(1, res.attrs["n_steps"]))
     return best * 1e6

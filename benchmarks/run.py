@@ -425,6 +425,10 @@ def main() -> None:
             data[sec] = section_wp_clearance()
         elif sec == "ratios":
             data[sec] = section_ratios(data)
+        elif sec == "order_scaling":
+            import order_scaling
+
+            data[sec] = order_scaling.measure()
         elif sec == "process":
             import process
 

@@ -271,17 +271,21 @@ def project(km, t, y, ws, stats):
 
 DRIFT_POSITION = 1e-6  # m or rad: bound on |C_r| for fixed-step RK4
 DRIFT_VELOCITY = 1e-4  # m/s or rad/s: bound on |Cq q' + Ct|_r for fixed-step RK4
+LOST_POSITION = 1e-3  # m or rad: the adaptive methods' bound (constraints that cannot be kept)
+LOST_VELOCITY = 1e-1  # m/s or rad/s
 
 
 @kernel
-def drift_check(ws, qd, stats):
+def drift_check(ws, qd, stats, pbound, vbound):
     """Constraint residuals at the state of the last right-hand side (ws.C, ws.J, ws.Ct):
-    DRIFT (stats[ST_INFO] = row) when a position residual exceeds DRIFT_POSITION or a
-    velocity residual DRIFT_VELOCITY.  Fixed-step RK4 has no error control: this
-    stops a run that has left its constraints (a too long step, a singular position
-    taken on the wrong side) instead of returning wrong results."""
+    DRIFT (stats[ST_INFO] = row) when a position residual exceeds pbound or a velocity
+    residual vbound.  Fixed-step RK4 (DRIFT_*) has no error control: this stops a run
+    that has left its constraints (a too long step) instead of returning wrong results.
+    The adaptive methods (LOST_*) keep the residuals near rtol; beyond LOST_* the
+    constraints cannot be kept at all (a driver pushing through a toggle, where the
+    regularised solve gives way)."""
     for r in range(ws.C.shape[0]):
-        if not (abs(ws.C[r]) <= DRIFT_POSITION) or not (abs(ws.Ct[r] + jac_dot(ws, r, qd)) <= DRIFT_VELOCITY):
+        if not (abs(ws.C[r]) <= pbound) or not (abs(ws.Ct[r] + jac_dot(ws, r, qd)) <= vbound):
             stats[ST_INFO] = r
             return DRIFT
     return 0

@@ -50,7 +50,9 @@ from ..model import (
 )
 from .constraints import _JOINT_ROWS, ANGLE, motion, point_state
 from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
-from .dynamics import accelerations, drift_check, jac_dot, project, rhs
+from .dynamics import (
+    DRIFT_POSITION, DRIFT_VELOCITY, LOST_POSITION, LOST_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
+)
 from .events import event_possible, init_modes, locate_event, switch_mode
 from .forces import force_potential
 from .integrators import (
@@ -378,7 +380,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 last = True
             st = rk4_step(km, cfg, t, y, hh, contact, ws, stats)
             if st == 0:
-                st = drift_check(ws, ws.yb[n:], stats)  # no error control: watch the constraints
+                st = drift_check(ws, ws.yb[n:], stats, DRIFT_POSITION, DRIFT_VELOCITY)  # no error control
             if st != 0:
                 clock[0] = t
                 return st, nw
@@ -441,6 +443,9 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 fac = FAC_MIN if nonfinite else max(FAC_MIN, SAFETY * err ** -expo)
                 h = hh * min(fac, 1.0)
             ws.flags[2] = method
+            if drift_check(ws, ws.yb[n:], stats, LOST_POSITION, LOST_VELOCITY) != 0:
+                clock[0] = t  # the constraints gave way: a toggle or locked position
+                return SINGULAR, nw
         stats[ST_STEPS] += 1
         tnew = t_stop if last else t + hh
         for i in range(N):
