@@ -40,7 +40,8 @@ SINGULAR = 4
 DRIFT = 8
 REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (see the module docstring)
 REFINE = 4  # at most this many refinement sweeps of the regularised solve
-REFINE_TOL = 1e-14  # stop when the scaled residual is this small against the right side
+REFINE_TOL = 2e-16  # stop when the scaled residual is this small against the right side
+# (or when it is below 1e-12 and no longer halves: converged to rounding)
 # (ws.solver holds [REG, REFINE, REFINE_TOL] so that experiments need no recompilation)
 
 
@@ -126,6 +127,7 @@ def multipliers(km, ws, x):
     for r in range(m):
         x[r] = ws.b[r]
     schur_solve(ws, x)
+    rprev = math.inf
     for it in range(64):
         for k in range(ws.v.shape[0]):
             ws.v[k] = 0.0
@@ -142,6 +144,9 @@ def multipliers(km, ws, x):
             rnorm = max(rnorm, abs(ws.res[r]) / math.sqrt(ws.sdiag[r]))
         if not (rnorm > ws.solver[2] * bnorm) or it >= ws.solver[1]:
             break
+        if rnorm < 1e-12 * bnorm and not (rnorm < 0.5 * rprev):
+            break  # converged to rounding
+        rprev = rnorm
         schur_solve(ws, ws.res)
         for r in range(m):
             x[r] += ws.res[r]
@@ -271,8 +276,8 @@ def project(km, t, y, ws, stats):
 
 DRIFT_POSITION = 1e-6  # m or rad: bound on |C_r| for fixed-step RK4
 DRIFT_VELOCITY = 1e-4  # m/s or rad/s: bound on |Cq q' + Ct|_r for fixed-step RK4
-LOST_POSITION = 1e-3  # m or rad: the adaptive methods' bound (constraints that cannot be kept)
-LOST_VELOCITY = 1e-1  # m/s or rad/s
+LOST_POSITION = 1e-2  # m or rad: the adaptive methods' bound (constraints that cannot be kept)
+LOST_VELOCITY = 1.0  # m/s or rad/s
 
 
 @kernel
