@@ -40,8 +40,9 @@ SINGULAR = 4
 DRIFT = 8
 REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (see the module docstring)
 REFINE = 4  # at most this many refinement sweeps of the regularised solve
-REFINE_TOL = 2e-16  # stop when the scaled residual is this small against the right side
-# (or when it is below 1e-12 and no longer halves: converged to rounding)
+REFINE_TOL = 0.0  # stop when the scaled residual is this small against the right side, or when it is
+# below 1e-12 of it and no longer halves (converged to rounding); a relative stop at 2e-16 of the
+# largest row left small rows inexact (a clearance four-bar then took another path)
 # (ws.solver holds [REG, REFINE, REFINE_TOL] so that experiments need no recompilation)
 
 
