@@ -11,8 +11,8 @@ a test checks they are in step).
 Adding an element is writing its formula (the kernel: `kernel/contact.py` for a
 law, `kernel/constraints.py` for a joint type, `kernel/integrators.py` and the
 step branch of `kernel/loop.py` for an integrator) and appending its
-description here with the next free code (docs/architecture.md, "How to add things").  The descriptions are plain data, importable
-without numpy or numba.
+description here with the next free code (docs/architecture.md, "How to add
+things").  The descriptions are plain data, importable without numpy or numba.
 """
 from __future__ import annotations
 
