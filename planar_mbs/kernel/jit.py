@@ -27,8 +27,9 @@ from numba import njit
 from numba.core import caching
 
 _HERE = Path(__file__).resolve().parent
-# every file a kernel is compiled from: the kernel modules and the model's codes and layouts
-KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "model.py",)
+# every file a kernel is compiled from: the kernel modules, the model's codes and layouts, and
+# the catalog the kernels' constants (law count, rows per joint type, stage buffers) come from
+KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "model.py", _HERE.parent / "catalog.py")
 
 
 def source_hash(paths=KERNEL_SOURCES) -> str:
