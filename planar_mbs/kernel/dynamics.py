@@ -39,7 +39,7 @@ from .forces import applied_forces
 SINGULAR = 4
 DRIFT = 8
 REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (see the module docstring)
-REFINE = 4  # at most this many refinement sweeps of the regularised solve
+REFINE = 2  # refinement sweeps of the regularised solve (2: convergence orders and contact runs as exact)
 REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
 # (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
 # (ws.solver holds [REG, REFINE, REFINE_TOL] so that experiments need no recompilation)
