@@ -134,6 +134,15 @@ class Status(IntEnum):
     DRIFT = 8  # fixed-step RK4 left the constraints (residual above the documented bound)
 
 
+# contact state of the clearance joints, `contact` (nclearance, N_CONTACT_STATE) float64, kept across calls
+CT_MODE = 0  # contact mode, an integer code (FREE / TOUCHING) read through kernel.contact.contact_mode
+CT_IMPACT_VELOCITY = 1  # delta'(-) of the current contact
+CT_LAST_FORCE = 2  # unused (once the warm start of the implicit laws)
+N_CONTACT_STATE = 3
+FREE = 0  # free flight: no contact force even if delta > 0
+TOUCHING = 1  # in contact: the law's force while delta > 0
+
+
 # stats: int64 counters kept across calls of the time loop
 ST_STEPS = 0
 ST_REJECTED = 1

@@ -29,6 +29,8 @@ from . import __version__
 from .errors import ModelError, SimulationError
 from .kinematics import assemble, assembly_changes
 from .model import (
+    CT_MODE,
+    TOUCHING,
     ST_CONTACT_EVENTS,
     ST_INFO,
     ST_OUTPUTS,
@@ -214,7 +216,7 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
     if status == Status.STEP_UNDERFLOW:
-        touching = [n for n, mode in zip(model.clearance_names, contact[:, 0]) if mode > 0.5]
+        touching = [n for n, mode in zip(model.clearance_names, contact[:, CT_MODE]) if int(mode) == TOUCHING]
         where = f" while clearance joint{'s' if len(touching) > 1 else ''} " + ", ".join(
             f"`{n}`" for n in touching) + " in contact" if touching else ""
         limit = ""

@@ -19,11 +19,11 @@ mass; ground takes nothing.  ``F_T = -mu c_d(|v_T|) F sign(v_T)`` is the
 friction force on the journal along t (Ambrosio's dynamic correction
 coefficient c_d: 0 below v0, linear between v0 and v1, 1 above v1).
 
-Contact *mode* (``contact[k, 0]``: 0 free flight, 1 contact) is switched by the
+Contact *mode* (``contact[k, CT_MODE]``: 0 free flight, 1 contact) is switched by the
 event logic of the time loop; in free mode the joint applies no force even if
 delta > 0, in contact mode it applies ``law(delta, delta')`` when delta > 0.
-``contact[k, 1]`` is the impact velocity ``delta'(-)`` of the current contact;
-``contact[k, 2]`` is unused (it held a warm start of the implicit laws, which made
+``contact[k, CT_IMPACT_VELOCITY]`` is the impact velocity ``delta'(-)`` of the current contact;
+``contact[k, CT_LAST_FORCE]`` is unused (it held a warm start of the implicit laws, which made
 the last bits of the force, and so the trajectory, depend on which states had
 been evaluated before: on the output step, the chunking and resuming).
 
@@ -69,6 +69,11 @@ from ..model import (
     CP_SIGMA_SUM,
     CP_STIFFNESS,
     ST_INFO,
+    CT_IMPACT_VELOCITY,
+    CT_LAST_FORCE,
+    CT_MODE,
+    FREE,
+    TOUCHING,
     ContactLaw,
     Status,
 )
@@ -97,6 +102,12 @@ IMPACT_VELOCITY_FLOOR = 1e-5
 # safeguarded Newton of the cylindrical laws
 CYL_MAX_ITER = 100
 CYL_UTOL = 4e-16
+
+
+@kernel
+def contact_mode(contact, k):
+    """Contact mode of clearance joint k as its integer code (FREE or TOUCHING)."""
+    return int(contact[k, CT_MODE])
 
 
 @kernel
@@ -285,11 +296,11 @@ def clearance_force(km, k, q, qd, cs, contact):
     Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
     Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, cs, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
     ex, ey, e, delta, nx, ny, vn, vt = _clearance_kin(km, k, Pix, Piy, vix, viy, wi, Pjx, Pjy, vjx, vjy, wj)
-    if contact[k, 0] < 0.5 or delta <= 0.0:
+    if contact_mode(contact, k) == FREE or delta <= 0.0:
         return 0.0, 0.0, nx, ny, vt, 0, aix, aiy, ajx, ajy
     law = km.clearance_law[k]
     p = km.clearance_param[k]
-    F, st = normal_force(law, p, delta, vn, contact[k, 1], contact[k, 2])
+    F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], contact[k, CT_LAST_FORCE])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, aix, aiy, ajx, ajy
     Ft = -friction_coefficient(p, vt) * F
@@ -303,7 +314,7 @@ def add_clearance_forces(km, q, qd, cs, contact, Qe, stats):
     CONTACT_SOLVE) with stats[ST_INFO] = joint index."""
     nc = km.clearance_body.shape[0]
     for k in range(nc):
-        if contact[k, 0] < 0.5:
+        if contact_mode(contact, k) == FREE:
             continue
         F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, cs, contact)
         if st != 0:
@@ -331,11 +342,11 @@ def contact_energy(km, q, qd, contact):
     V = 0.0
     nc = km.clearance_body.shape[0]
     for k in range(nc):
-        if contact[k, 0] < 0.5:
+        if contact_mode(contact, k) == FREE:
             continue
         ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
         if delta > 0.0:
-            V += elastic_energy(km.clearance_law[k], km.clearance_param[k], delta, contact[k, 2])
+            V += elastic_energy(km.clearance_law[k], km.clearance_param[k], delta, contact[k, CT_LAST_FORCE])
     return V
 
 

@@ -22,6 +22,8 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
+from ..model import CT_IMPACT_VELOCITY, CT_MODE, FREE, TOUCHING
+from .contact import contact_mode
 
 from ..model import ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
@@ -84,7 +86,7 @@ def event_possible(km, ws, contact, kend):
     the higher end is allowed a 100 % error)."""
     nc = km.clearance_body.shape[0]
     for k in range(nc):
-        sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
+        sgn = 1.0 if contact_mode(contact, k) == FREE else -1.0
         g0, d0, g1, d1 = _ends(km, ws, k, sgn)
         if g1 > 0.0:
             return True
@@ -213,7 +215,7 @@ def locate_event(km, ws, contact):
     kbest = -1
     tol = ROOT_RTOL * max(abs(ta), h) / h
     for k in range(nc):
-        sgn = 1.0 if contact[k, 0] < 0.5 else -1.0
+        sgn = 1.0 if contact_mode(contact, k) == FREE else -1.0
         g0, d0, g1, d1 = _ends(km, ws, k, sgn)
         x = _peak(km, ws, k, sgn, g0, d0, g1, d1)
         lo = 0.0
@@ -250,13 +252,13 @@ def switch_mode(km, k, y, contact, stats):
     impact velocity delta'(-) = normal relative velocity (floored: see
     contact.IMPACT_VELOCITY_FLOOR) and count the contact event."""
     n = y.shape[0] // 2
-    if contact[k, 0] < 0.5:
+    if contact_mode(contact, k) == FREE:
         ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
-        contact[k, 0] = 1.0
-        contact[k, 1] = max(vn, IMPACT_VELOCITY_FLOOR)
+        contact[k, CT_MODE] = TOUCHING
+        contact[k, CT_IMPACT_VELOCITY] = max(vn, IMPACT_VELOCITY_FLOOR)
         stats[ST_CONTACT_EVENTS] += 1
     else:
-        contact[k, 0] = 0.0
+        contact[k, CT_MODE] = FREE
 
 
 @kernel
@@ -267,8 +269,8 @@ def init_modes(km, y, contact):
     nc = km.clearance_body.shape[0]
     for k in range(nc):
         ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
-        if contact[k, 0] < 0.5 and delta > 0.0:
-            contact[k, 0] = 1.0
-            contact[k, 1] = vn
-        if contact[k, 0] > 0.5 and contact[k, 1] < IMPACT_VELOCITY_FLOOR:
-            contact[k, 1] = IMPACT_VELOCITY_FLOOR
+        if contact_mode(contact, k) == FREE and delta > 0.0:
+            contact[k, CT_MODE] = TOUCHING
+            contact[k, CT_IMPACT_VELOCITY] = vn
+        if contact_mode(contact, k) == TOUCHING and contact[k, CT_IMPACT_VELOCITY] < IMPACT_VELOCITY_FLOOR:
+            contact[k, CT_IMPACT_VELOCITY] = IMPACT_VELOCITY_FLOOR

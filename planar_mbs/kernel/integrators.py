@@ -226,6 +226,9 @@ DOPRI5_CODE = catalog.integrator("dopri5").code
 DOP853_CODE = catalog.integrator("dop853").code
 # row of ws.K holding f at the end of the last step (FSAL), per method code
 END_STAGE = np.array([s.end_stage for s in catalog.INTEGRATORS], dtype=np.int64)
+# per method code: its order, and the step controller's exponent 1/(q+1) of its error estimate of order q
+METHOD_ORDER = np.array([s.order for s in catalog.INTEGRATORS], dtype=np.int64)
+ERROR_EXPONENT = np.array([1.0 / (s.error_order + 1) if s.adaptive else 0.0 for s in catalog.INTEGRATORS])
 
 
 @kernel

@@ -28,6 +28,9 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
+from ..model import CT_IMPACT_VELOCITY, TOUCHING
+from .contact import contact_mode
+from .workspace import DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PENDING_OUTPUTS, FL_SWITCH_JOINT
 
 from ..model import (
     CFG_ATOL,
@@ -39,7 +42,36 @@ from ..model import (
     CFG_PROJECT,
     CFG_RTOL,
     CFG_STEP,
+    CS_E,
+    CS_EX,
+    CS_EY,
+    CS_FN,
+    CS_FRICTION,
+    CS_FX,
+    CS_FY,
+    CS_IMPACT_VELOCITY,
+    CS_IN_CONTACT,
+    CS_PENETRATION,
+    CS_SLIP,
+    JS_FX,
+    JS_FY,
+    JS_MOMENT,
     N_CLEARANCE_SIGNALS,
+    N_JOINT_SIGNALS,
+    OB_CLEARANCE,
+    OB_EFFORT,
+    OB_JOINT,
+    OB_POWER,
+    OB_Q,
+    OB_QD,
+    OB_QDD,
+    OB_SIZE,
+    OB_SYSTEM,
+    SYS_KINETIC,
+    SYS_POSITION_ERROR,
+    SYS_POTENTIAL,
+    SYS_VELOCITY_ERROR,
+    observation_layout,
     ST_OUTPUTS,
     ST_REJECTED,
     ST_RHS,
@@ -56,6 +88,8 @@ from .dynamics import (
 from .events import event_possible, init_modes, locate_event, switch_mode
 from .forces import force_potential
 from .integrators import (
+    ERROR_EXPONENT,
+    METHOD_ORDER,
     DOP853_CODE, DOPRI5_CODE, DP5_E, DP8_E5, END_STAGE, FAC_MAX, FAC_MIN, RK4_CODE, SAFETY, dense_eval,
     dop853_attempt,
     dop853_dense_prepare, dop853_finish, dopri5_attempt, initial_step, rk4_step,
@@ -69,10 +103,10 @@ MAX_STEPS = int(Status.MAX_STEPS)
 BAD_INPUT = int(Status.BAD_INPUT)
 CONTACT_SOLVE = int(Status.CONTACT_SOLVE)
 SINGULAR = int(Status.SINGULAR)
-RK4 = int(Integrator.RK4)
-DOPRI5 = int(Integrator.DOPRI5)
-DOP853 = int(Integrator.DOP853)
-assert RK4 == RK4_CODE and DOPRI5 == DOPRI5_CODE and DOP853 == DOP853_CODE
+RK4 = RK4_CODE  # method codes: catalog.INTEGRATORS
+DOPRI5 = DOPRI5_CODE
+DOP853 = DOP853_CODE
+layout = kernel(observation_layout)  # the observation row's block offsets, compiled
 
 GRID_TOL = 1e-9  # an output time within GRID_TOL * output_step of a step end belongs to it
 STRETCH = 1e-9  # a step within STRETCH * h of t_stop is stretched to land on it
@@ -112,13 +146,15 @@ def observe(km, cfg, t, y, contact, ws, row):
     st = accelerations(km, cfg, t, q, qd, contact, ws, ws.sstats)
     if st != 0:
         return st
-    for i in range(n):
-        row[i] = q[i]
-        row[n + i] = qd[i]
-        row[2 * n + i] = ws.qdd[i]
-    col = 3 * n
-    lam = ws.lam
     nj = km.joint_type.shape[0]
+    nd = km.driver_type.shape[0]
+    nc = km.clearance_body.shape[0]
+    lay = layout(n // 3, nj, nd, nc)  # model.observation_layout, compiled
+    for i in range(n):
+        row[lay[OB_Q] + i] = q[i]
+        row[lay[OB_QD] + i] = qd[i]
+        row[lay[OB_QDD] + i] = ws.qdd[i]
+    lam = ws.lam
     for jt in range(nj):
         r0 = km.joint_row[jt]
         nr = _JOINT_ROWS[km.joint_type[jt]]
@@ -140,11 +176,10 @@ def observe(km, cfg, t, y, contact, ws, row):
                 mc -= _jac_body(ws, r, b, 2) * lam[r]
             # moment about the joint point of the second body
             mc += (q[3 * b] - Pjx) * fy - (q[3 * b + 1] - Pjy) * fx
-        row[col] = sign * fx
-        row[col + 1] = sign * fy
-        row[col + 2] = sign * mc
-        col += 3
-    nd = km.driver_type.shape[0]
+        col = lay[OB_JOINT] + N_JOINT_SIGNALS * jt
+        row[col + JS_FX] = sign * fx
+        row[col + JS_FY] = sign * fy
+        row[col + JS_MOMENT] = sign * mc
     for d in range(nd):
         r = km.driver_row[d]
         bi = km.driver_body[d, 0]
@@ -163,25 +198,23 @@ def observe(km, cfg, t, y, contact, ws, row):
                 ux = c * km.driver_axis[d, 0] - s * km.driver_axis[d, 1]
                 uy = s * km.driver_axis[d, 0] + c * km.driver_axis[d, 1]
                 eff = -(_jac_body(ws, r, bj, 0) * ux + _jac_body(ws, r, bj, 1) * uy) * lam[r]
-        row[col + d] = eff
-        row[col + nd + d] = eff * fd
-    col += 2 * nd
-    nc = km.clearance_body.shape[0]
+        row[lay[OB_EFFORT] + d] = eff
+        row[lay[OB_POWER] + d] = eff * fd
     for k in range(nc):
         ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
         F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, ws.cs, contact)
-        row[col] = ex
-        row[col + 1] = ey
-        row[col + 2] = e
-        row[col + 3] = delta
-        row[col + 4] = F
-        row[col + 5] = -F * nx - Ft * ny  # normal + friction force on the journal
-        row[col + 6] = -F * ny + Ft * nx
-        row[col + 7] = 1.0 if contact[k, 0] > 0.5 else 0.0
-        row[col + 8] = contact[k, 1]
-        row[col + 9] = Ft
-        row[col + 10] = vt
-        col += N_CLEARANCE_SIGNALS
+        col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
+        row[col + CS_EX] = ex
+        row[col + CS_EY] = ey
+        row[col + CS_E] = e
+        row[col + CS_PENETRATION] = delta
+        row[col + CS_FN] = F
+        row[col + CS_FX] = -F * nx - Ft * ny  # normal + friction force on the journal
+        row[col + CS_FY] = -F * ny + Ft * nx
+        row[col + CS_IN_CONTACT] = 1.0 if contact_mode(contact, k) == TOUCHING else 0.0
+        row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
+        row[col + CS_FRICTION] = Ft
+        row[col + CS_SLIP] = vt
     T = 0.0
     nb = n // 3
     for b in range(nb):
@@ -195,10 +228,11 @@ def observe(km, cfg, t, y, contact, ws, row):
     for r in range(m):
         perr = max(perr, abs(ws.C[r]))
         verr = max(verr, abs(ws.Ct[r] + jac_dot(ws, r, qd)))
-    row[col] = T
-    row[col + 1] = V
-    row[col + 2] = perr
-    row[col + 3] = verr
+    col = lay[OB_SYSTEM]
+    row[col + SYS_KINETIC] = T
+    row[col + SYS_POTENTIAL] = V
+    row[col + SYS_POSITION_ERROR] = perr
+    row[col + SYS_VELOCITY_ERROR] = verr
     return 0
 
 
@@ -207,9 +241,9 @@ def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw):
     """Write the grid outputs inside the kept part of the last step.
     Returns (status, n_written, pending)."""
     dto = cfg[CFG_OUTPUT_STEP]
-    ta = ws.dense[0]
-    h = ws.dense[1]
-    tend = ws.dense[2]
+    ta = ws.dense[DN_TA]
+    h = ws.dense[DN_H]
+    tend = ws.dense[DN_T_END]
     cap = out_t.shape[0]
     while True:
         k = stats[ST_OUTPUTS]
@@ -219,7 +253,7 @@ def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw):
         if nw >= cap:
             return 0, nw, True
         th = (min(tk, tend) - ta) / h
-        if ws.flags[2] == DOP853_CODE:
+        if ws.flags[FL_DENSE_METHOD] == DOP853_CODE:
             st = dop853_dense_prepare(km, cfg, contact, ws, stats)
             if st != 0:
                 return st, nw, False
@@ -240,15 +274,15 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     (ONSET_STEP of the contact's time scale), inf otherwise."""
     restart = False
     hcap = math.inf
-    k = ws.flags[1]
+    k = ws.flags[FL_SWITCH_JOINT]
     if k >= 0:
         switch_mode(km, k, y, contact, stats)
-        ws.flags[1] = -1
+        ws.flags[FL_SWITCH_JOINT] = -1
         restart = True
-        if contact[k, 0] > 0.5:
+        if contact_mode(contact, k) == TOUCHING:
             n = y.shape[0] // 2
-            hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:], contact[k, 1])
-    if cfg[CFG_PROJECT] > 0.5:
+            hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:], contact[k, CT_IMPACT_VELOCITY])
+    if cfg[CFG_PROJECT] != 0.0:
         st = project(km, t, y, ws, stats)
         if st != 0:
             return st, True, hcap
@@ -308,7 +342,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     nw = 0
     method = int(cfg[CFG_METHOD])
     dto = cfg[CFG_OUTPUT_STEP]
-    nobs = 9 * nb + 3 * nj + 2 * nd + N_CLEARANCE_SIGNALS * nc + 4
+    nobs = layout(nb, nj, nd, nc)[OB_SIZE]
     if (cap == 0 or not (dto > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
             or N != 2 * km.minv.shape[0] or (method != RK4 and method != DOPRI5 and method != DOP853)
             or (method == RK4 and not (cfg[CFG_STEP] > 0.0))):
@@ -320,13 +354,13 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     t0 = clock[2]
     t = clock[0]
     # finish the last step of the previous call
-    if ws.flags[0] == 1:
+    if ws.flags[FL_PENDING_OUTPUTS] == 1:
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw)
         if st != 0:
             return st, nw
         if pending:
             return BUFFER_FULL, nw
-        ws.flags[0] = 0
+        ws.flags[FL_PENDING_OUTPUTS] = 0
         st, restart, hcap = _finish_step(km, cfg, t, y, contact, stats, ws)
         if st != 0:
             return st, nw
@@ -350,7 +384,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     hmax = cfg[CFG_HMAX] if cfg[CFG_HMAX] > 0.0 else math.inf
     hmin = cfg[CFG_HMIN]
     maxsteps = cfg[CFG_MAX_STEPS]
-    expo = 0.2 if method == DOPRI5 else 0.125  # -1/(q+1), q = order of the error estimate
+    expo = ERROR_EXPONENT[method]  # 1/(q+1), q = order of the error estimate (catalog)
     budget = clock[3] if clock.shape[0] > 3 else 0.0
     rhs_start = stats[ST_RHS]
     steps_start = stats[ST_STEPS]
@@ -359,7 +393,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     else:
         h = clock[1]
         if not (h > 0.0):
-            order = 5.0 if method == DOPRI5 else 8.0
+            order = float(METHOD_ORDER[method])
             h = cfg[CFG_STEP] if cfg[CFG_STEP] > 0.0 else initial_step(km, cfg, t, y, contact, ws, stats, hmax, order)
         h = min(h, hmax)
     while t < t_stop:
@@ -384,7 +418,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             if st != 0:
                 clock[0] = t
                 return st, nw
-            ws.flags[2] = RK4_CODE
+            ws.flags[FL_DENSE_METHOD] = RK4_CODE
         else:
             rejected = False
             nonfinite = False
@@ -425,10 +459,10 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 else:
                     solve_failed = False
                 if err <= 1.0:
-                    # PI controller (Hairer's DOPRI5: beta = 0.04), previous error in ws.dense[4]
-                    errold = ws.dense[4] if ws.dense[4] > 0.0 else 1e-4
+                    # PI controller (Hairer's DOPRI5: beta = 0.04), previous error in ws.dense[DN_ERR_OLD]
+                    errold = ws.dense[DN_ERR_OLD] if ws.dense[DN_ERR_OLD] > 0.0 else 1e-4
                     fac = FAC_MAX if err == 0.0 else SAFETY * err ** -(expo - 0.75 * PI_BETA) * errold ** PI_BETA
-                    ws.dense[4] = max(err, 1e-4)
+                    ws.dense[DN_ERR_OLD] = max(err, 1e-4)
                     fac = min(FAC_MAX, max(FAC_MIN, fac))
                     if rejected:
                         fac = min(fac, 1.0)
@@ -442,7 +476,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 nonfinite = not (err < math.inf)
                 fac = FAC_MIN if nonfinite else max(FAC_MIN, SAFETY * err ** -expo)
                 h = hh * min(fac, 1.0)
-            ws.flags[2] = method
+            ws.flags[FL_DENSE_METHOD] = method
             if drift_check(ws, ws.yb[n:], stats, LOST_POSITION, LOST_VELOCITY) != 0:
                 clock[0] = t  # the constraints gave way: a toggle or locked position
                 return SINGULAR, nw
@@ -450,9 +484,9 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         tnew = t_stop if last else t + hh
         for i in range(N):
             ws.ya[i] = y[i]
-        ws.dense[0] = t
-        ws.dense[1] = hh
-        ws.dense[2] = tnew
+        ws.dense[DN_TA] = t
+        ws.dense[DN_H] = hh
+        ws.dense[DN_T_END] = tnew
         kev = -1
         th = 1.0
         if nc > 0:
@@ -468,14 +502,14 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             if kev >= 0 and th < 1.0:
                 tnew = t + th * hh
                 dense_eval(ws, th, y)
-                ws.dense[2] = tnew
+                ws.dense[DN_T_END] = tnew
             elif kev >= 0:
                 for i in range(N):
                     y[i] = ws.yb[i]
         if kev < 0:
             for i in range(N):
                 y[i] = ws.yb[i]
-        ws.flags[1] = kev
+        ws.flags[FL_SWITCH_JOINT] = kev
         t = tnew
         clock[0] = t
         clock[1] = h
@@ -483,7 +517,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         if st != 0:
             return st, nw
         if pending:
-            ws.flags[0] = 1
+            ws.flags[FL_PENDING_OUTPUTS] = 1
             return BUFFER_FULL, nw
         st, restart, hcap = _finish_step(km, cfg, t, y, contact, stats, ws)
         if st != 0:
@@ -492,7 +526,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             h = min(h, hcap)
             clock[1] = h
         if not _all_finite(y):
-            clock[0] = ws.dense[0]
+            clock[0] = ws.dense[DN_TA]
             for i in range(N):
                 y[i] = ws.ya[i]
             return NONFINITE, nw
@@ -508,7 +542,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             return NONFINITE, nw
     # a last sample at t_stop when it is off the output grid
     tlast = t0 + (stats[ST_OUTPUTS] - 1) * dto
-    if abs(tlast - t_stop) > GRID_TOL * dto and ws.dense[3] != t_stop and t == t_stop:
+    if abs(tlast - t_stop) > GRID_TOL * dto and ws.dense[DN_FINAL_SAMPLE] != t_stop and t == t_stop:
         if nw >= cap:
             clock[1] = h
             return BUFFER_FULL, nw
@@ -518,6 +552,6 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             return st, nw
         out_t[nw] = t
         nw += 1
-        ws.dense[3] = t_stop
+        ws.dense[DN_FINAL_SAMPLE] = t_stop
     clock[1] = h
     return DONE, nw
