@@ -53,14 +53,18 @@ def test_sweep_workers_start_with_the_kernels_loaded():
         assert ex.submit(kernels_loaded).result(timeout=600)
 
 
+def _entry(argv: list[str]):
+    """`mbs ARGV` through the executable's entry point, with an exit handler that prints TEARDOWN."""
+    code = ("import atexit, sys\natexit.register(lambda: print('TEARDOWN', file=sys.stderr))\n"
+            f"sys.argv = {['mbs', *argv]!r}\nfrom planar_mbs.cli.entry import main\nmain()\n")
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+
+
 def test_run_through_the_executable_skips_teardown_but_keeps_code_output_and_file(tmp_path):
     """After a run the process ends without the interpreter's teardown (exit handlers do not
     run), yet its exit code, its printed summary and its results file are complete."""
     out = tmp_path / "a.h5"
-    code = ("import atexit, sys\natexit.register(lambda: print('TEARDOWN', file=sys.stderr))\n"
-            f"sys.argv = ['mbs', 'run', {MODEL!r}, '--t-end', '1ms', '-o', {str(out)!r}]\n"
-            "from planar_mbs.cli.entry import main\nmain()\n")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    res = _entry(["run", MODEL, "--t-end", "1ms", "-o", str(out)])
     assert res.returncode == 0, res.stderr
     assert "TEARDOWN" not in res.stderr
     assert "time-loop wall time" in res.stdout
@@ -70,9 +74,7 @@ def test_run_through_the_executable_skips_teardown_but_keeps_code_output_and_fil
 
 
 def test_a_refused_run_exits_with_its_code_through_the_executable(tmp_path):
-    code = ("import sys\n"
-            f"sys.argv = ['mbs', 'run', {MODEL!r}, '--t-end', '-1ms', '-o', {str(tmp_path / 'a.h5')!r}]\n"
-            "from planar_mbs.cli.entry import main\nmain()\n")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    """Refused before the kernels load: exit 2, a message, and the usual teardown."""
+    res = _entry(["run", MODEL, "--t-end", "-1ms", "-o", str(tmp_path / "a.h5")])
     assert res.returncode == 2, res.stderr
-    assert "Traceback" not in res.stderr
+    assert "Traceback" not in res.stderr and "TEARDOWN" in res.stderr
