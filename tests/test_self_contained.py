@@ -1,7 +1,7 @@
 """The repository explains itself: it names no file users do not have.
 
-Every tracked text file is searched for references to a private design note and for
-"seed"-style references to the paper; the paper is cited by authors and title instead
+Every tracked text file is searched for references to private notes and for nicknames of
+the paper; the paper is cited by authors and title instead
 (Muvengei, Kihiu and Ikua, "Effects of input speed on the dynamic response of planar
 multi-body systems with differently located frictionless revolute clearance joints").
 The patterns are assembled from pieces so that this file does not match itself.
