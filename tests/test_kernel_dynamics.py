@@ -156,3 +156,46 @@ def test_redundant_pin_moves_like_one_pin_and_splits_the_reaction_evenly():
     # the split carries rounding amplified by 1 / REG (1e8): ~1e-8 of the reaction
     np.testing.assert_allclose(rows2[:, 9:12], r1 / 2, atol=1e-7 * np.abs(r1).max())
     np.testing.assert_allclose(rows2[:, 12:15], r1 / 2, atol=1e-7 * np.abs(r1).max())
+
+
+def parallelogram(theta, omega, m=1.0, L=1.0):
+    """One parallelogram four-bar (uniform links of length L): the kernel model and the
+    state at crank angle theta, crank rate omega.  Singular at theta = 0 (links in line)."""
+    rev = JointType.REVOLUTE
+    h = L / 2
+    km = K.build([(m, m * L * L / 12)] * 3, gravity=(0, -K.G), joints=[
+        dict(type=rev, bodies=(-1, 0), points=((0, 0), (-h, 0))),
+        dict(type=rev, bodies=(0, 1), points=((h, 0), (-h, 0))),
+        dict(type=rev, bodies=(1, 2), points=((h, 0), (h, 0))),
+        dict(type=rev, bodies=(-1, 2), points=((L, 0), (-h, 0)))])
+    c, s = math.cos(theta), math.sin(theta)
+    q = np.array([h * c, h * s, theta, h + L * c, L * s, 0.0, L + h * c, h * s, theta])
+    qd = omega * np.array([-h * s, h * c, 1.0, -L * s, L * c, 0.0, -h * s, h * c, 1.0])
+    return km, q, qd
+
+
+def test_exact_and_regularised_solves_agree_until_the_switch():
+    """S is factored exactly while every pivot is above TAU of its diagonal, else
+    regularised.  Approaching the singular position of a parallelogram, the exact
+    path matches the closed form theta'' = -6 g cos(theta) / (5 L) (energy: cranks about
+    their pins, coupler translating), the regularised path (forced) matches it at every
+    angle down to 1e-6 rad, and the two agree to rounding wherever the exact one is taken."""
+    from planar_mbs.kernel.workspace import FL_SCHUR_REG
+
+    c = K.cfg(alpha=0.0, beta=0.0)
+    taken = []
+    for theta in 10.0 ** -np.arange(0.0, 7.0, 0.5):
+        km, q, qd = parallelogram(theta, 1.0)
+        ws = make_workspace(km)
+        assert accelerations(km, c, 0.0, q, qd, np.zeros((0, 3)), ws, STATS) == 0
+        taken.append(int(ws.flags[FL_SCHUR_REG]))
+        exact = ws.qdd.copy()
+        ws.solver[3] = 2.0  # every pivot is below twice its diagonal: the regularised path
+        assert accelerations(km, c, 0.0, q, qd, np.zeros((0, 3)), ws, STATS) == 0
+        assert ws.flags[FL_SCHUR_REG] == 1
+        closed = -1.2 * K.G * math.cos(theta)
+        assert ws.qdd[2] == pytest.approx(closed, rel=0, abs=1e-12 * K.G)
+        if taken[-1] == 0:
+            assert exact[2] == pytest.approx(closed, rel=0, abs=1e-12 * K.G)
+            np.testing.assert_allclose(ws.qdd, exact, rtol=0, atol=1e-12 * np.abs(exact).max())
+    assert taken[0] == 0 and taken[-1] == 1 and taken == sorted(taken)  # one switch, on the way in

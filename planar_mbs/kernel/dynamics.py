@@ -16,7 +16,9 @@ chain of N bodies (block-tridiagonal S, rows in the order of
 dense one, and small mechanisms lose nothing.
 
 S loses rank at a singular position (for an instant) and with redundant joints
-(for good).  So ``S + REG D`` (D = diag S) is factored, which stays positive
+(for good).  S is factored as it is while every pivot stays above TAU of its
+diagonal (one solve, exact to rounding: today's mechanisms pay nothing more);
+otherwise ``S + REG D`` (D = diag S) is factored, which stays positive
 definite, and the system is solved by iterated Tikhonov regularisation
 (`multipliers`): exact to rounding for the well-conditioned part, the
 minimum-norm multipliers for redundant rows, and a soft constraint (a penalty of
@@ -35,28 +37,26 @@ from ..model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
+from .workspace import FL_SCHUR_REG
 
 SINGULAR = 4
 DRIFT = 8
 REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (see the module docstring)
 REFINE = 2  # refinement sweeps of the regularised solve (2: convergence orders and contact runs as exact)
+TAU = 1e-3  # relative pivot (d_j / S_jj) below which S is refactored regularised
 REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
 # (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
-# (ws.solver holds [REG, REFINE, REFINE_TOL] so that experiments need no recompilation)
+# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU] so that experiments need no recompilation)
 
 
 @kernel
-def schur_factor(km, ws, stats):
-    """S = Cq M^-1 Cq^T from ws.J inside the envelope (diagonal kept in ws.sdiag), then
-    S + REG diag(S) Cholesky-factored in place (lower triangle, rows r: columns
-    first[r]..r).  Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
-    J = ws.J
-    S = ws.S
-    rb = ws.rowbody
-    first = ws.first
-    minv = km.minv
-    m = J.shape[0]
-    for r in range(m):
+def schur_assemble(minv, J, rb, first, S, sdiag, reg):
+    """S = Cq M^-1 Cq^T from the row-sparse Jacobian J (bodies rb) inside the
+    envelope (lower triangle, rows r: columns first[r]..r), its diagonal kept in
+    sdiag, then S_rr *= 1 + reg.  (Arrays, not the workspace, as arguments: a
+    call that numba does not inline passes every array of a tuple.)"""
+    for r in range(J.shape[0]):
+        s = 0.0
         for c in range(first[r], r + 1):
             s = 0.0
             for a1 in range(2):
@@ -69,19 +69,25 @@ def schur_factor(km, ws, stats):
                         s += (J[r, a1, 0] * minv[k] * J[c, a2, 0] + J[r, a1, 1] * minv[k + 1] * J[c, a2, 1]
                               + J[r, a1, 2] * minv[k + 2] * J[c, a2, 2])
             S[r, c] = s
-        ws.sdiag[r] = S[r, r]
-        S[r, r] = s * (1.0 + ws.solver[0])
-    for j in range(m):
+        sdiag[r] = s
+        S[r, r] = s * (1.0 + reg)
+
+
+@kernel
+def cholesky(S, first, lastrow, sdiag, tau):
+    """Envelope Cholesky of S in place (no fill outside the envelope).
+    Returns -1, or the first row j whose pivot is not above tau * sdiag[j]
+    (the factor is then incomplete)."""
+    for j in range(S.shape[0]):
         fj = first[j]
         d = S[j, j]
         for k in range(fj, j):
             d -= S[j, k] * S[j, k]
-        if not (d > 0.0) or not (ws.sdiag[j] > 0.0):
-            stats[ST_INFO] = j
-            return SINGULAR
+        if not (d > tau * sdiag[j]) or not (sdiag[j] > 0.0):
+            return j
         d = math.sqrt(d)
         S[j, j] = d
-        for i in range(j + 1, ws.lastrow[j] + 1):
+        for i in range(j + 1, lastrow[j] + 1):
             fi = first[i]
             if fi > j:
                 continue
@@ -89,14 +95,33 @@ def schur_factor(km, ws, stats):
             for k in range(max(fi, fj), j):
                 s -= S[i, k] * S[j, k]
             S[i, j] = s / d
+    return -1
+
+
+@kernel
+def schur_factor(km, ws, stats):
+    """Factor S exactly when every pivot is healthy (above TAU of its diagonal: S is
+    well conditioned, one solve is exact to rounding); otherwise factor S + REG diag(S)
+    for the iterated Tikhonov solve of `multipliers` (ws.flags[FL_SCHUR_REG] = 1).
+    In an eigendirection of relative size s the regularised answer is off by
+    (REG / (s + REG))^(REFINE + 1), below rounding for s > TAU: switching is seamless.
+    Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
+    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.S, ws.sdiag, 0.0)
+    if cholesky(ws.S, ws.first, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
+        ws.flags[FL_SCHUR_REG] = 0
+        return 0
+    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.S, ws.sdiag, ws.solver[0])
+    j = cholesky(ws.S, ws.first, ws.lastrow, ws.sdiag, 0.0)
+    if j >= 0:
+        stats[ST_INFO] = j
+        return SINGULAR
+    ws.flags[FL_SCHUR_REG] = 1
     return 0
 
 
 @kernel
-def schur_solve(ws, x):
-    """Solve (S + REG diag S) x = x in place with the envelope factor in ws.S."""
-    L = ws.S
-    first = ws.first
+def schur_solve(L, first, x):
+    """Solve L L^T x = x in place with the envelope factor L of `cholesky`."""
     m = x.shape[0]
     for i in range(m):
         s = x[i]
@@ -112,21 +137,30 @@ def schur_solve(ws, x):
 
 @kernel
 def multipliers(km, ws, x):
-    """Solve S x = ws.b by iterated Tikhonov regularisation
+    """Solve S x = x in place with the factor of `schur_factor`: one solve when S
+    was factored exactly, else iterated Tikhonov regularisation
     (x += (S + REG D)^-1 (b - S x), D = diag S; Riley 1955, the dual form of the
     augmented-Lagrangian iteration of Bayo, Garcia de Jalon and Serna, "A modified
     Lagrangian formulation for the dynamic analysis of constrained mechanical systems").
     Converges to the solution of least sum_r D_rr x_r^2 (the minimum-norm split for
     dependent rows); directions with eigenvalue below ~REG D stay damped (a singular
-    position).  Uses ws.res and ws.v as scratch."""
+    position)."""
+    if ws.flags[FL_SCHUR_REG] == 0:
+        schur_solve(ws.S, ws.first, x)
+    else:
+        refine(km, ws, x)
+
+
+@kernel
+def refine(km, ws, x):
+    """The iterated Tikhonov solve of `multipliers` (ws.b, ws.res, ws.v as scratch)."""
     m = x.shape[0]
     minv = km.minv
     bnorm = 0.0
     for r in range(m):
-        bnorm = max(bnorm, abs(ws.b[r]) / math.sqrt(ws.sdiag[r]))
-    for r in range(m):
-        x[r] = ws.b[r]
-    schur_solve(ws, x)
+        ws.b[r] = x[r]
+        bnorm = max(bnorm, abs(x[r]) / math.sqrt(ws.sdiag[r]))
+    schur_solve(ws.S, ws.first, x)
     for it in range(64):
         for k in range(ws.v.shape[0]):
             ws.v[k] = 0.0
@@ -143,7 +177,7 @@ def multipliers(km, ws, x):
             rnorm = max(rnorm, abs(ws.res[r]) / math.sqrt(ws.sdiag[r]))
         if not (rnorm > ws.solver[2] * bnorm) or it >= ws.solver[1]:
             break
-        schur_solve(ws, ws.res)
+        schur_solve(ws.S, ws.first, ws.res)
         for r in range(m):
             x[r] += ws.res[r]
 
@@ -203,7 +237,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     for r in range(m):
         cd = ws.Ct[r] + jac_dot(ws, r, qd)
         gb = ws.gam[r] - 2.0 * alpha * cd - beta * beta * ws.C[r]
-        ws.b[r] = jac_dot(ws, r, ws.qdd) - gb
+        ws.lam[r] = jac_dot(ws, r, ws.qdd) - gb
     st = schur_factor(km, ws, stats)
     if st != 0:
         return st
@@ -246,7 +280,7 @@ def project(km, t, y, ws, stats):
         err = 0.0
         for r in range(m):
             err = max(err, abs(ws.C[r]))
-            ws.b[r] = ws.C[r]
+            ws.dl[r] = ws.C[r]
         if err <= 1e-15 or (it > 0 and err <= 1e-14):
             break
         st = schur_factor(km, ws, stats)
@@ -260,7 +294,7 @@ def project(km, t, y, ws, stats):
     if st != 0:
         return st
     for r in range(m):
-        ws.b[r] = ws.Ct[r] + jac_dot(ws, r, qd)
+        ws.dl[r] = ws.Ct[r] + jac_dot(ws, r, qd)
     st = schur_factor(km, ws, stats)
     if st != 0:
         return st

@@ -19,6 +19,7 @@ FL_PENDING_OUTPUTS = 0  # 1: outputs of the last accepted step still to be writt
 FL_SWITCH_JOINT = 1  # clearance joint whose contact mode switches at the end of the last step (-1: none)
 FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: DOP853's dense output of the last step is prepared (ws.F)
+FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
 N_FLAGS = 8
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
@@ -58,7 +59,7 @@ class Workspace(NamedTuple):
     res: np.ndarray  # (m,) residual of the multiplier refinement
     dl: np.ndarray  # (m,) projection corrections
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
-    solver: np.ndarray  # (3,) [REG, REFINE, REFINE_TOL] of `dynamics.multipliers`
+    solver: np.ndarray  # (4,) [REG, REFINE, REFINE_TOL, TAU] of `dynamics.multipliers`
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -111,15 +112,15 @@ def envelope(rowbody: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solver_settings() -> np.ndarray:
-    """[REG, REFINE, REFINE_TOL] of the regularised multiplier solve (`dynamics`)."""
+    """[REG, REFINE, REFINE_TOL, TAU] of the regularised multiplier solve (`dynamics`)."""
     import os
 
-    from .dynamics import REFINE, REFINE_TOL, REG
+    from .dynamics import REFINE, REFINE_TOL, REG, TAU
 
-    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol"
+    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau"
     if env:
         return np.array([float(v) for v in env.split(",")])
-    return np.array([REG, float(REFINE), REFINE_TOL])
+    return np.array([REG, float(REFINE), REFINE_TOL, TAU])
 
 
 def make_workspace(km: KernelModel) -> Workspace:
