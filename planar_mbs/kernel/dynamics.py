@@ -37,16 +37,10 @@ from ..model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
-from .workspace import FL_SCHUR_REG
+from .workspace import FL_SCHUR_REG  # REG, REFINE, TAU: workspace.solver_settings
 
 SINGULAR = 4
 DRIFT = 8
-REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (see the module docstring)
-REFINE = 2  # refinement sweeps of the regularised solve (2: convergence orders and contact runs as exact)
-TAU = 1e-3  # relative pivot (d_j / S_jj) below which S is refactored regularised
-REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
-# (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
-# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU] so that experiments need no recompilation)
 
 
 @kernel

@@ -111,11 +111,18 @@ def envelope(rowbody: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first, lastrow
 
 
-def solver_settings() -> np.ndarray:
-    """[REG, REFINE, REFINE_TOL, TAU] of the regularised multiplier solve (`dynamics`)."""
-    import os
+REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (`dynamics` module docstring)
+REFINE = 2  # refinement sweeps of the regularised solve (2: convergence orders and contact runs as exact)
+TAU = 1e-3  # relative pivot (d_j / S_jj) below which S is refactored regularised
+REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
+# (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
+# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU] so that experiments need no recompilation)
 
-    from .dynamics import REFINE, REFINE_TOL, REG, TAU
+
+def solver_settings() -> np.ndarray:
+    """[REG, REFINE, REFINE_TOL, TAU] of the multiplier solve (`dynamics.schur_factor`,
+    `dynamics.multipliers`)."""
+    import os
 
     env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau"
     if env:
