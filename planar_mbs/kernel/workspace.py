@@ -125,9 +125,11 @@ def solver_settings() -> np.ndarray:
     import os
 
     env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau"
-    if env:
-        return np.array([float(v) for v in env.split(",")])
-    return np.array([REG, float(REFINE), REFINE_TOL, TAU])
+    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU])
+    if env:  # the values given replace the first ones, the rest keep their defaults
+        given = [float(v) for v in env.split(",")][: settings.size]
+        settings[: len(given)] = given
+    return settings
 
 
 def make_workspace(km: KernelModel) -> Workspace:
