@@ -112,6 +112,17 @@ def test_sweep_refuses_a_case_beyond_the_limit(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("args", [["-q"], ["-q", "--rerun", "x.rrd"], ["-q", "--t-end", "1e5s"]])
+def test_a_refused_run_leaves_no_trace(tmp_path, monkeypatch, args):
+    """Without -o a run writes to results/ under the working folder; a refusal makes no folder."""
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    r = _cli("run", _typo_model(tmp_path, "1e-6 us"), *args)
+    assert r.exit_code == 2, r.output
+    assert list(work.iterdir()) == []
+
+
 def test_existing_output_is_untouched_when_refused(tmp_path):
     out = tmp_path / "a.h5"
     out.write_bytes(b"the user's earlier results")
