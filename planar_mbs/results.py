@@ -28,6 +28,7 @@ each flush) grows with the entities, not the signals (a 40-link chain: 81 datase
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import stat
@@ -138,11 +139,18 @@ class FileResults(Results):
         self._time = None
         self.signals = _FileSignals(self, list(self.units))
 
-    def _read(self, name: str) -> np.ndarray:
-        import h5py
-
-        with h5py.File(self.path, "r") as f:
+    @contextmanager
+    def _run_group(self):
+        """The run's group, opened like every results file a command reads (`open_results`:
+        a regular HDF5 file) and checked (`check_run_layout`) at each opening, since the file
+        may have changed since the run wrote it; nothing is read whole, so no memory budget."""
+        with open_results(self.path) as f:
             g = f[self.group] if self.group else f
+            check_run_layout(g, str(self.path), budget=math.inf)
+            yield g
+
+    def _read(self, name: str) -> np.ndarray:
+        with self._run_group() as g:
             return g[TIME][()] if name == TIME else read_signal(g, name)
 
     @property
@@ -155,11 +163,8 @@ class FileResults(Results):
 
     def peak(self, name: str) -> float:
         """Largest finite value of a signal, read in slices (memory bounded); NaN if none."""
-        import h5py
-
         best = -np.inf
-        with h5py.File(self.path, "r") as f:
-            g = f[self.group] if self.group else f
+        with self._run_group() as g:
             step, n = 1 << 16, g[TIME].shape[0]  # HDF5 buffers whole compound records per slice
             for i in range(0, n, step):
                 x = read_signal(g, name, slice(i, i + step))
@@ -190,10 +195,8 @@ class _FileSignals(Mapping):
 def row_count(results: Results) -> int:
     """Number of output rows of any `Results`, without reading them."""
     if isinstance(results, FileResults):
-        import h5py
-
-        with h5py.File(results.path, "r") as f:
-            return int(f[_in_group(results.group, TIME)].shape[0])
+        with results._run_group() as g:
+            return int(g[TIME].shape[0])
     return len(results.time)
 
 
