@@ -171,16 +171,19 @@ def run(
         rerun_signals = check_choice(rerun_signals, ("envelope", "full"), "--rerun-signals")
         check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
-        if not until_settled:
-            _check_output_size(m, changes, out, model, force)
         inputs = [("the model file" if i == 0 else "a file the model includes", f)
                   for i, f in enumerate(m.source_files or [model])]
+        make_folder = output is None and not out.parent.exists()  # results/, made once every check passed
+        if not make_folder:
+            check_output(out, "--output", inputs)
         if rerun is not None:
             check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
-        if output is None and not out.parent.exists():  # results/, made only once every check has passed
+        if not until_settled:
+            _check_output_size(m, changes, out, model, force)
+        if make_folder:
             out.parent.mkdir(parents=True)
             (out.parent / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
-        check_output(out, "--output", inputs)
+            check_output(out, "--output", inputs)
         if until_settled:
             res = _run_until_settled(m, out, max_revolutions, quiet, changes)
         else:
