@@ -185,6 +185,9 @@ class _FileSignals(Mapping):
             raise KeyError(name)
         return self.owner._read(name)
 
+    def __contains__(self, name) -> bool:
+        return name in self.names  # Mapping's default would read the whole signal to find out
+
     def __iter__(self):
         return iter(self.names)
 
