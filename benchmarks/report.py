@@ -246,9 +246,12 @@ lazily, so the peak does not grow with T: target, the 100-s run within 1.2× the
 row stayed in memory and HDF5's default chunk cache kept the written rows too: 283 MB for 1 s and 685 MB
 for 10 s, measured the same way; about 4 GB expected for 100 s.)
 
-Target met up to 10 s (1.04×), **missed at 100 s (1.45×)**. Inside one process the resident set of a
-100-s `simulate()` stays at 260–280 MB (sampled after every write), and a bare h5py loop writing the same
-10^7 rows grows by only 8 MB, so the remaining growth of `mbs run` is somewhere else and not yet found.
+Target **met: the 100-s run peaks at 1.04× the 1-s run** (measured 2026-11-24 on two idle cores, below).
+Until then a 100-s `mbs run` peaked at 1.44–1.45× (297 MB): not during the run (its resident set stays
+flat) but in the summary printed after it, which asked `"system.position_error" in res.signals`; the
+lazily read `Results` answered that with Python's default `Mapping.__contains__`, which reads the whole
+signal (80 MB for 10^7 rows) to find out.  It now answers from the names
+(`tests/adversarial/test_memory.py` shows it needs no file at all).
 """ + "\n"
 
 
@@ -374,8 +377,11 @@ Cholesky (O(N³)).
 ORDER_TEXT = """The IFToMM "N four-bar" chain (`tests/chains.py`: 2N + 1 bars, 3N + 1 revolute joints, closed loops)
 with the same joints written along the chain, reversed, grouped by kind (all ground pins first) and shuffled.
 The constraint rows are placed at compile time by reverse Cuthill-McKee on the body-joint graph
-(`planar_mbs/ordering.py`), so the four texts compile to the same row order and the same envelope; the spread
-between columns is timing noise (the machine is shared). Before this ordering (rows in the order of the text)
+(`planar_mbs/ordering.py`), so the four texts compile to the same row order and the same envelope: at N = 40
+the slowest text costs 1.01 times the fastest (target ≤ 1.3), and the cost per right-hand side grows linearly
+from 41 to 321 bodies, closed loops included (target: within 1.5 times linear). Measured on two idle cores; in
+brackets the previous measurement (every multiplier solve regularised with refinement sweeps, the machine
+running about 12 jobs: the N = 40 and 80 rows there are load noise). Before this ordering (rows in the order of the text)
 the 41-body chain cost 22-60 µs per right-hand side written along the chain and 900-2400 µs grouped by kind,
 and 193-242 times more at 321 bodies than at 41. Cost per accepted DOPRI5 step [µs] (0.2 s from the top,
 rtol 1e-8), then cost per right-hand side from 41 to 321 bodies (linear would be 321/41 = 7.83 times).
