@@ -540,15 +540,21 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
 def default_executor(jobs: int | None) -> Executor:
     """A local process pool of ``jobs`` long-lived workers (default: the number of cores).
 
-    With the forkserver (Linux, macOS), the server imports `planar_mbs.sweep_worker` once: numba,
-    the kernels and their compiled code are loaded there, and each worker is a fork of it that
-    runs cases at once (measured: `-j 2` went from 0.7x to the table's figure in
-    docs/benchmarks.md).  Elsewhere (spawn) each worker loads them on its first case."""
+    In a process that has loaded the kernels (`run_sweep` does, `sweep_worker.warm_up`) on Linux,
+    each worker is a fork of it that runs cases at once: no second interpreter start-up before the
+    first case (a forkserver's cost a second, as long as three short cases).  Otherwise, with the
+    forkserver (Linux, macOS), the server imports `planar_mbs.sweep_worker` once and the workers are
+    forks of it; elsewhere (spawn) each worker loads them on its first case."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
+    from .sweep_worker import kernels_loaded
+
     jobs = jobs or os.cpu_count() or 1
-    if "forkserver" in mp.get_all_start_methods():
+    methods = mp.get_all_start_methods()
+    if "fork" in methods and kernels_loaded():  # forks of this process have everything loaded already
+        ctx = mp.get_context("fork")
+    elif "forkserver" in methods:
         ctx = mp.get_context("forkserver")
         ctx.set_forkserver_preload(["planar_mbs.sweep_worker"])
     else:
@@ -801,6 +807,10 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
             futures = [_InlineFuture(run_case, s) for s in pending]
             results_iter = futures
         else:
+            if executor is None:
+                from .sweep_worker import warm_up
+
+                warm_up()  # the kernels loaded here once; the pool's workers are forks of this process
             pool = executor or default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
             futures = [pool.submit(run_case, s) for s in pending]
             results_iter = _completed(futures, _cluster_watch(executor, worker_timeout))
