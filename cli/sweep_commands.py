@@ -256,9 +256,10 @@ class _cluster:
                              hint="pip install 'dask[distributed]'") from None
         import logging
 
-        # distributed logs a lost scheduler with tracebacks; the sweep reports it in one sentence
+        # distributed logs a lost scheduler with tracebacks, and a callback that fails then on its event
+        # loop is logged by asyncio ("Exception in callback ..."); the sweep reports it in one sentence
         for name in ("distributed", "distributed.client", "distributed.comm", "distributed.core",
-                     "distributed.batched", "tornado"):
+                     "distributed.batched", "tornado", "asyncio"):
             logging.getLogger(name).setLevel(logging.CRITICAL + 1)
         try:
             self.client = Client(self.address, timeout="10s")

@@ -1,4 +1,5 @@
-"""Imported once by a sweep's forkserver (multiprocessing's preload, see `sweep.default_executor`).
+"""Loaded once by a sweep before its workers exist (`warm_up` in the sweep's process, or a
+forkserver's preload; see `sweep.default_executor`).
 
 Everything a case needs is loaded here, before any worker exists: numba, the kernels and their
 compiled code (read from numba's cache by one short run of a small model), the analysis.  Each
