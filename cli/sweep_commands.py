@@ -258,8 +258,11 @@ class _cluster:
 
         # distributed logs a lost scheduler with tracebacks, and a callback that fails then on its event
         # loop is logged by asyncio ("Exception in callback ..."); the sweep reports it in one sentence
-        for name in ("distributed", "distributed.client", "distributed.comm", "distributed.core",
-                     "distributed.batched", "tornado", "asyncio"):
+        # (distributed's logging config gives some children levels of their own, tornado.application
+        # among them: every such logger is silenced by name, not only the parents)
+        names = {"distributed", "tornado", "tornado.application", "asyncio"}
+        names |= {n for n in logging.root.manager.loggerDict if n.split(".")[0] in ("distributed", "tornado")}
+        for name in names:
             logging.getLogger(name).setLevel(logging.CRITICAL + 1)
         try:
             self.client = Client(self.address, timeout="10s")
