@@ -305,10 +305,6 @@ def entity_path(entity: str) -> str:
     return f"{SIGNALS}/{entity}"
 
 
-def _in_group(group: str, path: str) -> str:
-    return f"{group}/{path}" if group else path
-
-
 def create_run_datasets(g, names_units, data=None, **opts) -> tuple:
     """Create the time dataset and one compound dataset per entity in group ``g`` (the layout
     every writer uses); ``names_units`` is a list of (name, unit), ``data`` None (empty and

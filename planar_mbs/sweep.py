@@ -42,6 +42,7 @@ import json
 import math
 import os
 import re
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor
@@ -540,7 +541,7 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
 def default_executor(jobs: int | None) -> Executor:
     """A local process pool of ``jobs`` long-lived workers (default: the number of cores).
 
-    In a process that has loaded the kernels (`run_sweep` does, `sweep_worker.warm_up`) on Linux,
+    In a process that has loaded the kernels (`run_sweep` does, `sweep_worker.warm_up`), on Linux
     each worker is a fork of it that runs cases at once: no second interpreter start-up before the
     first case (a forkserver's cost a second, as long as three short cases).  Otherwise, with the
     forkserver (Linux, macOS), the server imports `planar_mbs.sweep_worker` once and the workers are
@@ -552,7 +553,7 @@ def default_executor(jobs: int | None) -> Executor:
 
     jobs = jobs or os.cpu_count() or 1
     methods = mp.get_all_start_methods()
-    if "fork" in methods and kernels_loaded():  # forks of this process have everything loaded already
+    if sys.platform.startswith("linux") and kernels_loaded():  # forks of this process have it all loaded
         ctx = mp.get_context("fork")
     elif "forkserver" in methods:
         ctx = mp.get_context("forkserver")
