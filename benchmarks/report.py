@@ -273,9 +273,10 @@ instead of 568 groups and datasets).  The CLI keeps BLAS on one thread.
 What remains: `mbs run` still pays numba's import, its target initialisation and typer (with pydantic); an
 output row costs what computing its 53 signals costs (one `accelerations` call for the reactions and
 accelerations, plus energies and constraint errors: about 1.5 rhs), so rows under 1 µs would need fewer signals
-per row, not faster writing; a sweep's `-j 2` speed-up needs cases that are long against the workers' start
-(one numba start-up in the fork server) and two cores that are actually free: on this shared machine (load in
-the first line) two processes do not get twice the CPU.
+per row, not faster writing; a sweep's `-j 2` speed-up is held back by short cases (about 0.27 s each here)
+against the start-up both commands share, and by the parent, which alone writes every case while two workers
+run: three busy processes on two cores.  The sweep's workers are now forks of the sweep's own process, which
+loaded the kernels (Linux), so no second interpreter starts before the first case.
 """
 
 TEXT_HEAD = """# Benchmarks: speed against accuracy, start-up, scale, stress
