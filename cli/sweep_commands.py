@@ -216,17 +216,25 @@ def sweep(
 
 class _interruptible:
     """Ctrl-C stops a sweep even when the shell started it with SIGINT ignored (a script
-    without job control, `nohup`): Python then leaves SIGINT ignored, so restore the
-    KeyboardInterrupt handler for the sweep, as `mbs run` installs its own."""
+    without job control, `nohup`): Python then leaves SIGINT ignored, so install the sweep's
+    own handler, as `mbs run` does.  It raises KeyboardInterrupt at once and notes the signal
+    (`sweep.note_interrupt`), so that an interrupt Python drops (raised inside a garbage-collector
+    callback) is raised again at the sweep's next wait."""
 
     def __enter__(self):
         import signal
         import threading
 
+        from planar_mbs.sweep import PENDING_INTERRUPTS, note_interrupt
+
+        def interrupt(signum, frame):
+            note_interrupt(signum)
+            raise KeyboardInterrupt
+
         self.previous = None
-        if threading.current_thread() is threading.main_thread() and \
-                signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-            self.previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+        PENDING_INTERRUPTS.clear()
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, interrupt)
         return self
 
     def __exit__(self, *exc):

@@ -599,6 +599,16 @@ def end_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="end-with-parent", daemon=True).start()
 
 
+PENDING_INTERRUPTS: list[int] = []  # signals a handler noted (`note_interrupt`), raised at the next wait
+
+
+def note_interrupt(signum: int) -> None:
+    """Called by a SIGINT handler that also raises KeyboardInterrupt at once: a KeyboardInterrupt
+    raised inside a garbage-collector callback is printed and dropped by Python, so the sweep's
+    wait raises it again (within a second) instead of running on to the end."""
+    PENDING_INTERRUPTS.append(signum)
+
+
 def _completed(futures, watch: Callable[[], None] | None):
     """The futures as they finish; between them, every second, ``watch()`` may stop the wait."""
     from concurrent.futures import FIRST_COMPLETED, wait
@@ -606,6 +616,8 @@ def _completed(futures, watch: Callable[[], None] | None):
     left = set(futures)
     while left:
         done, left = wait(left, timeout=1.0, return_when=FIRST_COMPLETED)
+        if PENDING_INTERRUPTS:
+            raise KeyboardInterrupt
         yield from done
         if not done and watch is not None:
             watch()
