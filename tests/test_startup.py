@@ -1,4 +1,5 @@
-"""Start-up paths: `mbs check` without typer, sweep workers forked from a preloaded server."""
+"""Start-up paths: `mbs check` without typer, warm kernels without numba's implementations, sweep
+workers forked from a preloaded server."""
 from __future__ import annotations
 
 import subprocess
@@ -78,3 +79,31 @@ def test_a_refused_run_exits_with_its_code_through_the_executable(tmp_path):
     res = _entry(["run", MODEL, "--t-end", "-1ms", "-o", str(tmp_path / "a.h5")])
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr and "TEARDOWN" in res.stderr
+
+
+WARM_RUN = f"""import sys, numpy as np, planar_mbs as m
+if sys.argv[1] == "refresh":  # what numba does before loading a cached kernel
+    from numba.core.registry import cpu_target
+    cpu_target.target_context.refresh()
+r = m.simulate(m.load_model({MODEL!r}), t_end=2e-3)
+np.save(sys.argv[2], np.column_stack([r.time] + [r[s] for s in r.signals]))
+print(sorted({{"numba.np.arraymath", "numba.cpython.listobj", "scipy.linalg"}} & set(sys.modules)))
+"""
+
+
+def test_warm_kernels_load_without_numba_s_implementations_and_run_the_same(tmp_path):
+    """A cached kernel is loaded without first registering every implementation numba has (among
+    them its array functions, which import scipy.linalg to look for a BLAS); a cache miss still
+    compiles through numba's compiler, which registers them.  The run is the same to the bit."""
+    import numpy as np
+
+    def run(mode):
+        res = subprocess.run([sys.executable, "-c", WARM_RUN, mode, str(tmp_path / f"{mode}.npy")],
+                             capture_output=True, text=True, timeout=600, cwd=ROOT)
+        assert res.returncode == 0, res.stderr
+        return res.stdout.splitlines()[-1]
+
+    run("plain")  # compiles the kernels if their cache is cold
+    assert run("plain") == "[]"
+    assert run("refresh") == "['numba.cpython.listobj', 'numba.np.arraymath', 'scipy.linalg']"
+    assert np.array_equal(np.load(tmp_path / "plain.npy"), np.load(tmp_path / "refresh.npy"), equal_nan=True)

@@ -17,6 +17,10 @@
   every call between kernels increfs and decrefs each array of the ~25-array
   `KernelModel` and the workspace with atomic operations: measured 5.4 µs per
   right-hand side of Muvengei et al.'s slider-crank with it, 0.9 µs without.
+* A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`):
+  the refresh imports and registers every implementation numba has, among them its array functions,
+  whose import-time BLAS check imports scipy.linalg; about 0.25 s of a warm `mbs run` whose kernels
+  make no BLAS call and need none of it.
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from pathlib import Path
 
 from numba import njit
 from numba.core import caching
+
 
 _HERE = Path(__file__).resolve().parent
 # every file a kernel is compiled from: the kernel modules, the model's codes and layouts, and
@@ -44,12 +49,22 @@ def source_hash(paths=KERNEL_SOURCES) -> str:
 SOURCE_HASH = source_hash()
 
 
+_WRITABLE: set[str] = set()  # cache folders found writable in this process
+
+
 class _Stamped:
     """A numba cache locator whose source stamp also holds SOURCE_HASH: a cached
-    kernel whose index was written with other kernel sources is not loaded."""
+    kernel whose index was written with other kernel sources is not loaded.  Its folder
+    is made and tried for writing once per process, not once per kernel."""
 
     def get_source_stamp(self):
         return (super().get_source_stamp(), SOURCE_HASH)
+
+    def ensure_cache_path(self):
+        path = self.get_cache_path()
+        if path not in _WRITABLE:
+            super().ensure_cache_path()
+            _WRITABLE.add(path)
 
 
 class _UserProvided(_Stamped, caching.UserProvidedCacheLocator):
@@ -71,8 +86,22 @@ class _Impl(caching.CompileResultCacheImpl):
 class _FunctionCache(caching.FunctionCache):
     _impl_class = _Impl
 
+    def load_overload(self, sig, target_context):
+        """numba's ``load_overload`` without its first step, ``target_context.refresh()``, which
+        imports and registers every implementation numba has (arrays, strings, lists, random, ...)
+        and compiles its reference-counting runtime: about 0.15 s of a warm `mbs run`.  A cached
+        kernel is machine code that calls only numba's C helpers and Python's own functions, which
+        the target context installs when it is created; a kernel that has to be compiled (a cache
+        miss) goes through numba's compiler, which refreshes the context itself."""
+        guard = getattr(self, "_guard_against_spurious_io_errors", None)
+        if guard is None or not hasattr(self, "_load_overload"):
+            return super().load_overload(sig, target_context)
+        with guard():
+            return self._load_overload(sig, target_context)
+        return None  # the guard swallowed an error: compile, as numba does
 
-_njit = njit(cache=True, error_model="numpy", _nrt=False)
+
+_njit = njit(error_model="numpy", _nrt=False)  # cache=True would make numba's own cache, replaced at once
 
 
 def kernel(func):
