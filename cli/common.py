@@ -39,6 +39,18 @@ def fail(err) -> None:
     raise typer.Exit(fail_code(err))
 
 
+def internal_error(exc: Exception) -> int:
+    """A bug's one-line report instead of a traceback (exit code 1); MBS_TRACEBACK=1 raises it instead."""
+    import os
+
+    if os.environ.get("MBS_TRACEBACK"):
+        raise exc
+    console(stderr=True).print(f"internal error: {type(exc).__name__}: {exc}\n"
+                               "hint: this is a bug in planar_mbs; please report it with the command "
+                               "(MBS_TRACEBACK=1 shows where it happened)", markup=False)
+    return 1
+
+
 def parse_sets(sets: list[str]) -> dict[str, str]:
     """`--set NAME=VALUE` pairs (VALUE keeps its units, e.g. `speed=2500rpm`)."""
     from planar_mbs.errors import ModelError

@@ -2,8 +2,10 @@
 
 A plain ``mbs check MODEL [--set NAME=VALUE]...`` runs `check_command.check_model` without loading
 typer: typer's argument handling imports pydantic, which costs more than parsing, compiling and
-assembling a model.  Every other command line (another command, ``--help``, any other option, a
-mistake) goes unchanged to the typer app in `app`, which owns usage, help and errors.
+assembling a model.  Likewise a plain ``mbs run MODEL [OPTIONS]`` that `run_command.plain_run` reads
+completely runs `run_command.run_model`.  Every other command line (another command, ``--help``, an
+unusual spelling of an option, a mistake) goes unchanged to the typer app in `app`, which owns usage,
+help and errors.
 
 BLAS runs on one thread in this process (unless the user set it): its solves here are small dense
 ones (assembly, Poincaré analysis), for which starting a thread pool per core costs more than it saves.
@@ -66,6 +68,12 @@ def leave(code) -> None:
 
 def main() -> None:
     args = plain_check(sys.argv[1:])
+    if args is None and sys.argv[1:2] == ["run"]:
+        from .run_command import plain_run, run_plain
+
+        kwargs = plain_run(sys.argv[1:])
+        if kwargs is not None:
+            leave(run_plain(kwargs))
     if args is None:
         from .app import main as app_main
 

@@ -1,7 +1,9 @@
-"""Start-up paths: `mbs check` without typer, warm kernels without numba's implementations, sweep
+"""Start-up paths: `mbs check` and a plain `mbs run` without typer, kernels without scipy.linalg, sweep
 workers forked from a preloaded server."""
 from __future__ import annotations
 
+import inspect
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -79,6 +81,89 @@ def test_a_refused_run_exits_with_its_code_through_the_executable(tmp_path):
     res = _entry(["run", MODEL, "--t-end", "-1ms", "-o", str(tmp_path / "a.h5")])
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr and "TEARDOWN" in res.stderr
+
+
+# ---------------------------------------------------------------- `mbs run` without typer
+@pytest.mark.parametrize("argv", [
+    ["run", "m.mbs"],
+    ["run", "m.mbs", "-q", "-o", "out.h5"],
+    ["run", "-o", "out.h5", "m.mbs", "--quiet", "--set", "speed=1rpm", "-s", "law=hertz", "--set=c=1mm"],
+    ["run", "m.mbs", "--t-end", "20 ms", "--output-step=1us", "--rtol", "1e-8", "--atol", "1.5e-11",
+     "--integrator", "dop853", "--step", "1us", "--force"],
+    ["run", "m.mbs", "-n", "3", "--per-rev", "720", "--magnify", "0", "--fps", "600", "--rerun", "r.rrd",
+     "--rerun-signals", "full", "--view"],
+    ["run", "m.mbs", "--until-settled", "--max-revolutions", "300", "--revolutions=.5"],
+])
+def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
+    """What `plain_run` reads is exactly what the typer command hands to `run_model`."""
+    from typer.testing import CliRunner
+
+    from planar_mbs.cli import run_command
+    from planar_mbs.cli.app import app
+
+    params = inspect.signature(run_command.run_model).parameters
+    seen = []
+    monkeypatch.setattr(run_command, "run_model", lambda model, **kw: seen.append(dict(model=model, **kw)) or 0)
+    res = CliRunner().invoke(app, argv)
+    assert res.exit_code == 0, res.output
+    defaults = dict(seen[0])
+    fast = run_command.plain_run(argv)
+    assert fast is not None
+    assert {k: v for k, v in defaults.items() if v is not None and v is not False and k in fast} == fast
+    for k, v in defaults.items():  # every option not given is the typer default, which run_model shares
+        if k not in fast:
+            assert v == params[k].default, k
+
+
+@pytest.mark.parametrize("argv", [
+    ["run"], ["run", "m.mbs", "n.mbs"], ["run", "m.mbs", "--help"], ["run", "--help"],
+    ["run", "m.mbs", "-qo", "x.h5"], ["run", "m.mbs", "-ox.h5"], ["run", "m.mbs", "-o"],
+    ["run", "m.mbs", "-o", "a.h5", "-o", "b.h5"], ["run", "m.mbs", "-q", "-q"], ["run", "m.mbs", "--quiet=1"],
+    ["run", "m.mbs", "--t-end", "-1ms"], ["run", "m.mbs", "--rtol", "1e-6x"], ["run", "m.mbs", "--rtol", "inf"],
+    ["run", "m.mbs", "--per-rev", "0"], ["run", "m.mbs", "--per-rev", "1.5"], ["run", "m.mbs", "--magnify", "-1"],
+    ["run", "m.mbs", "--max-revolutions", "0"], ["run", "m.mbs", "--unknown", "1"], ["run", "m.mbs", "--"],
+    ["run", "m.mbs", "-"], ["run", "m.mbs", "--output", ""], ["check", "m.mbs"], ["sweep", "m.mbs"], [],
+])
+def test_any_other_run_command_line_goes_to_typer(argv):
+    from planar_mbs.cli.run_command import plain_run
+
+    assert plain_run(argv) is None
+
+
+def _exe(argv: list[str], module: str = "planar_mbs.cli.entry"):
+    """`mbs ARGV` through `module`'s main; the last line of stderr says whether typer was loaded
+    (also when the process ends through os._exit)."""
+    code = ("import os, sys\n_exit = os._exit\n"
+            "def mark():\n    print('TYPER' if 'typer' in sys.modules or 'pydantic' in sys.modules else 'NO TYPER',"
+            " file=sys.stderr, flush=True)\n"
+            "os._exit = lambda c: (mark(), _exit(c))\n"
+            f"sys.argv = {['mbs', *argv]!r}\nfrom {module} import main\n"
+            "try:\n    main()\nexcept SystemExit as e:\n    mark()\n    sys.exit(e.code)\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    return res.returncode, re.sub(r"wall time [0-9.]+ s", "wall time T s", res.stdout), res.stderr
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", MODEL, "--t-end", "1ms", "-o", "{tmp}/a.h5"],
+    ["run", MODEL, "--t-end", "1ms", "-q", "-o", "{tmp}/a.h5", "--set", "speed=2500rpm"],
+    ["run", MODEL, "--t-end", "1ms", "--rtol", "2", "-o", "{tmp}/a.h5"],
+    ["run", MODEL, "-n", "1", "--t-end", "1ms", "-o", "{tmp}/a.h5"],
+    ["run", MODEL, "--t-end", "1ms", "-o", "{tmp}"],
+    ["run", MODEL, "--set", "speed=3 m", "-o", "{tmp}/a.h5"],
+    ["run", str(ROOT / "models" / "no_such_model.mbs"), "-o", "{tmp}/a.h5"],
+    ["run", MODEL, "--t-end", "1ms", "--integrator", "euler", "-o", "{tmp}/a.h5"],
+])
+def test_a_plain_run_prints_writes_and_exits_as_the_typer_command(argv, tmp_path):
+    (tmp_path / "fast").mkdir()
+    (tmp_path / "typer").mkdir()
+    fast = _exe([a.format(tmp=tmp_path / "fast") for a in argv])
+    slow = _exe([a.format(tmp=tmp_path / "typer") for a in argv], "planar_mbs.cli.app")
+    assert fast[2].splitlines()[-1] == "NO TYPER" and slow[2].splitlines()[-1] == "TYPER", (fast[2], slow[2])
+    assert fast[0] == slow[0]
+    assert fast[1].replace("/fast", "/typer") == slow[1]
+    assert fast[2].replace("/fast", "/typer")[:-len("NO TYPER\n")] == slow[2][:-len("TYPER\n")]
+    fast_file, slow_file = tmp_path / "fast" / "a.h5", tmp_path / "typer" / "a.h5"
+    assert fast_file.exists() == slow_file.exists()
 
 
 WARM_RUN = f"""import sys, numpy as np, planar_mbs as m
