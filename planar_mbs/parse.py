@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import functools
 import re
-from importlib import resources
 from pathlib import Path
 
 from lark import Lark, Token, Transformer, v_args
@@ -57,8 +56,25 @@ def parser() -> Lark:
     return built
 
 
+@functools.lru_cache(maxsize=None)
+def _grammar_text() -> str:
+    """grammar/mbs.lark, read from the package folder (importlib.resources, which also reads packages
+    inside zip files, costs more to import than a model costs to parse; it is the fallback)."""
+    from importlib.util import find_spec
+
+    spec = find_spec("planar_mbs.grammar")
+    for folder in (spec.submodule_search_locations or []) if spec is not None else []:
+        try:
+            return (Path(folder) / "mbs.lark").read_text(encoding="utf-8")
+        except OSError:
+            pass
+    from importlib import resources
+
+    return resources.files("planar_mbs.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
+
+
 def _grammar() -> tuple[str, dict]:
-    text = resources.files("planar_mbs.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
+    text = _grammar_text()
     return text, dict(parser="lalr", lexer="contextual", propagate_positions=True, start=["start", "expr"],
                       maybe_placeholders=True)
 

@@ -192,3 +192,11 @@ def test_warm_kernels_load_without_numba_s_implementations_and_run_the_same(tmp_
     assert run("plain") == "[]"
     assert run("refresh") == "['numba.cpython.listobj', 'numba.np.arraymath', 'scipy.linalg']"
     assert np.array_equal(np.load(tmp_path / "plain.npy"), np.load(tmp_path / "refresh.npy"), equal_nan=True)
+
+
+def test_the_grammar_is_read_from_the_package_folder_as_importlib_resources_reads_it():
+    from importlib import resources
+
+    from planar_mbs.parse import _grammar_text
+
+    assert _grammar_text() == resources.files("planar_mbs.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
