@@ -8,9 +8,11 @@ Exit codes (one table, also in README and `mbs --help`):
 3     the simulation failed (results up to the failure are kept)
 130   interrupted by Ctrl-C (143: by SIGTERM); results so far kept
 ====  ==========================================================
-"""
-from __future__ import annotations
 
+The modules that define typer commands (this one, `plot_commands`, `sweep_commands`) do not use
+``from __future__ import annotations``: typer would evaluate every option's annotation from its
+text again, twice per command, on each start (about 0.02 s of `mbs --help`).
+"""
 from pathlib import Path
 from typing import Annotated, Optional
 

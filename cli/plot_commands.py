@@ -5,8 +5,6 @@ Registered in `app.py` with ``app.command()(plot)`` and ``app.command()(view)``.
 Errors are printed without a traceback; bad usage (unknown signal, not a results
 file, unknown format) exits with code 2.
 """
-from __future__ import annotations
-
 from pathlib import Path
 from typing import Annotated, Optional
 

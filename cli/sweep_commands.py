@@ -6,8 +6,6 @@ Exit codes as everywhere: 0 success, 2 bad model / usage / a sweep file from
 another model, 3 at least one case failed (its results up to the failure are kept),
 130 interrupted (finished cases are kept; rerunning the command resumes).
 """
-from __future__ import annotations
-
 import math
 from pathlib import Path
 from typing import Annotated, Optional
