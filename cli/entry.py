@@ -44,17 +44,20 @@ def plain_check(argv: list[str]):
 NEEDS_TEARDOWN = ("rerun", "distributed")
 
 
-def leave(code) -> None:
+def leave(code, printed_only: bool = False) -> None:
     """Exit with `code`.  Once numba's compiled kernels are loaded the interpreter's teardown
     takes 0.5-2 s of native finalisers and writes nothing of ours (results files are closed by
-    then), so the process ends at once after flushing its output; a process that loaded a
-    module in NEEDS_TEARDOWN, or whose output is not a real file (a test runner), exits as usual."""
+    then), so the process ends at once after flushing its output.  So does a command that only
+    printed (``printed_only``: `mbs check`, a help text), for which the teardown of numpy's,
+    rich's and typer's modules is about a tenth of the process and finishes nothing.  A process
+    that loaded a module in NEEDS_TEARDOWN, or whose output is not a real file (a test runner),
+    exits as usual."""
     if code is None:
         code = 0
     elif not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
-    if "numba" not in sys.modules or any(m in sys.modules for m in NEEDS_TEARDOWN):
+    if not (printed_only or "numba" in sys.modules) or any(m in sys.modules for m in NEEDS_TEARDOWN):
         sys.exit(code)
     try:
         sys.stdout.flush()
@@ -77,13 +80,14 @@ def main() -> None:
     if args is None:
         from .app import main as app_main
 
+        help_only = not sys.argv[1:] or "--help" in sys.argv[1:] or sys.argv[1:] == ["--version"]
         try:
             app_main()
         except SystemExit as done:
-            leave(done.code)
-        leave(0)
+            leave(done.code, printed_only=help_only)
+        leave(0, printed_only=help_only)
     from pathlib import Path
 
     from .check_command import check_model
 
-    sys.exit(check_model(Path(args[0]), args[1]))
+    leave(check_model(Path(args[0]), args[1]), printed_only=True)

@@ -33,9 +33,13 @@ def test_only_a_plain_check_bypasses_typer(argv, expected):
 
 
 def _run(module: str, argv: list[str]):
-    code = (f"import sys; sys.argv = {['mbs', *argv]!r}\nfrom {module} import main\n"
-            "try:\n    main()\nexcept SystemExit as e:\n    sys.exit(e.code)\n"
-            "finally:\n    print('TYPER' if 'typer' in sys.modules else 'NO TYPER', file=sys.stderr)")
+    """`mbs ARGV` through `module`'s main; the last line of stderr says whether typer was loaded
+    (also when the process ends through os._exit)."""
+    code = ("import os, sys\n_exit = os._exit\n"
+            "def mark():\n    print('TYPER' if 'typer' in sys.modules else 'NO TYPER', file=sys.stderr, flush=True)\n"
+            "os._exit = lambda c: (mark(), _exit(c))\n"
+            f"sys.argv = {['mbs', *argv]!r}\nfrom {module} import main\n"
+            "try:\n    main()\nexcept SystemExit as e:\n    mark()\n    sys.exit(e.code)\n")
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
 
 
@@ -74,6 +78,20 @@ def test_run_through_the_executable_skips_teardown_but_keeps_code_output_and_fil
     from planar_mbs.results import read_results
 
     assert read_results(out).time[-1] == pytest.approx(1e-3)
+
+
+@pytest.mark.parametrize("argv, code, text", [
+    (["check", MODEL], 0, "clearance joints"),
+    (["check", MODEL, "--set", "speed=3 m"], 2, "error"),
+    (["--help"], 0, "Exit codes"),
+    (["run", "--help"], 0, "--until-settled"),
+])
+def test_a_command_that_only_prints_skips_teardown_and_prints_everything(argv, code, text):
+    res = _entry(argv)
+    assert res.returncode == code, res.stderr
+    assert "TEARDOWN" not in res.stderr
+    assert text in (res.stdout if code == 0 else res.stderr)
+    assert res.stdout == _run("planar_mbs.cli.app", argv).stdout
 
 
 def test_a_refused_run_exits_with_its_code_through_the_executable(tmp_path):
