@@ -76,8 +76,8 @@ np.savez({str(tmp / 'problem.npz')!r}, p=E.parameters(m), y0=np.concatenate([q, 
 def byte_compile() -> None:
     """Write the byte-code of planar_mbs's modules (``__pycache__``), as pip does when it installs
     the package.  An editable install run with PYTHONDONTWRITEBYTECODE=1 (or from a read-only
-    checkout) never writes it, and then every `mbs` process compiles the package's sources again:
-    about 0.08 s of `mbs check`, more than half a bare ``import numpy``."""
+    checkout) never writes it, and then every `mbs` process compiles the package's sources again
+    (`mbs check`: 1.57× a bare ``import numpy`` instead of 1.29×, docs/benchmarks.md)."""
     import compileall
 
     for folder in ("planar_mbs", "cli", "grammar"):
