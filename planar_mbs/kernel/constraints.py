@@ -132,7 +132,7 @@ def motion(mtype, p, t):
     return f, fd, fdd
 
 
-@kernel
+@kernel(inline=True)
 def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
     """Fill C (m), the row-sparse Jacobian J (m, 2, 3), Ct (m) and gamma (m) of every
     joint and driver row; cs holds the bodies' cos/sin (`body_trig`).

@@ -92,7 +92,7 @@ def cholesky(S, first, lastrow, sdiag, tau):
     return -1
 
 
-@kernel
+@kernel(inline=True)
 def schur_factor(km, ws, stats):
     """Factor S exactly when every pivot is healthy (above TAU of its diagonal: S is
     well conditioned, one solve is exact to rounding); otherwise factor S + REG diag(S)
@@ -129,7 +129,7 @@ def schur_solve(L, first, x):
             x[k] -= L[i, k] * xi
 
 
-@kernel
+@kernel(inline=True)
 def multipliers(km, ws, x):
     """Solve S x = x in place with the factor of `schur_factor`: one solve when S
     was factored exactly, else iterated Tikhonov regularisation

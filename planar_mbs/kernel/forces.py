@@ -42,7 +42,7 @@ def add_point_force(Qe, b, ax, ay, fx, fy):
     Qe[k + 2] += ax * fy - ay * fx
 
 
-@kernel
+@kernel(inline=True)
 def applied_forces(km, q, qd, cs, Qe):
     """Qe = gravity + force elements (overwrites Qe); cs: bodies' cos/sin (`body_trig`).
     Returns 0 or 7 (bad code)."""

@@ -17,6 +17,13 @@
   every call between kernels increfs and decrefs each array of the ~25-array
   `KernelModel` and the workspace with atomic operations: measured 5.4 µs per
   right-hand side of Muvengei et al.'s slider-crank with it, 0.9 µs without.
+* ``@kernel(inline=True)``: numba inlines the function into its callers.  A call that is
+  not inlined passes every array of a tuple argument as separate values (the ~25 arrays of
+  `KernelModel`, ~30 of the workspace: a few hundred words per call).  Inlining the applied
+  forces, the constraint rows, the Schur factorisation and the multiplier solve into
+  `accelerations` took one right-hand side of the clearance slider-crank from 4.1x to 2.9x
+  the hand-specialised yardstick (`benchmarks/run.py --only rhs`); inlining `rhs` or small
+  helpers made it slower, so each use is measured, not assumed.
 * A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`):
   the refresh imports and registers every implementation numba has, among them its array functions,
   whose import-time BLAS check imports scipy.linalg; about 0.25 s of a warm `mbs run` whose kernels
@@ -104,8 +111,14 @@ class _FunctionCache(caching.FunctionCache):
 _njit = njit(error_model="numpy", _nrt=False)  # cache=True would make numba's own cache, replaced at once
 
 
-def kernel(func):
-    """``njit`` with the options above and the source-hash-stamped cache."""
-    dispatcher = _njit(func)
+_njit_inline = njit(error_model="numpy", _nrt=False, inline="always")  # the same, inlined into callers by numba
+
+
+def kernel(func=None, *, inline=False):
+    """``njit`` with the options above and the source-hash-stamped cache.
+    ``@kernel(inline=True)``: inlined into its callers by numba (IR level)."""
+    if func is None:
+        return lambda f: kernel(f, inline=inline)
+    dispatcher = (_njit_inline if inline else _njit)(func)
     dispatcher._cache = _FunctionCache(func)
     return dispatcher

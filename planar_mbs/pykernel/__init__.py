@@ -17,8 +17,8 @@ from pathlib import Path
 __path__ = [str(Path(__file__).resolve().parent.parent / "kernel")]
 
 
-def _plain(fn):
-    return fn
+def _plain(fn=None, *, inline=False):
+    return fn if fn is not None else _plain
 
 
 jit = types.ModuleType(__name__ + ".jit", "`kernel` without numba: the function itself.")
