@@ -285,6 +285,8 @@ class CaseOutcome:
     section: Any = None  # analysis.PoincareSection
     verdict: Any = None  # analysis.Verdict
     wall_time: float = 0.0
+    part: str | None = None  # a local pool's worker stored the case in this file (`run_case_stored`)
+    store_error: str = ""  # ... or could not (a full disk): the sweep stops, the case is not recorded
 
 
 def case_settings(model, spec: CaseSpec) -> dict:
@@ -366,6 +368,56 @@ def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
                                                        "case_values": spec.values})
     return CaseOutcome(spec.index, spec.key, dict(spec.values), FAILED, message, res, None, None,
                        time.perf_counter() - start)
+
+
+def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None) -> CaseOutcome:
+    """The worker side of a local pool: `run_case`, then the case written, exactly as the sweep file
+    will hold it, into a file of its own in ``folder`` (next to the sweep file, same disk); returns
+    the outcome without its rows.  The parent then copies that group into the sweep file (HDF5 copies
+    the stored datasets as they are) instead of receiving tens of MB through a pipe and laying them
+    out itself: the workers do the writing, in parallel, and the parent stays nearly idle.  A worker
+    killed while writing leaves only its own file broken, which nobody reads."""
+    import h5py
+
+    from .results import DiskFull, reserve_space
+
+    outcome = run_case(spec)
+    part = Path(folder, f"case-{spec.index}.h5")
+    try:
+        # built in memory, then written in one piece into disk space reserved first: a full disk is
+        # a clean `DiskFull` before any byte, never an HDF5 write failing halfway
+        with h5py.File(part.name, "w", driver="core", backing_store=False) as f:
+            _store_case(f, outcome, compression)
+            f.flush()
+            image = memoryview(f.id.get_file_image())
+        fd = os.open(part, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        try:
+            reserve_space(fd, len(image), part)
+            while image:
+                image = image[os.write(fd, image):]
+        finally:
+            os.close(fd)
+    except DiskFull as exc:
+        part.unlink(missing_ok=True)
+        return dataclasses.replace(outcome, results=None, section=None, store_error=exc.message)
+    except (OSError, RuntimeError) as exc:
+        part.unlink(missing_ok=True)
+        return dataclasses.replace(outcome, results=None, section=None, store_error=str(exc))
+    return dataclasses.replace(outcome, results=None, section=None, part=str(part))
+
+
+PARTS = ".cases-"  # the local pool's case files: a hidden folder ``.<sweep file name>.cases-XXXX`` beside it
+
+
+def _parts_folder(output: Path) -> str:
+    """A fresh folder for the workers' case files; folders a killed sweep left on this output are
+    removed first (the caller holds the output's write lock: no other sweep uses them)."""
+    import shutil
+    import tempfile
+
+    for old in output.parent.glob(f".{output.name}{PARTS}*"):
+        shutil.rmtree(old, ignore_errors=True)
+    return tempfile.mkdtemp(prefix=f".{output.name}{PARTS}", dir=output.parent)
 
 
 # ---------------------------------------------------------------- the sweep file
@@ -802,6 +854,7 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
     total = len(numbered)
     done = len(skipped)
     pool = None
+    parts = None  # the local pool's folder of case files
     try:
         source = Path(model_path).read_text(encoding="utf-8")
         reserved = _reserve(lock, output, 4 * len(source) + len(rows) * 2048 + (1 << 18), len(skipped))
@@ -824,8 +877,12 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
                 from .sweep_worker import warm_up
 
                 warm_up()  # the kernels loaded here once; the pool's workers are forks of this process
-            pool = executor or default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
-            futures = [pool.submit(run_case, s) for s in pending]
+                parts = _parts_folder(output)
+                pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
+                futures = [pool.submit(run_case_stored, s, parts, compression) for s in pending]
+            else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
+                pool = executor
+                futures = [pool.submit(run_case, s) for s in pending]
             results_iter = _completed(futures, _cluster_watch(executor, worker_timeout))
         for fut in results_iter:
             try:
@@ -837,15 +894,25 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
                 what = "the dask cluster failed" if executor is not None else "a worker process of the sweep died"
                 raise SweepStopped(f"{what} ({type(exc).__name__}: {exc}); the {kept} case(s) stored so far are "
                                    f"kept in {output}: run the same command again to resume") from None
+            if outcome.store_error:  # a worker could not write its case file (a full disk)
+                kept = len(skipped) + len(ran)
+                raise SweepStopped(f"case {outcome.index} could not be written ({outcome.store_error}); the {kept} "
+                                   f"case(s) stored so far are kept in {output}: make room and run the same "
+                                   "command again to resume")
             reserved = max(reserved, _reserve(lock, output, _case_bytes(outcome, len(rows) + 1),
                                               len(skipped) + len(ran)))
             rows[outcome.key] = _row(outcome)
             try:
-                _store_case(f, outcome, compression)
+                if outcome.part is not None:
+                    _store_part(f, outcome)
+                else:
+                    _store_case(f, outcome, compression)
                 _write_table(f, list(rows.values()), params)
                 f.flush()
             except (OSError, RuntimeError) as exc:
                 raise SweepStopped(f"cannot write {output} ({exc}); run the same command again to resume") from None
+            if outcome.part is not None:
+                Path(outcome.part).unlink(missing_ok=True)
             ran.append(outcome.index)
             if outcome.status != FINISHED:
                 failed.append(outcome.index)
@@ -865,6 +932,10 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
                 del f["incoming"]
             f.close()
         finally:
+            if parts is not None:  # a worker still running (an interrupt) cannot write here any more
+                import shutil
+
+                shutil.rmtree(parts, ignore_errors=True)
             release_reserve(lock.fd, reserved)
             lock.release()
     order = {s.key: i for i, s in enumerate(numbered)}
@@ -885,6 +956,8 @@ def _reserve(lock, output: Path, nbytes: int, kept: int) -> int:
 def _case_bytes(outcome: CaseOutcome, n_rows: int) -> int:
     """Disk that storing a case and rewriting the table can take: its data uncompressed (what gzip
     writes is at most that, plus headers), its section, HDF5 metadata per dataset, the table's rows."""
+    if outcome.part is not None:  # HDF5 copies the stored datasets: at most the case file's size
+        return int(os.path.getsize(outcome.part) * 1.05 + n_rows * 2048 + (1 << 18))
     res = outcome.results
     sec = outcome.section
     arrays = [] if res is None else [res.time, *res.signals.values()]
@@ -908,6 +981,24 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
     g.attrs["case_wall_time"] = outcome.wall_time
     if outcome.section is not None:
         write_section(g, outcome.section, outcome.verdict)
+    final = f"cases/{outcome.index}"
+    if final in f:
+        del f[final]
+    f.require_group("cases")
+    f.move(tmp, final)
+
+
+def _store_part(f, outcome: CaseOutcome) -> None:
+    """Copy a case a worker stored in its own file (`run_case_stored`) under /incoming/<k>, then move
+    it to /cases/<k>, as `_store_case` does."""
+    import h5py
+
+    tmp = f"incoming/{outcome.index}"
+    if tmp in f:
+        del f[tmp]
+    f.require_group("incoming")
+    with h5py.File(outcome.part, "r", locking=False) as part:
+        f.copy(part[f"cases/{outcome.index}"], tmp)
     final = f"cases/{outcome.index}"
     if final in f:
         del f[final]

@@ -21,13 +21,22 @@ driver d = rotation(crank, speed = 100 rpm)
 """
 
 
+_WARM: list[bool] = []  # this process has run `warm_up`
+
+
 def warm_up() -> None:
     """Load the compiled kernels into this process (1 ms of a driven crank: every model runs the same
-    compiled entry points, one signature for all) and the modules a case imports.  Also usable for long-lived dask workers: ``client.run(warm_up)``."""
+    compiled entry points, one signature for all) and the modules a case imports; once per process.
+    Also usable for long-lived dask workers: ``client.run(warm_up)``."""
+    if _WARM:
+        return
+    import h5py  # noqa: F401  (a local pool's workers write their cases: `sweep.run_case_stored`)
+
     from . import analysis, simulate  # noqa: F401
     from .compile import compile_text
 
     simulate(compile_text(WARM_MODEL, "<warm-up>"), t_end=1e-3)
+    _WARM.append(True)
 
 
 

@@ -108,13 +108,51 @@ def test_sweep_file_layout_and_resume(tmp_path):
     assert s4.ran == [3] and len(read_case_table(out)) == 4
 
 
+def _tree(path) -> dict:
+    """Every dataset (values) and attribute of a sweep file's cases and table, wall times left out."""
+    out = {}
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and "wall_time" not in name:
+            out[name] = obj[()].tobytes() if obj.dtype.kind != "O" else list(obj[()])
+        for key, value in obj.attrs.items():
+            if "wall_time" not in key:
+                out[f"{name}@{key}"] = value.tolist() if hasattr(value, "tolist") else value
+
+    with h5py.File(path, "r") as f:
+        f.visititems(visit)
+        assert "incoming" not in f
+    return out
+
+
 def test_parallel_sweep_equals_serial(tmp_path):
+    """The pool's workers write their cases into files of their own, which the parent copies in:
+    the sweep file holds the same datasets, bit for bit, and the same attributes as when the
+    parent runs and writes every case itself; the workers' folder is gone afterwards."""
     a = run_sweep(IDEAL, SPEEDS, tmp_path / "a.h5", **{**OPTS, "jobs": 2})
     b = run_sweep(IDEAL, SPEEDS, tmp_path / "b.h5", **OPTS)
     assert sorted(a.ran) == sorted(b.ran) == [0, 1, 2]
     for k in range(3):
         ra, rb = read_results(f"{tmp_path / 'a.h5'}:/cases/{k}"), read_results(f"{tmp_path / 'b.h5'}:/cases/{k}")
         assert np.array_equal(ra["slider.x"], rb["slider.x"])  # bit for bit
+    ta, tb = _tree(tmp_path / "a.h5"), _tree(tmp_path / "b.h5")
+    assert ta.keys() == tb.keys() and len(ta) > 100
+    for key in ta:
+        assert ta[key] == tb[key] or (isinstance(ta[key], float) and np.isnan(ta[key]) and np.isnan(tb[key])), key
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5", "b.h5"]
+
+
+def test_parallel_sweep_removes_case_files_a_killed_sweep_left(tmp_path):
+    """A sweep killed with its workers can leave its folder of case files beside the sweep file; the
+    next sweep on that file (which holds the file's lock) removes it."""
+    out = tmp_path / "a.h5"
+    stale = tmp_path / ".a.h5.cases-k1ll3d"
+    stale.mkdir()
+    (stale / "case-0.h5").write_bytes(b"half a case")
+    other = tmp_path / ".b.h5.cases-x"  # another sweep's: untouched
+    other.mkdir()
+    run_sweep(IDEAL, SPEEDS, out, **{**OPTS, "jobs": 2})
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".b.h5.cases-x", "a.h5"]
 
 
 def test_changed_model_or_settings_are_refused(tmp_path):

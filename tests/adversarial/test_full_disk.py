@@ -125,3 +125,33 @@ def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
     assert f"{4 - len(done)} case(s) run, {len(done)} already in the file" in r.stdout
     with h5py.File(big, "r") as f:
         assert len(f["cases"]) == 4
+
+
+@pytest.mark.parametrize("size", ["400k", "600k"])  # full under a worker's case file / under the sweep file
+def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size):
+    """With a pool, the workers write their cases into files of their own on the same disk: the disk
+    that fills under a worker's file stops the sweep as it does under the sweep file (exit 3, the
+    disk named, whole cases only, no case file left behind), and the sweep resumes with room."""
+    disk = tmp_path / "disk"
+    args = ["-P", "speed=2500rpm,5000rpm,1200rpm,800rpm", "--revolutions", "2", "--per-rev", "180", "-j", "2",
+            "--no-section", "-q"]
+    with small_disk(disk, size) as mounted:
+        if not mounted:
+            pytest.skip("needs a size-limited tmpfs (mount): the workers' files are not reserved")
+        out = disk / "s.h5"
+        r = _mbs("sweep", MODEL, *args, "-o", out, "--force")
+        text = r.stdout + r.stderr
+        assert r.returncode == 3, text
+        assert "Traceback" not in text and "is full" in text and "resume" in text, text
+        with h5py.File(out, "r") as f:
+            done = sorted(f["cases"]) if "cases" in f else []
+            for k in done:
+                g = f[f"cases/{k}"]
+                assert g["time"].shape == g["signals/slider"].shape and g["time"].shape[0] > 0
+        assert len(done) < 4
+        assert sorted(p.name for p in disk.iterdir()) == ["s.h5"]
+        big = tmp_path / "big.h5"
+        big.write_bytes(out.read_bytes())
+    r = _mbs("sweep", MODEL, *args, "-o", big)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert f"{4 - len(done)} case(s) run, {len(done)} already in the file" in r.stdout

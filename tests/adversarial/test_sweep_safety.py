@@ -180,3 +180,42 @@ def test_pool_workers_end_when_the_sweep_is_killed(tmp_path):
     for p in alive:
         p.kill()
     assert not alive, f"{len(alive)} process(es) outlived the killed sweep: {[p.cmdline() for p in alive]}"
+
+
+# ---------------------------------------------------------------- a worker killed while it writes its case
+@pytest.mark.slow
+def test_a_killed_pool_worker_stops_the_sweep_cleanly_and_it_resumes(tmp_path):
+    """The pool's workers write their cases into files of their own beside the sweep file: one killed
+    (as the kernel's OOM killer would) stops the sweep with exit 3 and a sentence, the sweep file stays
+    readable with whole cases only, no case file is left behind, and the same command resumes."""
+    import psutil
+
+    out = tmp_path / "s.h5"
+    cmd = [MBS, "sweep", str(IDEAL), "-P", "speed=600rpm..1400rpm:6", "-n", "300", "--per-rev", "360", "-j", "2",
+           "-q", "--no-section", "-o", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert _wait_for_case(out, proc), "the sweep stored no case"
+        workers = psutil.Process(proc.pid).children(recursive=True)
+        assert workers, "no pool worker"
+        os.kill(workers[0].pid, signal.SIGKILL)
+        stdout, stderr = proc.communicate(timeout=HANG)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    text = stdout + stderr
+    assert proc.returncode == 3, text
+    assert "Traceback" not in text and "worker process of the sweep died" in text and "resume" in text
+    with h5py.File(out, "r") as f:  # HDF5 reads it; every stored case is whole
+        assert "incoming" not in f or not len(f["incoming"])
+        kept = sorted(f["cases"])
+        for k in kept:
+            g = f[f"cases/{k}"]
+            assert g.attrs["sweep_status"] == "finished"
+            assert g["time"].shape == g["signals/slider"].shape and g["time"].shape[0] > 0
+    assert 0 < len(kept) < 6
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]  # no folder of case files left
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert f"{6 - len(kept)} case(s) run, {len(kept)} already in the file" in again.stdout
+    assert all(r["status"] == "finished" for r in read_case_table(out))
