@@ -426,9 +426,10 @@ def open_for_writing(path: Path, mode: str):
 
 def _entity_extractors(table: list[Signal]):
     """[(entity, compound dtype, units, records(rows) -> (n,) records to write)] for a signal table.
-    An entity of plain columns is a view of the rows with a strided compound type (the field offsets
-    are its columns), so HDF5 gathers the fields while it writes: no copy here; the few combined
-    signals (magnitudes, sums) are computed and packed."""
+    Each entity's records are packed here, contiguous and of the dataset's own type, so HDF5 writes
+    them without a conversion: an entity of plain columns is one gather of its columns (`np.take`),
+    the few combined signals (magnitudes, sums) are computed into their columns.  (A strided view of
+    the rows, which HDF5 converted field by field, cost about 0.1 us per row and entity.)"""
     out = []
     by_entity: dict[str, list[Signal]] = {}
     for sig in table:
@@ -436,14 +437,17 @@ def _entity_extractors(table: list[Signal]):
     for entity, sigs in by_entity.items():
         packed = _compound([s.quantity for s in sigs])
         if all(s.op == "col" for s in sigs):
-            def records(rows, sigs=sigs):
-                rows = np.ascontiguousarray(rows, dtype=np.float64)
-                view = np.dtype({"names": [s.quantity for s in sigs], "formats": ["<f8"] * len(sigs),
-                                 "offsets": [8 * s.columns[0] for s in sigs], "itemsize": 8 * rows.shape[1]})
-                return rows.view(view).reshape(-1)
+            def records(rows, cols=np.array([s.columns[0] for s in sigs], dtype=np.intp), packed=packed):
+                return np.take(rows, cols, axis=1).astype(np.float64, copy=False).view(packed).reshape(-1)
         else:
             def records(rows, sigs=sigs, packed=packed):
-                return _as_records(np.column_stack([s.extract(rows) for s in sigs]), packed)
+                block = np.empty((len(rows), len(sigs)))
+                for j, s in enumerate(sigs):
+                    if s.op == "col":
+                        block[:, j] = rows[:, s.columns[0]]
+                    else:
+                        block[:, j] = s.extract(rows)
+                return block.view(packed).reshape(-1)
         out.append((entity, packed, [s.unit for s in sigs], records))
     return out
 

@@ -53,8 +53,16 @@ FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibrat
 RTOL_FLOOR = 10 * float(np.finfo(np.float64).eps)  # smallest rtol (Hairer's codes: rtol > 10 uround)
 BUFFER_ROWS = 2048  # observation rows per chunk handed back by the kernel (at most)
 PROGRESS_SLICES = 200  # the kernel returns at least this often (in outputs) for progress and Ctrl-C
-FLUSH_ROWS = 8192  # rows kept in memory before they are appended to the HDF5 file (2 chunks: a bounded peak) ...
+FLUSH_BYTES = 8 << 20  # rows kept in memory before they are appended to the HDF5 file (whole chunks, at least one) ...
 FLUSH_SECONDS = 1.0  # ... or after this much wall time since the last write, whichever comes first
+
+
+def flush_rows(width: int) -> int:
+    """Rows of `width` float64 columns held before a write to the file: whole HDF5 chunks of
+    `ResultsWriter.CHUNK` rows filling about FLUSH_BYTES (at least one chunk), so every write but
+    the last (and one after a write forced by FLUSH_SECONDS) covers whole chunks."""
+    chunk = ResultsWriter.CHUNK
+    return chunk * max(1, FLUSH_BYTES // (8 * max(width, 1) * chunk))
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -379,8 +387,10 @@ def simulate(
     stats = np.zeros(N_STATS, dtype=np.int64)
     ws = make_workspace(km)
     nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
-    out_t = np.zeros(BUFFER_ROWS)
-    out = np.zeros((BUFFER_ROWS, nobs))
+    # with a file, the kernel writes its rows straight into the block that goes to the file next
+    rows_held = flush_rows(nobs) if output is not None else BUFFER_ROWS
+    out_t = np.zeros(rows_held)
+    out = np.zeros((rows_held, nobs))
     table = signal_table(model)
     cols = None
     if signals is not None:
@@ -400,18 +410,20 @@ def simulate(
     }
     writer = ResultsWriter(output, table, attrs) if output is not None else None
     times, blocks = [], []  # all rows, kept only without an output file
-    pending_t, pending_rows = [], []
+    held = [0]  # rows of out_t/out not yet written to the file
     deepest: dict[str, float] = {}
     disk_full: list[DiskFull] = []
 
     def flush():
-        if writer and pending_t and not disk_full:
+        k = held[0]
+        held[0] = 0
+        if writer and k and not disk_full:
+            block = out[:k] if cols is None else out[:k, cols]
+            _deepest(table, block, deepest)
             try:
-                writer.append(np.concatenate(pending_t), np.concatenate(pending_rows))
+                writer.append(out_t[:k], block)
             except DiskFull as exc:
                 disk_full.append(exc)
-        pending_t.clear()
-        pending_rows.clear()
 
     # One call of the kernel runs to t_end unless its output buffer fills: the buffer
     # is sized so that it returns about PROGRESS_SLICES times per run (progress bar,
@@ -423,29 +435,29 @@ def simulate(
     status = int(Status.DONE)
     interrupted = 0
     last_flush = _time.perf_counter()
-    n_pending = 0
+    room = rows_held  # rows to hold before the next write: ends it on a chunk boundary of the file
     with _deferred_interrupts() as received:
         try:
             while not received:
                 start = _time.perf_counter()
                 rhs_before = int(stats[ST_RHS])
-                status, n = advance(km, cfg, y, clock, contact, stats, ws, t_end, out_t[:cap], out[:cap])
+                k = held[0]
+                m = min(cap, room - k) if writer else cap
+                status, n = advance(km, cfg, y, clock, contact, stats, ws, t_end, out_t[k:k + m], out[k:k + m])
                 now = _time.perf_counter()
                 wall += now - start
                 clock[3] = _next_budget(int(stats[ST_RHS]) - rhs_before, now - start, clock[3])
                 if n:
-                    chunk_t = out_t[:n].copy()
-                    chunk = out[:n].copy() if cols is None else out[:n, cols]
-                    _deepest(table, chunk, deepest)
                     if writer:
-                        pending_t.append(chunk_t)
-                        pending_rows.append(chunk)
-                        n_pending += n
-                        if n_pending >= FLUSH_ROWS or now - last_flush >= FLUSH_SECONDS:
+                        held[0] = k + n
+                        if held[0] >= room or now - last_flush >= FLUSH_SECONDS:
                             flush()
-                            n_pending = 0
+                            room = rows_held - writer.n % ResultsWriter.CHUNK
                             last_flush = _time.perf_counter()
                     else:
+                        chunk_t = out_t[:n].copy()
+                        chunk = out[:n].copy() if cols is None else out[:n, cols]
+                        _deepest(table, chunk, deepest)
                         times.append(chunk_t)
                         blocks.append(chunk)
                 if progress:
