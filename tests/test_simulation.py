@@ -184,3 +184,27 @@ def test_journal_sinking_deeper_than_the_clearance_is_flagged(tmp_path):
     assert mbs.read_results(tmp_path / "soft.h5").attrs["warnings"] == [warning]
     fine = mbs.simulate(mbs.load_model(MODELS / "slider_crank_clearance_a.mbs"), t_end=0.01)
     assert fine.attrs["warnings"] == []
+
+
+INCLINE = """
+gravity (0, -9.81 m/s^2)
+body s { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0, 0)  angle = 30 deg }
+joint S = translational(ground (0, 0), s (0.05, 0.02), axis = (1, 1))
+simulate { t_end = 0.2 s  output_step = 1 ms  rtol = 1e-10  atol = 1e-12 }
+"""
+
+
+def test_reaction_moment_is_taken_about_the_joint_point_of_the_body():
+    """A block held at 30 degrees on an inclined rail, its joint point off its centre: nothing turns it,
+    so the constraint's moment about the centre is zero and the stored moment about the joint point is
+    (centre - point) x force, with the point computed here from the stored pose (the observation row
+    takes the bodies' cos/sin from the dynamics instead of computing them again)."""
+    res = mbs.simulate(compile_text(INCLINE, "<incline>"))
+    x, y, phi = res["s.x"], res["s.y"], res["s.phi"]
+    assert np.allclose(phi, np.radians(30), atol=1e-9) and np.ptp(x) > 0.05  # it slides, it does not turn
+    px = x + np.cos(phi) * 0.05 - np.sin(phi) * 0.02
+    py = y + np.sin(phi) * 0.05 + np.cos(phi) * 0.02
+    fx, fy = res["S.fx"], res["S.fy"]
+    expected = (x - px) * fy - (y - py) * fx
+    assert np.max(np.abs(expected)) > 0.1  # a moment worth checking: the point is off the centre
+    np.testing.assert_allclose(res["S.moment"], expected, atol=1e-9 * np.max(np.abs(expected)))

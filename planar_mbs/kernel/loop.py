@@ -80,7 +80,7 @@ from ..model import (
     Integrator,
     Status,
 )
-from .constraints import _JOINT_ROWS, ANGLE, motion, point_state
+from .constraints import _JOINT_ROWS, ANGLE, motion, point_cs
 from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
 from .dynamics import (
     DRIFT_POSITION, DRIFT_VELOCITY, LOST_POSITION, LOST_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
@@ -138,7 +138,8 @@ def _jac_body(ws, r, b, i):
 @kernel
 def observe(km, cfg, t, y, contact, ws, row):
     """Fill one observation row (model.observation_size layout) at (t, y).
-    Returns a Status code (0 = fine)."""
+    Returns a Status code (0 = fine).  The bodies' cos/sin are those `accelerations` left in ws.cs
+    (`body_trig` at this q): no second sine or cosine per joint."""
     N = y.shape[0]
     n = N // 2
     q = y[:n]
@@ -160,7 +161,7 @@ def observe(km, cfg, t, y, contact, ws, row):
         nr = _JOINT_ROWS[km.joint_type[jt]]
         bi = km.joint_body[jt, 0]
         bj = km.joint_body[jt, 1]
-        Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_state(q, qd, bj, km.joint_point[jt, 1, 0], km.joint_point[jt, 1, 1])
+        Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, ws.cs, bj, km.joint_point[jt, 1, 0], km.joint_point[jt, 1, 1])
         b = bj
         sign = 1.0
         if bj < 0:
@@ -193,8 +194,8 @@ def observe(km, cfg, t, y, contact, ws, row):
                 c = 1.0
                 s = 0.0
                 if bi >= 0:
-                    c = math.cos(q[3 * bi + 2])
-                    s = math.sin(q[3 * bi + 2])
+                    c = ws.cs[bi, 0]
+                    s = ws.cs[bi, 1]
                 ux = c * km.driver_axis[d, 0] - s * km.driver_axis[d, 1]
                 uy = s * km.driver_axis[d, 0] + c * km.driver_axis[d, 1]
                 eff = -(_jac_body(ws, r, bj, 0) * ux + _jac_body(ws, r, bj, 1) * uy) * lam[r]
