@@ -27,9 +27,10 @@ finished (or failed: a failed simulation fails again) are never run twice.  Addi
 values to an axis appends the new cases.
 
 Only the parent process writes the file: a worker (`run_case`, a pure function of
-a picklable `CaseSpec`) returns its results in memory, and the parent writes each
-case when it arrives, first under ``/incoming/<k>`` and then moves it to
-``/cases/<k>``, so ``/cases`` only ever holds whole cases.  Any executor with the
+a picklable `CaseSpec`) returns its results in memory, or, in a local pool, lays its
+case out in a file of its own beside the sweep file (`run_case_stored`), and the parent
+copies or writes each case when it arrives, first under ``/incoming/<k>`` and then
+moves it to ``/cases/<k>``, so ``/cases`` only ever holds whole cases.  Any executor with the
 `concurrent.futures` interface can run the cases: a local `ProcessPoolExecutor`
 (default) or, for a cluster, ``distributed.Client(address).get_executor()``.
 """
@@ -738,7 +739,7 @@ def run_sweep(
     ``progress(done, total, outcome)`` is called once at the start and after every case.
     ``compression`` is an h5py filter for the case datasets (e.g. ``"gzip"``); none by default:
     float64 outputs shrank by ~20 % for ~20x the write time (measured: 0.26 s instead of 0.015 s
-    per 10-revolution case), and the parent process alone writes, so it would cap ``jobs``.
+    per 10-revolution case); in a local pool the workers compress, in parallel.
     With an ``executor`` (a cluster), the cases carry the model's text, not its path, and a cluster
     left without a worker for ``worker_timeout`` seconds, or without its scheduler, stops the sweep
     (`SweepStopped`; the cases stored so far are kept and a rerun resumes).  Unless ``force``, a
