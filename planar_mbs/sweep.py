@@ -376,35 +376,50 @@ def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None)
     will hold it, into a file of its own in ``folder`` (next to the sweep file, same disk); returns
     the outcome without its rows.  The parent then copies that group into the sweep file (HDF5 copies
     the stored datasets as they are) instead of receiving tens of MB through a pipe and laying them
-    out itself: the workers do the writing, in parallel, and the parent stays nearly idle.  A worker
-    killed while writing leaves only its own file broken, which nobody reads."""
+    out itself: the workers do the writing, in parallel, and the parent stays nearly idle.  The disk
+    space the case needs is reserved before HDF5 writes a byte (a full disk is a clean `DiskFull`,
+    never an HDF5 write failing halfway), and a worker killed while writing leaves only its own file
+    broken, which nobody reads."""
     import h5py
 
-    from .results import DiskFull, reserve_space
+    from .results import WRITE_CHUNK_CACHE, DiskFull, release_reserve, reserve_space
 
     outcome = run_case(spec)
     part = Path(folder, f"case-{spec.index}.h5")
+    fd = -1
     try:
-        # built in memory, then written in one piece into disk space reserved first: a full disk is
-        # a clean `DiskFull` before any byte, never an HDF5 write failing halfway
-        with h5py.File(part.name, "w", driver="core", backing_store=False) as f:
+        fd = os.open(part, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+        end = reserve_space(fd, _case_bytes(outcome, 0), part)
+        image = memoryview(_empty_hdf5())  # an empty HDF5 file, written into the reserved space
+        while image:
+            image = image[os.write(fd, image):]
+        with h5py.File(part, "r+", locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE) as f:  # "w" would free it
             _store_case(f, outcome, compression)
-            f.flush()
-            image = memoryview(f.id.get_file_image())
-        fd = os.open(part, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        try:
-            reserve_space(fd, len(image), part)
-            while image:
-                image = image[os.write(fd, image):]
-        finally:
-            os.close(fd)
+        release_reserve(fd, end)
     except DiskFull as exc:
         part.unlink(missing_ok=True)
         return dataclasses.replace(outcome, results=None, section=None, store_error=exc.message)
     except (OSError, RuntimeError) as exc:
         part.unlink(missing_ok=True)
         return dataclasses.replace(outcome, results=None, section=None, store_error=str(exc))
+    finally:
+        if fd >= 0:
+            os.close(fd)
     return dataclasses.replace(outcome, results=None, section=None, part=str(part))
+
+
+_EMPTY: list[bytes] = []
+
+
+def _empty_hdf5() -> bytes:
+    """The bytes of an empty HDF5 file (built in memory once per process)."""
+    if not _EMPTY:
+        import h5py
+
+        with h5py.File("empty.h5", "w", driver="core", backing_store=False) as f:
+            f.flush()
+            _EMPTY.append(bytes(f.id.get_file_image()))
+    return _EMPTY[0]
 
 
 PARTS = ".cases-"  # the local pool's case files: a hidden folder ``.<sweep file name>.cases-XXXX`` beside it

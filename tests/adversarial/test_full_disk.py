@@ -127,7 +127,7 @@ def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
         assert len(f["cases"]) == 4
 
 
-@pytest.mark.parametrize("size", ["400k", "600k"])  # full under a worker's case file / under the sweep file
+@pytest.mark.parametrize("size", ["400k", "1600k"])  # full at the first case / after some cases
 def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size):
     """With a pool, the workers write their cases into files of their own on the same disk: the disk
     that fills under a worker's file stops the sweep as it does under the sweep file (exit 3, the
