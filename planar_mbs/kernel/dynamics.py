@@ -200,7 +200,7 @@ def jac_t_sub(ws, r, lam_r, minv, scale, out):
                 out[k + i] -= f * ws.J[r, a, i] * lam_r
 
 
-@kernel
+@kernel(inline=True)
 def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     """Fill ws.qdd and ws.lam (and ws.Qe, ws.C, ws.J, ws.Ct, ws.gam, ws.cs) at (t, q, q').
 
