@@ -318,3 +318,8 @@ def drift_check(ws, qd, stats, pbound, vbound):
             stats[ST_INFO] = r
             return DRIFT
     return 0
+
+
+# `rhs` inlined where the stages of the adaptive methods call it (`integrators`): one call site
+# each, so one more copy of the right-hand side to compile, not one per caller (kernel/jit.py)
+rhs_inlined = kernel(rhs.py_func, inline=True)

@@ -35,7 +35,7 @@ from .jit import kernel
 
 from .. import catalog
 from ..model import CFG_ATOL, CFG_RTOL, Status
-from .dynamics import rhs
+from .dynamics import rhs, rhs_inlined
 from .workspace import DN_H, DN_TA, FL_DENSE_METHOD, FL_DENSE_READY
 
 RK4_C = np.array([0.0, 0.5, 0.5, 1.0])
@@ -274,7 +274,7 @@ def dopri5_attempt(km, cfg, t, y, h, contact, ws, stats):
             for j in range(s):
                 acc += DP5_A[s, j] * K[j, i]
             ws.ys[i] = y[i] + h * acc
-        st = rhs(km, cfg, t + DP5_C[s] * h, ws.ys, contact, ws, stats, K[s])
+        st = rhs_inlined(km, cfg, t + DP5_C[s] * h, ws.ys, contact, ws, stats, K[s])
         if st != 0:
             return st, math.inf
     rtol = cfg[CFG_RTOL]

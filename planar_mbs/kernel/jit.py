@@ -23,8 +23,9 @@
   forces, the constraint rows, the Schur factorisation and the multiplier solve into
   `accelerations` took one right-hand side of the clearance slider-crank from 4.1x to 2.9x
   the hand-specialised yardstick (`benchmarks/run.py --only rhs`), and `accelerations` into
-  `rhs` its time loop from 25.6 to 23 ms.  Inlining `rhs` into the integrators' stages as
-  well gave 20 ms but doubled the first compilation (50 s to 94 s); inlining small helpers
+  `rhs` its time loop from 25.6 to 23 ms; `rhs` inlined at DOPRI5's one stage call site
+  (`dynamics.rhs_inlined`) took it to 20.4 ms for 8 s more of first compilation (50 to 58 s).
+  Inlining `rhs` at every call site doubled that compilation (94 s); inlining small helpers
   (`jac_dot`) made it slower: each use is measured, not assumed.
 * A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`):
   the refresh imports and registers every implementation numba has, among them its array functions,
