@@ -382,8 +382,6 @@ def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None)
     broken, which nobody reads."""
     import h5py
 
-    from .results import WRITE_CHUNK_CACHE, DiskFull, release_reserve, reserve_space
-
     outcome = run_case(spec)
     part = Path(folder, f"case-{spec.index}.h5")
     fd = -1
@@ -396,12 +394,10 @@ def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None)
         with h5py.File(part, "r+", locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE) as f:  # "w" would free it
             _store_case(f, outcome, compression)
         release_reserve(fd, end)
-    except DiskFull as exc:
+    except (DiskFull, OSError, RuntimeError) as exc:
         part.unlink(missing_ok=True)
-        return dataclasses.replace(outcome, results=None, section=None, store_error=exc.message)
-    except (OSError, RuntimeError) as exc:
-        part.unlink(missing_ok=True)
-        return dataclasses.replace(outcome, results=None, section=None, store_error=str(exc))
+        message = exc.message if isinstance(exc, DiskFull) else str(exc)
+        return dataclasses.replace(outcome, results=None, section=None, store_error=message)
     finally:
         if fd >= 0:
             os.close(fd)
@@ -987,9 +983,7 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
     from .analysis import write_section
     from .results import write_results
 
-    tmp = f"incoming/{outcome.index}"
-    if tmp in f:
-        del f[tmp]
+    tmp = _incoming_slot(f, outcome.index)
     write_results(f, outcome.results, tmp, compression=compression)
     g = f[tmp]
     g.attrs["sweep_status"] = outcome.status
@@ -997,11 +991,7 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
     g.attrs["case_wall_time"] = outcome.wall_time
     if outcome.section is not None:
         write_section(g, outcome.section, outcome.verdict)
-    final = f"cases/{outcome.index}"
-    if final in f:
-        del f[final]
-    f.require_group("cases")
-    f.move(tmp, final)
+    _publish(f, outcome.index)
 
 
 def _store_part(f, outcome: CaseOutcome) -> None:
@@ -1009,17 +999,28 @@ def _store_part(f, outcome: CaseOutcome) -> None:
     it to /cases/<k>, as `_store_case` does."""
     import h5py
 
-    tmp = f"incoming/{outcome.index}"
-    if tmp in f:
-        del f[tmp]
+    tmp = _incoming_slot(f, outcome.index)
     f.require_group("incoming")
     with h5py.File(outcome.part, "r", locking=False) as part:
         f.copy(part[f"cases/{outcome.index}"], tmp)
-    final = f"cases/{outcome.index}"
+    _publish(f, outcome.index)
+
+
+def _incoming_slot(f, index: int) -> str:
+    """/incoming/<k>, emptied: where a case is laid out before `_publish` moves it."""
+    tmp = f"incoming/{index}"
+    if tmp in f:
+        del f[tmp]
+    return tmp
+
+
+def _publish(f, index: int) -> None:
+    """Move /incoming/<k> to /cases/<k> in one step, so /cases only ever holds whole cases."""
+    final = f"cases/{index}"
     if final in f:
         del f[final]
     f.require_group("cases")
-    f.move(tmp, final)
+    f.move(f"incoming/{index}", final)
 
 
 def sweep_sections(path: str | Path) -> list[tuple[dict, Any, Any]]:

@@ -320,6 +320,6 @@ def drift_check(ws, qd, stats, pbound, vbound):
     return 0
 
 
-# `rhs` inlined where the stages of the adaptive methods call it (`integrators`): one call site
-# each, so one more copy of the right-hand side to compile, not one per caller (kernel/jit.py)
+# `rhs` inlined at DOPRI5's one stage call site (`integrators.dopri5_attempt`): one more copy of
+# the right-hand side to compile, not one per caller (kernel/jit.py says what was measured)
 rhs_inlined = kernel(rhs.py_func, inline=True)

@@ -40,7 +40,6 @@ from pathlib import Path
 from numba import njit
 from numba.core import caching
 
-
 _HERE = Path(__file__).resolve().parent
 # every file a kernel is compiled from: the kernel modules, the model's codes and layouts, and
 # the catalog the kernels' constants (law count, rows per joint type, stage buffers) come from
@@ -99,7 +98,7 @@ class _FunctionCache(caching.FunctionCache):
     def load_overload(self, sig, target_context):
         """numba's ``load_overload`` without its first step, ``target_context.refresh()``, which
         imports and registers every implementation numba has (arrays, strings, lists, random, ...)
-        and compiles its reference-counting runtime: about 0.15 s of a warm `mbs run`.  A cached
+        and compiles its reference-counting runtime: about 0.25 s of a warm `mbs run`.  A cached
         kernel is machine code that calls only numba's C helpers and Python's own functions, which
         the target context installs when it is created; a kernel that has to be compiled (a cache
         miss) goes through numba's compiler, which refreshes the context itself."""
