@@ -72,8 +72,9 @@ def simulate(model, output=None, progress=None, signals=None, **settings):
     ``settings`` replace fields of the model's `simulate` block, as SI numbers or as text with
     units (``t_end="1 s"``, ``output_step="10 us"``, ``integrator="dop853"``, ``rtol=1e-8``);
     ``revolutions=5`` and ``per_rev=360`` count in periods of the crank's driver.  ``output``
-    writes an HDF5 file as the run goes; ``signals`` keeps only the named signals or entities;
-    ``progress(t, t_end)`` is called after each chunk.  See `planar_mbs.simulation.simulate`."""
+    writes an HDF5 file as the run goes; ``signals`` keeps only the named signals or entities
+    (and the time loop computes only what they read: no accelerations, reactions or driver efforts
+    asked for, no `accelerations` call per output row); ``progress(t, t_end)`` is called after each chunk.  See `planar_mbs.simulation.simulate`."""
     from .simulation import simulate as _simulate
 
     return _simulate(model, output=output, progress=progress, signals=signals, **settings)

@@ -117,7 +117,15 @@ CFG_ALPHA = 7  # Baumgarte alpha (velocity feedback 2 alpha C')
 CFG_BETA = 8  # Baumgarte beta (position feedback beta^2 C)
 CFG_PROJECT = 9  # 1 = project q, q' onto the constraints after each accepted step
 CFG_MAX_STEPS = 10
+CFG_SKIP = 11  # groups of the observation row no stored signal needs (OBS_SKIP_* bits; 0 = the whole row)
 N_CFG = 12
+# OBS_SKIP_* bits of cfg[CFG_SKIP]: the time loop's `observe` leaves those columns NaN and skips their work.
+# Accelerations, joint reactions and driver efforts/powers take a full `accelerations` per row (its Schur
+# solve); the constraint errors need the constraint rows; the rest is cheap.  `signals.skip_bits` sets them.
+OBS_SKIP_DYNAMICS = 1  # q'' block, joint reactions, driver efforts and powers
+OBS_SKIP_CLEARANCE = 2  # the clearance joints' block
+OBS_SKIP_ENERGY = 4  # system kinetic and potential energy
+OBS_SKIP_ERRORS = 8  # system position and velocity errors
 
 
 class Status(IntEnum):

@@ -30,6 +30,10 @@ from .model import (
     JS_MOMENT,
     N_CLEARANCE_SIGNALS,
     N_JOINT_SIGNALS,
+    OBS_SKIP_CLEARANCE,
+    OBS_SKIP_DYNAMICS,
+    OBS_SKIP_ENERGY,
+    OBS_SKIP_ERRORS,
     OB_CLEARANCE,
     OB_EFFORT,
     OB_JOINT,
@@ -127,3 +131,23 @@ def signal_table(model: Model) -> list[Signal]:
         Signal("system", "velocity_error", "1", (s + SYS_VELOCITY_ERROR,)),
     ]
     return table
+
+
+def skip_bits(model: Model, columns=None) -> int:
+    """cfg[CFG_SKIP] for a run that keeps only these columns of the observation row (`columns`: the
+    observation columns its stored signals read, as `simulation.select_signals` returns them; None =
+    every column): the OBS_SKIP_* bit of each group none of them reads, whose work the time loop's
+    `observe` then skips (a full `accelerations` per row for the q'' block, joint reactions and driver
+    efforts).  0 when every signal is kept."""
+    if columns is None:
+        return 0
+    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance)
+    s = lay[OB_SYSTEM]
+    groups = (
+        (OBS_SKIP_DYNAMICS, range(lay[OB_QDD], lay[OB_CLEARANCE])),
+        (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], s)),
+        (OBS_SKIP_ENERGY, (s + SYS_KINETIC, s + SYS_POTENTIAL)),
+        (OBS_SKIP_ERRORS, (s + SYS_POSITION_ERROR, s + SYS_VELOCITY_ERROR)),
+    )
+    used = {int(c) for c in columns}
+    return sum(bit for bit, cols in groups if not used.intersection(cols))

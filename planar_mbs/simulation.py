@@ -29,6 +29,7 @@ from . import __version__
 from .errors import ModelError, SimulationError
 from .kinematics import assemble, assembly_changes
 from .model import (
+    CFG_SKIP,
     CT_MODE,
     TOUCHING,
     ST_CONTACT_EVENTS,
@@ -46,7 +47,7 @@ from .model import (
 )
 from .output_size import MAX_ROWS, estimate
 from .results import DiskFull, FileResults, Results, ResultsWriter
-from .signals import signal_table
+from .signals import signal_table, skip_bits
 
 CALL_SECONDS = 0.1  # wall time of one kernel call (a work budget in right-hand sides calibrated per call)
 FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibration
@@ -366,7 +367,8 @@ def simulate(
     (``t_end``, ``integrator``, ``rtol``, ``step``, ...).  ``output`` is an HDF5
     path written in chunks during the run; ``progress(t, t_end)`` is called
     after each chunk.  ``signals`` (names like ``slider.x`` or whole entities)
-    keeps only those signals in memory and in the file (default: all).
+    keeps only those signals in memory and in the file (default: all), and the time loop
+    computes only the groups of the observation row they read (`signals.skip_bits`).
     A run asking for more than ``max_rows`` output rows (``math.inf``: no limit) is refused
     with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
     Raises `SimulationError` (with ``.results``) on failure.
@@ -395,6 +397,7 @@ def simulate(
     cols = None
     if signals is not None:
         table, cols = select_signals(table, list(signals))
+    cfg[CFG_SKIP] = skip_bits(model, cols)  # the time loop computes only what the kept signals read
 
     # compile (or load from the cache) outside the timed loop, on throw-away copies
     advance(km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
@@ -551,6 +554,7 @@ class Simulation:
         self._table, self._cols = signal_table(model), None
         if signals is not None:
             self._table, self._cols = select_signals(self._table, list(signals))
+        self._cfg[CFG_SKIP] = skip_bits(model, self._cols)
         self._where = {s.name: s for s in self._table}
         self._times: list[np.ndarray] = []
         self._blocks: list[np.ndarray] = []

@@ -208,3 +208,116 @@ def test_reaction_moment_is_taken_about_the_joint_point_of_the_body():
     expected = (x - px) * fy - (y - py) * fx
     assert np.max(np.abs(expected)) > 0.1  # a moment worth checking: the point is off the centre
     np.testing.assert_allclose(res["S.moment"], expected, atol=1e-9 * np.max(np.abs(expected)))
+
+
+# ---------------------------------------------------------------- only what the kept signals need
+def test_signals_without_dynamics_skip_accelerations_and_match_the_closed_form(ideal_run, tmp_path):
+    """Signals that read no acceleration, reaction or driver effort: the time loop skips their
+    `accelerations` per row (their columns of the observation row stay NaN), and what is kept is
+    still the closed form, and the very numbers of a run that keeps everything (the outputs never
+    steer the integration).  The file reads as ever with plain h5py and pandas."""
+    import h5py
+    import pandas as pd
+
+    from planar_mbs.model import OBS_SKIP_DYNAMICS, OBS_SKIP_ERRORS
+    from planar_mbs.signals import signal_table, skip_bits
+    from planar_mbs.simulation import select_signals
+
+    model = mbs.load_model(MODELS / "slider_crank.mbs")
+    wanted = ["slider.x", "slider.vx", "crank.phi", "system.kinetic_energy"]
+    _, cols = select_signals(signal_table(model), wanted)
+    assert skip_bits(model, cols) & OBS_SKIP_DYNAMICS and skip_bits(model, cols) & OBS_SKIP_ERRORS
+    t_end = ideal_run.time[-1]
+    res = mbs.simulate(model, t_end=t_end, rtol=1e-10, integrator="dopri5", output_step=t_end / 400,
+                       signals=wanted, output=tmp_path / "kin.h5")
+    ref = slider_crank_closed_form(res.time)
+    assert np.max(np.abs(res["slider.x"] - ref["x"])) <= 1e-9
+    assert np.max(np.abs(res["slider.vx"] - ref["vx"])) <= 1e-6
+    np.testing.assert_allclose(res["crank.phi"], OMEGA * res.time, rtol=0, atol=1e-9)
+    k = slider_crank_closed_form(res.time)
+    rod_v = 0.5 * (k["A_v"] + k["B_v"])
+    kinetic = (0.5 * M_CRANK * np.sum((0.5 * k["A_v"]) ** 2, axis=0) + 0.5 * I_CRANK * OMEGA**2
+               + 0.5 * M_ROD * np.sum(rod_v**2, axis=0) + 0.5 * I_ROD * k["psi_d"] ** 2
+               + 0.5 * M_SLIDER * k["vx"] ** 2)
+    np.testing.assert_allclose(res["system.kinetic_energy"], kinetic, rtol=1e-6)
+    for name in wanted:
+        np.testing.assert_array_equal(res[name], ideal_run[name])
+    with h5py.File(tmp_path / "kin.h5", "r") as f:
+        assert sorted(f["signals"]) == ["crank", "slider", "system"]
+        np.testing.assert_array_equal(f["signals/slider"]["vx"], ideal_run["slider.vx"])
+        frame = pd.DataFrame(f["signals/slider"][()])
+    assert list(frame.columns) == ["x", "vx"] and np.all(np.isfinite(frame.to_numpy()))
+
+
+def test_skipped_columns_of_the_observation_row_are_nan_and_the_rest_unchanged():
+    """The kernel's own row: with every OBS_SKIP_* bit set only q and q' are computed, the other
+    columns are NaN; q and q' are those of the full row; each bit alone blanks only its group."""
+    from planar_mbs.kernel import make_workspace, observe
+    from planar_mbs.kinematics import assemble
+    from planar_mbs.model import (CFG_SKIP, OB_CLEARANCE, OB_QDD, OB_SYSTEM, OBS_SKIP_CLEARANCE,
+                                  OBS_SKIP_DYNAMICS, OBS_SKIP_ENERGY, OBS_SKIP_ERRORS, observation_layout,
+                                  observation_size)
+
+    model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
+    km = model.kernel
+    q, qd = assemble(model)
+    y = np.concatenate([q, qd])
+    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance)
+    n = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
+    contact = np.zeros((model.nclearance, 3))
+
+    def row(bits):
+        cfg = model.settings.cfg()
+        cfg[CFG_SKIP] = bits
+        out = np.zeros(n)
+        assert observe(km, cfg, 0.0, y, contact, make_workspace(km), out) == 0
+        return out
+
+    full = row(0)
+    assert np.all(np.isfinite(full))
+    groups = {OBS_SKIP_DYNAMICS: range(lay[OB_QDD], lay[OB_CLEARANCE]),
+              OBS_SKIP_CLEARANCE: range(lay[OB_CLEARANCE], lay[OB_SYSTEM]),
+              OBS_SKIP_ENERGY: range(lay[OB_SYSTEM], lay[OB_SYSTEM] + 2),
+              OBS_SKIP_ERRORS: range(lay[OB_SYSTEM] + 2, lay[OB_SYSTEM] + 4)}
+    for bit, cols in groups.items():
+        part = row(bit)
+        blank = np.zeros(n, bool)
+        blank[list(cols)] = True
+        assert np.all(np.isnan(part[blank])) and np.array_equal(part[~blank], full[~blank])
+    bare = row(sum(groups))
+    assert np.array_equal(bare[:lay[OB_QDD]], y) and np.all(np.isnan(bare[lay[OB_QDD]:]))
+
+
+def test_reactions_kept_alone_balance_the_slider_and_torque_matches_inverse_dynamics(ideal_run):
+    """Joint reactions and the driver's torque kept without the bodies' signals: still computed
+    (the row's `accelerations`), Newton on the slider against the closed-form acceleration and
+    the torque against the power balance, both derived in this file."""
+    model = mbs.load_model(MODELS / "slider_crank.mbs")
+    t_end = ideal_run.time[-1]
+    res = mbs.simulate(model, t_end=t_end, rtol=1e-10, integrator="dopri5", output_step=t_end / 400,
+                       signals=["B", "S", "crank_speed.torque"])
+    assert sorted(res.signals) == ["B.force", "B.fx", "B.fy", "S.force", "S.fx", "S.fy", "S.moment",
+                                   "crank_speed.torque"]
+    ax = slider_crank_closed_form(res.time)["ax"]
+    fx, fy = res["B.fx"] + res["S.fx"], res["B.fy"] + res["S.fy"]
+    scale = np.max(np.abs(fx))
+    np.testing.assert_allclose(fx, M_SLIDER * ax, rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(fy, 0.0, rtol=0, atol=1e-8 * scale)
+    ref = inverse_dynamics_torque(res.time)
+    assert np.max(np.abs(res["crank_speed.torque"] - ref)) <= 1e-6 * np.max(np.abs(ref))
+    np.testing.assert_allclose(res["B.force"], np.hypot(res["B.fx"], res["B.fy"]), rtol=1e-15)
+
+
+def test_clearance_signals_kept_alone_match_the_full_run_and_the_step_api():
+    """A clearance joint's signals without the dynamics' columns: the same numbers as the full
+    run (contact detection is the time loop's, not the row's), through `simulate` and `Simulation`."""
+    model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
+    full = mbs.simulate(model, t_end=0.01)
+    assert np.max(full["A.penetration"]) > 0  # an impact inside the window
+    part = mbs.simulate(model, t_end=0.01, signals=["A", "system.total_energy"])
+    with mbs.Simulation(model, t_end=0.01, signals=["A"]) as sim:
+        stepped = sim.run()
+    for name in part.signals:
+        np.testing.assert_array_equal(part[name], full[name])
+    for name in stepped.signals:
+        np.testing.assert_array_equal(stepped[name], full[name])

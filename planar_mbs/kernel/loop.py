@@ -41,6 +41,7 @@ from ..model import (
     CFG_OUTPUT_STEP,
     CFG_PROJECT,
     CFG_RTOL,
+    CFG_SKIP,
     CFG_STEP,
     CS_E,
     CS_EX,
@@ -58,6 +59,10 @@ from ..model import (
     JS_MOMENT,
     N_CLEARANCE_SIGNALS,
     N_JOINT_SIGNALS,
+    OBS_SKIP_CLEARANCE,
+    OBS_SKIP_DYNAMICS,
+    OBS_SKIP_ENERGY,
+    OBS_SKIP_ERRORS,
     OB_CLEARANCE,
     OB_EFFORT,
     OB_JOINT,
@@ -80,7 +85,7 @@ from ..model import (
     Integrator,
     Status,
 )
-from .constraints import _JOINT_ROWS, ANGLE, motion, point_cs
+from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, motion, point_cs
 from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
 from .dynamics import (
     DRIFT_POSITION, DRIFT_VELOCITY, LOST_POSITION, LOST_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
@@ -138,15 +143,31 @@ def _jac_body(ws, r, b, i):
 @kernel
 def observe(km, cfg, t, y, contact, ws, row):
     """Fill one observation row (model.observation_size layout) at (t, y).
-    Returns a Status code (0 = fine).  The bodies' cos/sin are those `accelerations` left in ws.cs
-    (`body_trig` at this q): no second sine or cosine per joint."""
+    Returns a Status code (0 = fine).  The bodies' cos/sin are those `accelerations` (or
+    `body_trig`) just left in ws.cs: no second sine or cosine per joint.
+
+    cfg[CFG_SKIP] (OBS_SKIP_* bits) names the groups no stored signal needs: their columns are
+    NaN and their work is skipped -- above all the `accelerations` call (its Schur solve) that
+    the q'' block, the joint reactions and the driver efforts take; the constraint errors alone
+    need only the constraint rows."""
     N = y.shape[0]
     n = N // 2
     q = y[:n]
     qd = y[n:]
-    st = accelerations(km, cfg, t, q, qd, contact, ws, ws.sstats)
-    if st != 0:
-        return st
+    skip = int(cfg[CFG_SKIP])
+    dynamics = (skip & OBS_SKIP_DYNAMICS) == 0
+    errors = (skip & OBS_SKIP_ERRORS) == 0
+    m = ws.C.shape[0]
+    if dynamics:
+        st = accelerations(km, cfg, t, q, qd, contact, ws, ws.sstats)
+        if st != 0:
+            return st
+    else:
+        body_trig(q, ws.cs)
+        if errors and m > 0:
+            st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
+            if st != 0:
+                return st
     nj = km.joint_type.shape[0]
     nd = km.driver_type.shape[0]
     nc = km.clearance_body.shape[0]
@@ -154,8 +175,67 @@ def observe(km, cfg, t, y, contact, ws, row):
     for i in range(n):
         row[lay[OB_Q] + i] = q[i]
         row[lay[OB_QD] + i] = qd[i]
-        row[lay[OB_QDD] + i] = ws.qdd[i]
+    if dynamics:
+        _observe_dynamics(km, t, q, qd, ws, row, lay[OB_QDD], lay[OB_JOINT], lay[OB_EFFORT], lay[OB_POWER])
+    else:
+        for i in range(lay[OB_QDD], lay[OB_CLEARANCE]):
+            row[i] = math.nan
+    if (skip & OBS_SKIP_CLEARANCE) == 0:
+        for k in range(nc):
+            ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+            F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, ws.cs, contact)
+            col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
+            row[col + CS_EX] = ex
+            row[col + CS_EY] = ey
+            row[col + CS_E] = e
+            row[col + CS_PENETRATION] = delta
+            row[col + CS_FN] = F
+            row[col + CS_FX] = -F * nx - Ft * ny  # normal + friction force on the journal
+            row[col + CS_FY] = -F * ny + Ft * nx
+            row[col + CS_IN_CONTACT] = 1.0 if contact_mode(contact, k) == TOUCHING else 0.0
+            row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
+            row[col + CS_FRICTION] = Ft
+            row[col + CS_SLIP] = vt
+    else:
+        for i in range(lay[OB_CLEARANCE], lay[OB_SYSTEM]):
+            row[i] = math.nan
+    col = lay[OB_SYSTEM]
+    T = math.nan
+    V = math.nan
+    if (skip & OBS_SKIP_ENERGY) == 0:
+        T = 0.0
+        nb = n // 3
+        for b in range(nb):
+            T += (0.5 * km.body_mass[b] * (qd[3 * b] ** 2 + qd[3 * b + 1] ** 2)
+                  + 0.5 * km.body_inertia[b] * qd[3 * b + 2] ** 2)
+        V = force_potential(km, q, qd)
+        if nc > 0:
+            V += contact_energy(km, q, qd, contact)
+    perr = math.nan
+    verr = math.nan
+    if errors:
+        perr = 0.0
+        verr = 0.0
+        for r in range(m):
+            perr = max(perr, abs(ws.C[r]))
+            verr = max(verr, abs(ws.Ct[r] + jac_dot(ws, r, qd)))
+    row[col + SYS_KINETIC] = T
+    row[col + SYS_POTENTIAL] = V
+    row[col + SYS_POSITION_ERROR] = perr
+    row[col + SYS_VELOCITY_ERROR] = verr
+    return 0
+
+
+@kernel(inline=True)
+def _observe_dynamics(km, t, q, qd, ws, row, cqdd, cjoint, ceffort, cpower):
+    """The q'' block, the joint reactions and the driver efforts and powers of an observation row
+    from the multipliers `accelerations` just left in ws (columns from `observation_layout`)."""
+    n = q.shape[0]
+    for i in range(n):
+        row[cqdd + i] = ws.qdd[i]
     lam = ws.lam
+    nj = km.joint_type.shape[0]
+    nd = km.driver_type.shape[0]
     for jt in range(nj):
         r0 = km.joint_row[jt]
         nr = _JOINT_ROWS[km.joint_type[jt]]
@@ -177,7 +257,7 @@ def observe(km, cfg, t, y, contact, ws, row):
                 mc -= _jac_body(ws, r, b, 2) * lam[r]
             # moment about the joint point of the second body
             mc += (q[3 * b] - Pjx) * fy - (q[3 * b + 1] - Pjy) * fx
-        col = lay[OB_JOINT] + N_JOINT_SIGNALS * jt
+        col = cjoint + N_JOINT_SIGNALS * jt
         row[col + JS_FX] = sign * fx
         row[col + JS_FY] = sign * fy
         row[col + JS_MOMENT] = sign * mc
@@ -199,42 +279,8 @@ def observe(km, cfg, t, y, contact, ws, row):
                 ux = c * km.driver_axis[d, 0] - s * km.driver_axis[d, 1]
                 uy = s * km.driver_axis[d, 0] + c * km.driver_axis[d, 1]
                 eff = -(_jac_body(ws, r, bj, 0) * ux + _jac_body(ws, r, bj, 1) * uy) * lam[r]
-        row[lay[OB_EFFORT] + d] = eff
-        row[lay[OB_POWER] + d] = eff * fd
-    for k in range(nc):
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
-        F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, ws.cs, contact)
-        col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
-        row[col + CS_EX] = ex
-        row[col + CS_EY] = ey
-        row[col + CS_E] = e
-        row[col + CS_PENETRATION] = delta
-        row[col + CS_FN] = F
-        row[col + CS_FX] = -F * nx - Ft * ny  # normal + friction force on the journal
-        row[col + CS_FY] = -F * ny + Ft * nx
-        row[col + CS_IN_CONTACT] = 1.0 if contact_mode(contact, k) == TOUCHING else 0.0
-        row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
-        row[col + CS_FRICTION] = Ft
-        row[col + CS_SLIP] = vt
-    T = 0.0
-    nb = n // 3
-    for b in range(nb):
-        T += 0.5 * km.body_mass[b] * (qd[3 * b] ** 2 + qd[3 * b + 1] ** 2) + 0.5 * km.body_inertia[b] * qd[3 * b + 2] ** 2
-    V = force_potential(km, q, qd)
-    if nc > 0:
-        V += contact_energy(km, q, qd, contact)
-    m = ws.C.shape[0]
-    perr = 0.0
-    verr = 0.0
-    for r in range(m):
-        perr = max(perr, abs(ws.C[r]))
-        verr = max(verr, abs(ws.Ct[r] + jac_dot(ws, r, qd)))
-    col = lay[OB_SYSTEM]
-    row[col + SYS_KINETIC] = T
-    row[col + SYS_POTENTIAL] = V
-    row[col + SYS_POSITION_ERROR] = perr
-    row[col + SYS_VELOCITY_ERROR] = verr
-    return 0
+        row[ceffort + d] = eff
+        row[cpower + d] = eff * fd
 
 
 @kernel
