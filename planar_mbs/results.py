@@ -424,32 +424,44 @@ def open_for_writing(path: Path, mode: str):
         raise
 
 
-def _entity_extractors(table: list[Signal]):
-    """[(entity, compound dtype, units, records(rows) -> (n,) records to write)] for a signal table.
-    Each entity's records are packed here, contiguous and of the dataset's own type, so HDF5 writes
-    them without a conversion: an entity of plain columns is one gather of its columns (`np.take`),
-    the few combined signals (magnitudes, sums) are computed into their columns.  (A strided view of
-    the rows, which HDF5 converted field by field, cost about 0.1 us per row and entity.)"""
-    out = []
-    by_entity: dict[str, list[Signal]] = {}
-    for sig in table:
-        by_entity.setdefault(sig.entity, []).append(sig)
-    for entity, sigs in by_entity.items():
-        packed = _compound([s.quantity for s in sigs])
-        if all(s.op == "col" for s in sigs):
-            def records(rows, cols=np.array([s.columns[0] for s in sigs], dtype=np.intp), packed=packed):
-                return np.take(rows, cols, axis=1).astype(np.float64, copy=False).view(packed).reshape(-1)
-        else:
-            def records(rows, sigs=sigs, packed=packed):
-                block = np.empty((len(rows), len(sigs)))
-                for j, s in enumerate(sigs):
-                    if s.op == "col":
-                        block[:, j] = rows[:, s.columns[0]]
-                    else:
-                        block[:, j] = s.extract(rows)
-                return block.view(packed).reshape(-1)
-        out.append((entity, packed, [s.unit for s in sigs], records))
-    return out
+class _RowPacker:
+    """Packs observation rows into each entity's records, contiguous and of its dataset's own type,
+    so HDF5 writes them without a conversion: a gather of the entity's columns (`np.take`) straight
+    into a buffer kept from one write to the next, the few combined signals (magnitudes, sums)
+    computed into their fields.  (A strided view of the rows, which HDF5 converted field by field,
+    cost about 0.1 us per row and entity; fresh arrays for each write, fresh pages from the system.)"""
+
+    def __init__(self, table: list[Signal]):
+        by_entity: dict[str, list[Signal]] = {}
+        for sig in table:
+            by_entity.setdefault(sig.entity, []).append(sig)
+        self.entities = []
+        for entity, sigs in by_entity.items():
+            src = np.array([s.columns[0] for s in sigs], dtype=np.intp)
+            combined = [(j, s) for j, s in enumerate(sigs) if s.op != "col"]
+            self.entities.append((entity, _compound([s.quantity for s in sigs]), [s.unit for s in sigs], src, combined))
+        self._buffers = [np.empty((0, len(e[3]))) for e in self.entities]
+
+    def records(self, rows: np.ndarray) -> list[np.ndarray]:
+        """[(n,) records of each entity] of an (n, columns) block of rows, in buffers that the next
+        call overwrites."""
+        n = len(rows)
+        rows = np.asarray(rows, dtype=np.float64)
+        if len(self._buffers[0]) < n if self._buffers else False:
+            self._buffers = [np.empty((n, len(e[3]))) for e in self.entities]
+        out = []
+        for (_, packed, _, src, combined), buf in zip(self.entities, self._buffers):
+            block = np.take(rows, src, axis=1, out=buf[:n], mode="clip")  # "clip": no buffering of `out`
+            for j, sig in combined:  # into their field, without temporaries
+                a, b = (rows[:, c] for c in sig.columns[:2])
+                if sig.op == "hypot":
+                    np.hypot(a, b, out=block[:, j])
+                else:
+                    np.add(a, b, out=block[:, j])
+                    for c in sig.columns[2:]:
+                        block[:, j] += rows[:, c]
+            out.append(block.view(packed).reshape(-1))
+        return out
 
 
 class ResultsWriter:
@@ -479,7 +491,7 @@ class ResultsWriter:
         self.t_last = 0.0  # time of the last row written
         try:
             self._reserve(len(json.dumps(attrs, default=_json_default)) + results_bytes(0, 0, len(table) + 1))
-            self.entities = _entity_extractors(table)
+            self.packer = _RowPacker(table)
             if group.strip("/") and group.strip("/") in self.file:
                 del self.file[group.strip("/")]
             self.group = self.file.require_group(group) if group.strip("/") else self.file
@@ -522,9 +534,9 @@ class ResultsWriter:
         try:
             self.time.resize((end,))
             self.time[self.n:end] = t
-            for (_, _, _, records), ds in zip(self.entities, self.datasets):
+            for records, ds in zip(self.packer.records(rows), self.datasets):
                 ds.resize((end,))
-                ds[self.n:end] = records(rows)
+                ds[self.n:end] = records
             self.file.flush()
         except (OSError, RuntimeError) as exc:
             self.broken = True
