@@ -447,7 +447,7 @@ class _RowPacker:
         call overwrites."""
         n = len(rows)
         rows = np.asarray(rows, dtype=np.float64)
-        if len(self._buffers[0]) < n if self._buffers else False:
+        if self._buffers and len(self._buffers[0]) < n:
             self._buffers = [np.empty((n, len(e[3]))) for e in self.entities]
         out = []
         for (_, packed, _, src, combined), buf in zip(self.entities, self._buffers):
