@@ -199,3 +199,26 @@ def test_exact_and_regularised_solves_agree_until_the_switch():
             assert exact[2] == pytest.approx(closed, rel=0, abs=1e-12 * K.G)
             np.testing.assert_allclose(ws.qdd, exact, rtol=0, atol=1e-12 * np.abs(exact).max())
     assert taken[0] == 0 and taken[-1] == 1 and taken == sorted(taken)  # one switch, on the way in
+
+
+def test_restored_kinetic_energy_only_for_a_small_loss_and_workless_constraints():
+    """`restore_kinetic_energy`: back to the energy before the projection, in the same
+    direction, only when every Ct is 0 (no moving driver) and the loss is below RESTORE_BOUND."""
+    from planar_mbs.kernel.dynamics import RESTORE_BOUND, kinetic_energy2, restore_kinetic_energy
+
+    minv = np.array([0.5, 0.5, 20.0, 0.25, 0.25, 4.0])
+    qd = np.array([0.3, -0.1, 2.0, 0.05, 0.7, -1.0])
+    after = kinetic_energy2(minv, qd)
+    assert after == pytest.approx(np.sum(qd * qd / minv), rel=1e-15)
+    small = after * (1.0 + 0.5 * RESTORE_BOUND)
+    for Ct, before, restored in [(np.zeros(3), small, True),
+                                 (np.array([0.0, 1e-3, 0.0]), small, False),  # a moving driver does work
+                                 (np.zeros(3), after * (1.0 + 2.0 * RESTORE_BOUND), False),  # near rest
+                                 (np.zeros(3), 0.5 * after, False)]:  # nothing was lost
+        v = qd.copy()
+        restore_kinetic_energy(minv, v, before, Ct)
+        if restored:
+            assert kinetic_energy2(minv, v) == pytest.approx(before, rel=1e-15)
+            np.testing.assert_allclose(v / np.linalg.norm(v), qd / np.linalg.norm(qd), rtol=1e-15)
+        else:
+            np.testing.assert_array_equal(v, qd)

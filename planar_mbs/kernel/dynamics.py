@@ -24,8 +24,10 @@ definite, and the system is solved by iterated Tikhonov regularisation
 minimum-norm multipliers for redundant rows, and a soft constraint (a penalty of
 relative stiffness 1/REG) in the directions that vanish at a singular position,
 so the mechanism passes it on its momentum instead of being thrown onto another
-assembly branch by huge forces.  Only a row without any Jacobian (or a NaN)
-still gives Status.SINGULAR (row in stats[ST_INFO]).  docs/numerics.md says why.
+assembly branch by huge forces; the kinetic energy that the withheld force lets
+escape is given back after the velocity projection (`restore_kinetic_energy`).
+Only a row without any Jacobian (or a NaN) still gives Status.SINGULAR (row in
+stats[ST_INFO]).  docs/numerics.md says why.
 """
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ from ..model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
-from .workspace import FL_SCHUR_REG  # REG, REFINE, TAU: workspace.solver_settings
+from .workspace import FL_REG_SEEN, FL_SCHUR_REG  # REG, REFINE, TAU, RESTORE: workspace.solver_settings
 
 SINGULAR = 4
 DRIFT = 8
@@ -110,6 +112,7 @@ def schur_factor(km, ws, stats):
         stats[ST_INFO] = j
         return SINGULAR
     ws.flags[FL_SCHUR_REG] = 1
+    ws.flags[FL_REG_SEEN] = 1
     return 0
 
 
@@ -255,10 +258,48 @@ def rhs(km, cfg, t, y, contact, ws, stats, ydot):
     return 0
 
 
+# largest kinetic energy (relative) that `project` gives back: the losses at a singular
+# passage measured 6e-12 (parallelogram chains N = 2 and 10); a larger loss is not a
+# passage on momentum (e.g. a mechanism near rest) and stays removed
+RESTORE_BOUND = 1e-6
+
+
+@kernel
+def kinetic_energy2(minv, qd):
+    """2 T = q'^T M q' with the diagonal M = 1 / minv."""
+    s = 0.0
+    for k in range(qd.shape[0]):
+        if minv[k] > 0.0:
+            s += qd[k] * qd[k] / minv[k]
+    return s
+
+
+@kernel
+def restore_kinetic_energy(minv, qd, before, Ct):
+    """Scale q' back to the kinetic energy `before` (2T) it had before the velocity
+    projection, when the constraints do no work (Ct = 0: no moving driver) and the loss is
+    below RESTORE_BOUND.  Ideal workless constraint forces turn the velocity, never shorten
+    it: the loss is what a force withheld by the regularised solve near a singular position
+    let escape (an energy-preserving projection, Hairer, Lubich and Wanner, "Geometric
+    Numerical Integration", IV.4, applied to that loss only)."""
+    for r in range(Ct.shape[0]):
+        if Ct[r] != 0.0:
+            return
+    after = kinetic_energy2(minv, qd)
+    if not (after > 0.0) or not (before > after) or before > after * (1.0 + RESTORE_BOUND):
+        return
+    c = math.sqrt(before / after)
+    for k in range(qd.shape[0]):
+        qd[k] *= c
+
+
 @kernel
 def project(km, t, y, ws, stats):
     """Project q onto C = 0 (Newton: q -= M^-1 Cq^T S^-1 C, a few iterations),
-    then q' onto Cq q' + Ct = 0.  Returns a Status code."""
+    then q' onto Cq q' + Ct = 0 (mass-orthogonally).  When a factor since the last
+    projection was regularised (a singular position's force withheld), the kinetic energy
+    the velocity projection removed is given back (`restore_kinetic_energy`).
+    Returns a Status code."""
     n = y.shape[0] // 2
     m = ws.C.shape[0]
     if m == 0:
@@ -293,8 +334,12 @@ def project(km, t, y, ws, stats):
     if st != 0:
         return st
     multipliers(km, ws, ws.dl)
+    before = kinetic_energy2(minv, qd)
     for r in range(m):
         jac_t_sub(ws, r, ws.dl[r], minv, 1.0, qd)
+    if ws.flags[FL_REG_SEEN] == 1 and ws.solver[4] != 0.0:
+        restore_kinetic_energy(minv, qd, before, ws.Ct)
+    ws.flags[FL_REG_SEEN] = 0
     return 0
 
 

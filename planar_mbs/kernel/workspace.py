@@ -20,6 +20,7 @@ FL_SWITCH_JOINT = 1  # clearance joint whose contact mode switches at the end of
 FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: DOP853's dense output of the last step is prepared (ws.F)
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
+FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
 N_FLAGS = 8
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
@@ -59,7 +60,7 @@ class Workspace(NamedTuple):
     res: np.ndarray  # (m,) residual of the multiplier refinement
     dl: np.ndarray  # (m,) projection corrections
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
-    solver: np.ndarray  # (4,) [REG, REFINE, REFINE_TOL, TAU] of `dynamics.multipliers`
+    solver: np.ndarray  # (5,) [REG, REFINE, REFINE_TOL, TAU, RESTORE] (`solver_settings`)
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -116,16 +117,17 @@ REFINE = 2  # refinement sweeps of the regularised solve (2: convergence orders 
 TAU = 1e-3  # relative pivot (d_j / S_jj) below which S is refactored regularised
 REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
 # (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
-# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU] so that experiments need no recompilation)
+RESTORE = 1.0  # 1: the projection keeps the kinetic energy a withheld constraint force would have kept
+# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE] so that experiments need no recompilation)
 
 
 def solver_settings() -> np.ndarray:
-    """[REG, REFINE, REFINE_TOL, TAU] of the multiplier solve (`dynamics.schur_factor`,
-    `dynamics.multipliers`)."""
+    """[REG, REFINE, REFINE_TOL, TAU, RESTORE] of the multiplier solve (`dynamics.schur_factor`,
+    `dynamics.multipliers`) and the velocity projection (`dynamics.project`)."""
     import os
 
-    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau"
-    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU])
+    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore"
+    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE])
     if env:  # the values given replace the first ones, the rest keep their defaults
         given = [float(v) for v in env.split(",")][: settings.size]
         settings[: len(given)] = given
