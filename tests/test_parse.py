@@ -185,3 +185,26 @@ def test_override_value_errors_point_at_set():
     with pytest.raises(ModelError) as e:
         parse_expression("3 +", "--set")
     assert e.value.file == "--set" and "ends too early" in e.value.message
+
+
+def test_a_text_parsed_again_comes_from_the_cache_and_still_takes_each_override():
+    """A sweep compiles one model text per case: the parse is kept (planar_mbs.parse._parsed), the
+    overrides are the compiler's, so each case still gets its own value (a crank period of 60 s / rpm);
+    a text that does not parse is not kept and fails again."""
+    from pathlib import Path
+
+    from planar_mbs import parse
+    from planar_mbs.compile import compile_text
+    from planar_mbs.section import driver_period
+
+    text = (Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs").read_text()
+    parse._parsed.clear()
+    periods = [driver_period(compile_text(text, "sc.mbs", {"speed": f"{rpm}rpm"}))[0] for rpm in (1000, 3000)]
+    assert len(parse._parsed) == 1
+    assert periods == pytest.approx([0.06, 0.02], rel=1e-12)
+    again = parse_statements(text, "sc.mbs")
+    assert again == parse._parsed[(text, "sc.mbs")] and again is not parse._parsed[(text, "sc.mbs")]
+    for _ in range(2):
+        with pytest.raises(ModelError):
+            parse_statements("body b { mass = }", "bad.mbs")
+    assert ("body b { mass = }", "bad.mbs") not in parse._parsed
