@@ -4,7 +4,9 @@ Every target is a *ratio* of two times measured in this one run (the machine is 
 absolute seconds move from run to run; the ratios much less):
 
     .venv/bin/python benchmarks/process.py            # prints the table, stores docs/benchmarks_data.json "process"
-    .venv/bin/python benchmarks/run.py --only process  # the same, and rewrites docs/benchmarks.md
+                                                      # and rewrites that section of docs/benchmarks.md
+    .venv/bin/python benchmarks/process.py --only sweep,output   # some parts, printed only
+    .venv/bin/python benchmarks/run.py --only process  # the same as the first, and rewrites all of docs/benchmarks.md
 
 Commands are run as separate processes, interleaved round by round (so a burst of load hits
 all of them alike), and each time is the median over the rounds.  The package runs as installed:
@@ -331,7 +333,8 @@ def main() -> None:
     import argparse
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--no-store", action="store_true", help="print only; leave docs/benchmarks_data.json alone")
+    ap.add_argument("--no-store", action="store_true",
+                    help="print only; leave docs/benchmarks_data.json and docs/benchmarks.md alone")
     ap.add_argument("--only", help="comma-separated parts to run, printed only (startup, sweep, loop_vs_scipy, "
                     "stages, output, chain40)")
     args = ap.parse_args()
@@ -339,14 +342,15 @@ def main() -> None:
         res = section_process(set(args.only.split(",")))
         return
     res = section_process()
-    if not args.no_store:
-        data = json.loads(DATA.read_text()) if DATA.exists() else {}
-        data["process"] = res
-        DATA.write_text(json.dumps(data, indent=1))
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import report
 
-    print("\n".join(report.process_table(res)))
+    data = json.loads(DATA.read_text()) if DATA.exists() else {}
+    data["process"] = res
+    print("\n".join(report.process_table(res, data.get("process_before"))))
+    if not args.no_store:  # the numbers and the section written from them, together
+        DATA.write_text(json.dumps(data, indent=1))
+        report.write_process_section(data)
 
 
 if __name__ == "__main__":

@@ -39,9 +39,11 @@ def process_table(pr, before=None) -> list[str]:
         ok = r <= target if sense == "≤" else r >= target
         return f"{sense} {target:g}: **{'met' if ok else 'missed'}**"
 
+    when = (f"; \"before\": commit {b.get('commit', '?')}, {b.get('date', '?')}, load average "
+            f"{b.get('load', [0])[0]:.1f}" if b else "")
     out = [f"Measured {pr['date']} (load average {pr['load'][0]:.1f} on {os.cpu_count()} cores), "
-           f"medians of {st['rounds']} interleaved rounds.\n",
-           "| what | time [s] | against | its time [s] | ratio | target | before the start-up work |",
+           f"medians of {st['rounds']} interleaved rounds{when}.\n",
+           "| what | time [s] | against | its time [s] | ratio | target | before |",
            "| --- | ---: | --- | ---: | ---: | --- | ---: |"]
     rows = [("`mbs check models/slider_crank_clearance_a.mbs`", "mbs check", "`python -c \"import numpy\"`",
              "import numpy", "mbs check / import numpy"),
@@ -66,8 +68,10 @@ def process_table(pr, before=None) -> list[str]:
                f"{t['mbs run clearance A 5 rev']:.3f} | scipy baseline, same case, whole process | "
                f"{t['scipy baseline clearance A 5 rev']:.3f} | scipy takes {r:.1f}× | | "
                f"{was(b.get('startup', {}).get('ratios', {}).get('scipy baseline / mbs run (clearance A, 5 rev, whole process)', {}).get('ratio'), '.1f')}× |")
+    spread_sw = f" (rounds: {sw['speedup_min']:.2f}–{sw['speedup_max']:.2f}×)" if "speedup_min" in sw else ""
     out.append(f"| `mbs sweep` of {sw['cases']} cases, `-j 2` | {sw['times']['-j 2']:.2f} | `-j 1` | "
-               f"{sw['times']['-j 1']:.2f} | {sw['speedup']:.2f}× faster | {verdict(sw['speedup'], sw['target'], '≥')} | "
+               f"{sw['times']['-j 1']:.2f} | {sw['speedup']:.2f}× faster{spread_sw} | "
+               f"{verdict(sw['speedup'], sw['target'], '≥')} | "
                f"{was(b.get('sweep', {}).get('speedup'), '.2f')}× |")
     if "case_seconds" in sw:
         c = sw["case_seconds"]
@@ -84,11 +88,12 @@ def process_table(pr, before=None) -> list[str]:
         if not isinstance(sel, dict):
             continue  # target_us, rounds
         old = ob.get(name, ob if name == "all signals" else {})  # earlier runs measured every signal only
-        out.append(f"| one output row, {name} ({sel['signals']} signals), in the time loop | {sel['loop_us']:.2f} µs "
-                   f"| | | | | {was(old.get('loop_us'), '.2f')} µs |")
-        out.append(f"| one output row, {name}, in total with the HDF5 file | {sel['total_us']:.2f} µs | | | | "
-                   f"{verdict(sel['total_us'], o['target_us'], '≤')} (< {o['target_us']:g} µs) | "
-                   f"{was(old.get('total_us'), '.2f')} µs |")
+        us = lambda v: "" if v is None else f"{v:.2f} µs"  # noqa: E731
+        out.append(f"| one output row, {name} ({sel['signals']} signals), in the time loop | {us(sel['loop_us'])} "
+                   f"| | | | | {us(old.get('loop_us'))} |")
+        out.append(f"| one output row, {name}, in total with the HDF5 file | {us(sel['total_us'])} | | | | "
+                   f"≤ {o['target_us']:g} µs: **{'met' if sel['total_us'] <= o['target_us'] else 'missed'}** | "
+                   f"{us(old.get('total_us'))} |")
     if "stages" in pr:
         sg = pr["stages"]
         out.append(f"\nWhere the clearance slider-crank's time loop goes ({sg['loop']:.4f} s, {sg['rows']} output rows, "
@@ -106,26 +111,42 @@ def process_table(pr, before=None) -> list[str]:
                    "cached by a hash of it) was measured through this bound only, not built: the 100× goal rests as "
                    "much on the outputs and the integrator as on the rhs.\n")
     out.append("\n40-link chain (0.5 s, DOPRI5 rtol 1e-6, outputs every 1 ms), one process:\n")
-    out.append("| phase | seconds | before the start-up work |\n| --- | ---: | ---: |")
+    out.append("| phase | seconds | before |\n| --- | ---: | ---: |")
     for k, v in ch.items():
         old = b.get("chain40", {}).get(k)
         fmt = (lambda x: f"{x:.3f}") if isinstance(v, float) else str
         out.append(f"| {k} | {fmt(v)} | {'' if old is None else fmt(old)} |")
     if b:
         out.append(f"\n\"Before\": the same script at commit {b.get('commit', '?')} ({b.get('date', '?')}, load "
-                   f"{b.get('load', [0])[0]:.1f}).  Loading numba's compiled kernels moved from the assembly (then a "
-                   "compiled call) to the first simulate.")
-    return out
+                   f"{b.get('load', [0])[0]:.1f}: measured under load, so its absolute times are long).  Loading "
+                   "numba's compiled kernels moved from the assembly (then a compiled call) to the first simulate.\n")
+    return out + process_notes(pr)
+
+
+PROCESS_HEADING = "## The whole process: start-up, sweeps, output (`benchmarks/process.py`)"
+
+
+def process_section(data) -> list[str]:
+    """The whole-process section of docs/benchmarks.md, heading included, from data["process"]."""
+    return [PROCESS_HEADING + "\n", PROCESS_TEXT, *process_table(data["process"], data.get("process_before")), ""]
+
+
+def write_process_section(data) -> None:
+    """Rewrite only the whole-process section of docs/benchmarks.md (from its heading to the next one) from
+    ``data``: `benchmarks/process.py` does after each full run, leaving the other sections as they are."""
+    path = ROOT / "docs" / "benchmarks.md"
+    text = path.read_text()
+    start = text.index(PROCESS_HEADING)
+    end = text.find("\n## ", start + len(PROCESS_HEADING))
+    end = len(text) if end < 0 else end + 1
+    path.write_text(text[:start] + "\n".join(process_section(data)) + "\n" + text[end:])
 
 
 def write(data) -> None:
     m = data["machine"]
     out = [TEXT_HEAD.format(**m)]
     if "process" in data:
-        out.append("## The whole process: start-up, sweeps, output (`benchmarks/process.py`)\n")
-        out.append(PROCESS_TEXT)
-        out.extend(process_table(data["process"], data.get("process_before")))
-        out.append("")
+        out.extend(process_section(data))
     if "rhs" in data:
         rhs = data["rhs"]
         out.append("## One right-hand side against the hand-specialised yardstick\n")
@@ -264,25 +285,78 @@ PROCESS_TEXT = """Users feel the whole process, not the time loop. Each row is a
 same run of `benchmarks/process.py` (separate processes, interleaved round by round, medians), because the
 machine is shared and only ratios taken together mean something.  Exudyn (`pip install -e '.[bench]'`) runs the
 same ideal slider-crank as `benchmarks/exudyn_slider_crank.py`; the scipy baseline runs as a script of its own
-(`benchmarks/scipy_baseline.py`, numpy and scipy only).
+(`benchmarks/scipy_baseline.py`, numpy and scipy only).  The table below is written from that run's numbers in
+`docs/benchmarks_data.json` ("process"); "before" is the same script's run stored before this work ("process_before").
 
 What the start-up work changed (issue "fast as a whole process"): `mbs check` loads neither numba (the
 initial pose is assembled by the constraint kernels' source run as plain Python, `planar_mbs.pykernel`), nor
 pint (units from a table of our own, each entry tested against pint; pint only for other unit names), nor typer
-(a plain `mbs check MODEL [--set ...]` bypasses it: typer's argument handling imports pydantic).  Sweep workers
-fork from a server that loaded numba and the compiled kernels once (`planar_mbs.sweep_worker`), and cases are
-stored uncompressed (gzip saved ~20 % of float64 outputs for ~20× the parent's write time, which capped `-j`).
-Results files keep one compound dataset per entity instead of one per signal (a 40-link chain: 83 HDF5 objects
-instead of 568 groups and datasets).  The CLI keeps BLAS on one thread.
+(a plain `mbs check MODEL [--set ...]` bypasses it: typer's argument handling imports pydantic); a plain
+`mbs run MODEL [OPTIONS]` bypasses typer too (`cli/run_command.py`; any other command line still goes to typer).
+A cached kernel loads without numba's target-context refresh, which imported every implementation numba has
+(scipy.linalg among them) and compiled its reference-counting runtime, none of which the kernels' machine code
+calls (`kernel/jit.py`).  The modules defining typer commands no longer postpone their annotations; a command that
+only prints ends without the interpreter's teardown, as `run` does; the CLI keeps BLAS on one thread.
+`benchmarks/process.py` writes the package's byte-code before its rounds, as pip does at install (an editable
+install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process: measured 2026-11-24, `mbs check`
+1.57× instead of 1.29×).  Results files keep one compound dataset per entity instead of one per signal (a 40-link
+chain: 83 HDF5 objects instead of 568 groups and datasets).
 
-What remains: `mbs run` still pays numba's import, its target initialisation and typer (with pydantic); an
-output row costs what computing its 53 signals costs (one `accelerations` call for the reactions and
-accelerations, plus energies and constraint errors: about 1.5 rhs), so rows under 1 µs would need fewer signals
-per row, not faster writing; a sweep's `-j 2` speed-up is held back by short cases (about 0.27 s each here)
-against the start-up both commands share, and by the parent, which alone writes every case while two workers
-run: three busy processes on two cores.  The sweep's workers are now forks of the sweep's own process, which
-loaded the kernels (Linux), so no second interpreter starts before the first case.
+Sweeps: a local pool's workers are forks of the sweep's own process after it loaded numba and the kernels
+(`planar_mbs.sweep_worker`); each worker writes its case in a file of its own beside the sweep file, into disk
+space reserved first, and hands back only the table row; the parent copies the case in with HDF5's object copy
+(about 6 ms for a 19 MB case) instead of receiving it through a pipe.  Cases are stored uncompressed (gzip saved
+~20 % of float64 outputs for ~20× the write time).  The model text of a sweep is parsed once per process
+(`parse.PARSED_CACHE`), not once for the parent's check of each case and again in each case.
+
+Output rows: the time loop computes only the groups of the observation row that the kept signals read
+(`simulate(..., signals=[...])`, `signals.skip_bits`): without the bodies' accelerations, the joint reactions and
+the driver efforts, an output row makes no `accelerations` call of its own.  The results writer gathers each
+entity's records straight into buffers kept between writes, so HDF5 writes them without a conversion (a strided
+view had cost about 0.1 µs per row and entity), and `simulate` lets the time loop write its rows into the ~8 MB
+block that goes to the file next, in whole HDF5 chunks.
 """
+
+
+def process_notes(pr) -> list[str]:
+    """What remains, with this run's numbers (`process_table` prints the table itself)."""
+    out = ["", "What remains:\n"]
+    help_ratio = pr.get("startup", {}).get("ratios", {}).get("mbs --help / import numpy", {})
+    if help_ratio and help_ratio["ratio"] > help_ratio["target"]:
+        t = pr["startup"]["times"]
+        out.append(f"* `mbs --help` takes {help_ratio['ratio']:.2f}× a bare `import numpy` here ({t['mbs --help']:.3f} s "
+                   f"against {t['import numpy']:.3f} s; target ≤ {help_ratio['target']:g}×).  Earlier runs, on a "
+                   "loaded machine where numpy's import took 0.2 s, gave 0.89–0.96×.  typer renders its help with "
+                   "rich: `typer.rich_utils` imports `rich.markdown` (with markdown_it) and `rich.traceback`, about "
+                   "0.07 s of the 0.12 s (`python -X importtime`, 2026-11-24).")
+    o = pr.get("output", {})
+    sel = {k: v for k, v in o.items() if isinstance(v, dict)}
+    if "all signals" in sel:
+        a = sel["all signals"]
+        cheap = [f"{k} ({v['signals']} signals) {v['total_us']:.2f} µs" for k, v in sel.items() if k != "all signals"]
+        out.append(f"* An output row of every signal ({a['signals']}) costs {a['total_us']:.2f} µs with the HDF5 "
+                   f"file, {a['loop_us']:.2f} µs of it in the time loop: a row lies on the dense output between "
+                   "steps, where no integrator stage was evaluated, so its accelerations, reactions and driver "
+                   "efforts need one `accelerations` call (a Schur factorisation and solve) of their own, and "
+                   f"packing and writing its columns to the file {a['total_us'] - a['loop_us']:.2f} µs more.  Rows "
+                   "under 1 µs hold for signals that need no accelerations: " + ", ".join(cheap) + ".")
+    sw = pr.get("sweep", {})
+    if "case_seconds" in sw:
+        c = sw["case_seconds"]["-j 1"]
+        t1 = sw["times"]["-j 1"]
+        shared = t1 - sw["cases"] * c
+        bound = (shared + sw["cases"] * c) / (shared + sw["cases"] / 2 * c)
+        out.append(f"* `mbs sweep -j 2` is {sw['speedup']:.2f}× faster than `-j 1` on {sw['cases']} cases of about "
+                   f"{c:.2f} s each: both processes share about {shared:.2f} s that no worker can split (the "
+                   "interpreter, the command line, compiling each case once to check it, numba and the kernels' "
+                   f"machine code, the file), so even a `-j 2` with no cost of its own would be ({shared:.2f} + "
+                   f"{sw['cases']} × {c:.2f}) / ({shared:.2f} + {sw['cases'] // 2} × {c:.2f}) = {bound:.2f}× faster; "
+                   "the target needs longer cases or a shorter shared start-up.  A fork server started as the "
+                   "command's first step, loading the kernels on the other core while the sweep starts, was "
+                   "measured and not taken: a fresh interpreter needs 0.65–0.75 s to load them, longer than this "
+                   "process takes to reach its workers (pairs of the same evening: 1.21× with it, 1.37× without).")
+    return out + [""]
+
 
 TEXT_HEAD = """# Benchmarks: speed against accuracy, start-up, scale, stress
 
@@ -369,7 +443,9 @@ SKIP_TEXT = """* **No clearance joint → no contact code**: `accelerations` ski
   computed only for steps that hold an output time or where a cheap cubic-Hermite screening of the penetration
   (no extra stage) sees a possible mode change.
 * **Nothing stored that no one asked for**: `simulate(..., signals=[...])` keeps only the named signals or
-  entities in memory and in the file; the output step decides how often the (compiled) observation runs.
+  entities in memory and in the file, and the (compiled) observation computes only the groups they read:
+  without the bodies' accelerations, joint reactions and driver efforts, no `accelerations` per output row
+  (`signals.skip_bits`); the output step decides how often the observation runs.
 * **No heavy import in a command that does not use it**: see the table at the end of this section.
 """
 
