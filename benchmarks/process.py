@@ -203,7 +203,7 @@ def loop_stages(scipy_wall: float) -> dict:
     a per-model generated straight-line kernel would at best be, so replacing the library's rhs cost by
     the yardstick's bounds what code generation could bring to the whole loop."""
     import planar_mbs as mbs
-    import run as R
+    from rhs_cost import section_rhs
 
     model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
     t_end = 5 * REV
@@ -215,7 +215,7 @@ def loop_stages(scipy_wall: float) -> dict:
 
     full, n_rhs, rows = best(10e-6)
     end, n_rhs_end, _ = best(t_end)
-    rhs = R.section_rhs()
+    rhs = section_rhs()
     lib = (rhs["free flight"]["library"] + rhs["contact"]["library"]) / 2 * 1e-6
     hand = (rhs["free flight"]["hand"] + rhs["contact"]["hand"]) / 2 * 1e-6
     stages = {"outputs (observation of 53 signals per row)": full - end, "right-hand sides": n_rhs_end * lib,
