@@ -4,6 +4,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 from planar_mbs.kernel.jit import KERNEL_SOURCES
 
 KERNEL = Path(__file__).resolve().parents[1] / "planar_mbs" / "kernel"
@@ -22,3 +24,33 @@ def test_every_module_a_kernel_imports_is_hashed_into_the_cache_stamp():
             for name in names:
                 dep = (KERNEL.parent / (name.replace(".", "/") + ".py")).resolve()
                 assert dep in hashed, f"{src.name} imports {name}, not in KERNEL_SOURCES"
+
+
+@pytest.mark.slow
+def test_a_run_compiles_each_row_writing_kernel_once(tmp_path):
+    """The time loop and `_emit` (the one place the observation row is compiled, `observe` inlined) have
+    one signature after runs of every integrator, with and without a file and through `Simulation`:
+    a literal argument (a constant 0 count, a True/False flag) would make numba compile `_emit` once
+    more per literal, each copy holding the whole observation.  In a fresh process with an empty
+    cache (a dispatcher loaded from the cache lists no overloads of the kernels it calls): about
+    a minute of compilation."""
+    import os
+    import subprocess
+    import sys
+
+    code = f"""
+import planar_mbs as mbs
+from planar_mbs.kernel import loop
+m = mbs.load_model({str(KERNEL.parents[1] / 'models' / 'slider_crank_clearance_a.mbs')!r})
+for integ in ("dopri5", "dop853", "rk4"):
+    mbs.simulate(m, t_end=2e-3, integrator=integ, step=1e-6)
+mbs.simulate(m, t_end=2e-3, output={str(tmp_path / 'a.h5')!r}, signals=["A"])
+with mbs.Simulation(m, t_end=2e-3) as sim:
+    sim.step("1 ms")
+    sim.run()
+print(len(loop.advance.overloads), len(loop._emit.overloads), len(loop.observe.overloads))
+"""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=1800, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["1", "1", "0"]  # the public `observe`: compiled only when Python calls it

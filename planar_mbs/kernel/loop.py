@@ -283,34 +283,51 @@ def _observe_dynamics(km, t, q, qd, ws, row, cqdd, cjoint, ceffort, cpower):
         row[cpower + d] = eff * fd
 
 
+# `observe` inlined at its one call site in the time loop (`_emit`, which writes every row of a run): a
+# call that is not inlined passes every array of the model and workspace tuples, about 0.2 us per row
+# (kernel/jit.py).  One call site, so one more copy of it to compile: the public `observe` is compiled
+# only when Python calls it (tests).
+observe_inlined = kernel(observe.py_func, inline=True)
+
+
 @kernel
-def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw):
-    """Write the grid outputs inside the kept part of the last step.
-    Returns (status, n_written, pending)."""
+def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t1, y1):
+    """Write the grid outputs inside the kept part of the last step (t1 = NaN); or, with a time t1, only
+    the row at (t1, y1) into out[nw] (the first row of a run, a last sample off the grid; the caller
+    keeps the output count).  Returns (status, n_written, pending).  (A time rather than a flag, and
+    never a constant count: numba compiles a function once more for each literal argument.)"""
     dto = cfg[CFG_OUTPUT_STEP]
     ta = ws.dense[DN_TA]
     h = ws.dense[DN_H]
     tend = ws.dense[DN_T_END]
     cap = out_t.shape[0]
+    single = not math.isnan(t1)
     while True:
         k = stats[ST_OUTPUTS]
-        tk = t0 + k * dto
-        if tk > tend + GRID_TOL * dto:
-            return 0, nw, False
-        if nw >= cap:
-            return 0, nw, True
-        th = (min(tk, tend) - ta) / h
-        if ws.flags[FL_DENSE_METHOD] == DOP853_CODE:
-            st = dop853_dense_prepare(km, cfg, contact, ws, stats)
-            if st != 0:
-                return st, nw, False
-        dense_eval(ws, th, ws.yt)
-        st = observe(km, cfg, tk, ws.yt, contact, ws, out[nw])
+        tk = t1
+        if single:
+            for i in range(y1.shape[0]):
+                ws.yt[i] = y1[i]
+        else:
+            tk = t0 + k * dto
+            if tk > tend + GRID_TOL * dto:
+                return 0, nw, False
+            if nw >= cap:
+                return 0, nw, True
+            th = (min(tk, tend) - ta) / h
+            if ws.flags[FL_DENSE_METHOD] == DOP853_CODE:
+                st = dop853_dense_prepare(km, cfg, contact, ws, stats)
+                if st != 0:
+                    return st, nw, False
+            dense_eval(ws, th, ws.yt)
+        st = observe_inlined(km, cfg, tk, ws.yt, contact, ws, out[nw])
         if st != 0:
             stats[ST_INFO] = ws.sstats[ST_INFO]
             return st, nw, False
         out_t[nw] = tk
         nw += 1
+        if single:
+            return 0, nw, False
         stats[ST_OUTPUTS] = k + 1
 
 
@@ -386,7 +403,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     nj = km.joint_type.shape[0]
     nd = km.driver_type.shape[0]
     cap = out_t.shape[0]
-    nw = 0
+    nw = cap - cap  # 0, but not a constant: `_emit(..., nw, ...)` with a literal 0 is compiled once more
     method = int(cfg[CFG_METHOD])
     dto = cfg[CFG_OUTPUT_STEP]
     nobs = layout(nb, nj, nd, nc)[OB_SIZE]
@@ -402,7 +419,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     t = clock[0]
     # finish the last step of the previous call
     if ws.flags[FL_PENDING_OUTPUTS] == 1:
-        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw)
+        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, math.nan, y)
         if st != 0:
             return st, nw
         if pending:
@@ -414,12 +431,9 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         clock[1] = min(clock[1], hcap)
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
-        st = observe(km, cfg, t, y, contact, ws, out[0])
+        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
-            stats[ST_INFO] = ws.sstats[ST_INFO]
             return st, 0
-        out_t[0] = t
-        nw = 1
         stats[ST_OUTPUTS] = 1
     if not _all_finite(y):
         return NONFINITE, nw
@@ -560,7 +574,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         t = tnew
         clock[0] = t
         clock[1] = h
-        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw)
+        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, math.nan, y)
         if st != 0:
             return st, nw
         if pending:
@@ -593,12 +607,9 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         if nw >= cap:
             clock[1] = h
             return BUFFER_FULL, nw
-        st = observe(km, cfg, t, y, contact, ws, out[nw])
+        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
-            stats[ST_INFO] = ws.sstats[ST_INFO]
             return st, nw
-        out_t[nw] = t
-        nw += 1
         ws.dense[DN_FINAL_SAMPLE] = t_stop
     clock[1] = h
     return DONE, nw
