@@ -54,3 +54,50 @@ print(len(loop.advance.overloads), len(loop._emit.overloads), len(loop.observe.o
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=1800, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["1", "1", "0"]  # the public `observe`: compiled only when Python calls it
+
+
+CACHED_LOAD = """
+import llvmlite.binding as ll
+import numpy as np
+parsed = []
+parse_bitcode = ll.parse_bitcode
+ll.parse_bitcode = lambda data: parsed.append(len(data)) or parse_bitcode(data)
+from numba import njit
+import planar_mbs.kernel.jit as jit
+from planar_mbs.kernel.dynamics import kinetic_energy2
+loads = []
+unserialize = jit._unserialize
+jit._unserialize = lambda codegen, state: loads.append(state) or unserialize(codegen, state)
+minv, qd = np.array([0.5, 2.0, 4.0]), np.array([1.0, 2.0, -3.0])
+print(kinetic_energy2(minv, qd), len(parsed))
+@njit
+def twice(m, v):
+    return 2.0 * kinetic_energy2(m, v)
+print(twice(minv, qd), len(parsed))
+library = kinetic_energy2.overloads[kinetic_energy2.signatures[0]].library
+module = library._get_module_for_linking()
+linked = {f.name for f in module.functions if not f.is_declaration}
+linked |= {g.name for g in module.global_variables if not g.is_declaration}
+print(jit.defined_symbols(loads[0][2][0]) == linked if loads else "compiled")  # object code of the cache
+"""
+
+
+def test_a_cached_kernel_loads_without_parsing_its_bitcode_and_still_links(tmp_path):
+    """A kernel loaded from the cache does not parse its linking bitcode (`jit._unserialize`), gives the
+    same answer, and a new function compiled against it still links (the bitcode parsed then); the
+    symbols read from the object file are the ones numba takes from that bitcode."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    expected = 1.0 / 0.5 + 4.0 / 2.0 + 9.0 / 4.0  # q'^T M q', M = 1 / minv
+    runs = [subprocess.run([sys.executable, "-c", CACHED_LOAD], capture_output=True, text=True, timeout=600, env=env)
+            for _ in range(2)]
+    for run in runs:
+        assert run.returncode == 0, run.stderr
+    value, parsed_before = runs[1].stdout.split("\n")[0].split()
+    assert float(value) == expected and parsed_before == "0"  # loaded from the cache, nothing parsed
+    value, parsed_after = runs[1].stdout.split("\n")[1].split()
+    assert float(value) == 2 * expected and int(parsed_after) >= 1  # linking parsed the bitcode
+    assert runs[1].stdout.split("\n")[2] == "True"
