@@ -1,6 +1,7 @@
 """Start-up, skipped work, scaling and stress sections of benchmarks/run.py."""
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -49,7 +50,7 @@ def section_startup() -> dict:
     out["run_warm_overhead"], out["run_warm_total"], out["run_warm_loop"] = runs[len(runs) // 2]
     # phases inside one process (warm cache)
     code = r"""
-import time; T0 = time.perf_counter(); laps = {}
+import json, time; T0 = time.perf_counter(); laps = {}
 def lap(k, t=[T0]):
     now = time.perf_counter(); laps[k] = now - t[0]; t[0] = now
 import numpy; lap("python + numpy")
@@ -61,10 +62,10 @@ import numba; lap("numba import")
 from planar_mbs import kernel; lap("kernel modules (dispatchers, not yet loaded)")
 r = mbs.simulate(m, output=%r); lap("simulate: first compiled call (numba target + cache load), time loop, HDF5")
 laps["of which time loop"] = r.attrs["wall_time"]
-print(repr(laps))
+print(json.dumps(laps))
 """ % (model, str(tmp / "b.h5"))
     wall, stdout = _wall([PY, "-c", code])
-    out["phases"] = eval(stdout.strip().splitlines()[-1])  # noqa: S307 - our own dict literal
+    out["phases"] = json.loads(stdout.strip().splitlines()[-1])
     # first run: an empty numba cache directory
     cold = tmp / "numba_cache"
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cold))

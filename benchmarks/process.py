@@ -272,7 +272,7 @@ def chain_text(n: int, length: float = 0.1, mass: float = 0.1) -> str:
 
 
 CHAIN_PHASES = r"""
-import time, sys
+import json, time, sys
 T0 = time.perf_counter(); laps = {}
 def lap(k, t=[T0]):
     now = time.perf_counter(); laps[k] = now - t[0]; t[0] = now
@@ -291,7 +291,7 @@ t0 = time.perf_counter(); r = mbs.simulate(m, output=sys.argv[2]); fil = time.pe
 laps["loop"] = r.attrs["wall_time"]
 laps["writing"] = max(fil - mem, 0.0)
 laps["process"] = time.perf_counter() - T0
-print(repr(laps))
+print(json.dumps(laps))
 """
 
 
@@ -301,7 +301,7 @@ def chain40(tmp: Path, n: int = 40) -> dict:
     out = subprocess.run([PY, "-c", CHAIN_PHASES, str(path), str(tmp / "chain.h5")], capture_output=True, text=True)
     if out.returncode:
         raise RuntimeError(out.stderr[-3000:])
-    laps = eval(out.stdout.strip().splitlines()[-1])  # noqa: S307 - our own dict literal
+    laps = json.loads(out.stdout.strip().splitlines()[-1])
     import h5py
 
     with h5py.File(tmp / "chain.h5", "r") as f:

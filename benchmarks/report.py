@@ -295,7 +295,9 @@ pint (units from a table of our own, each entry tested against pint; pint only f
 `mbs run MODEL [OPTIONS]` bypasses typer too (`cli/run_command.py`; any other command line still goes to typer).
 A cached kernel loads without numba's target-context refresh, which imported every implementation numba has
 (scipy.linalg among them) and compiled its reference-counting runtime, none of which the kernels' machine code
-calls (`kernel/jit.py`).  The modules defining typer commands no longer postpone their annotations; a command that
+calls (`kernel/jit.py`), and without parsing its linking bitcode (0.8 MB for the time loop, 40–60 ms), which numba
+needs only to compile another function against it: the symbols come from the object file's symbol table (warm
+`mbs run` 0.458 → 0.400 s, 2026-11-25).  The modules defining typer commands no longer postpone their annotations; a command that
 only prints ends without the interpreter's teardown, as `run` does; the CLI keeps BLAS on one thread.
 `benchmarks/process.py` writes the package's byte-code before its rounds, as pip does at install (an editable
 install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process: measured 2026-11-24, `mbs check`
@@ -357,14 +359,20 @@ def process_notes(pr) -> list[str]:
         shared = t1 - sw["cases"] * c
         bound = (shared + sw["cases"] * c) / (shared + sw["cases"] / 2 * c)
         out.append(f"* `mbs sweep -j 2` is {sw['speedup']:.2f}× faster than `-j 1` on {sw['cases']} cases of about "
-                   f"{c:.2f} s each: both processes share about {shared:.2f} s that no worker can split (the "
-                   "interpreter, the command line, compiling each case once to check it, numba and the kernels' "
-                   f"machine code, the file), so even a `-j 2` with no cost of its own would be ({shared:.2f} + "
+                   f"{c:.2f} s each: both processes spend about {shared:.2f} s outside the cases' own computation "
+                   "(the interpreter, the command line, compiling each case once to check it, numba and the kernels' "
+                   "machine code, the file, and writing each case's signals: 17 MB a case, 0.05 s in `-j 1`), "
+                   f"so even a `-j 2` with no cost of its own would be ({shared:.2f} + "
                    f"{sw['cases']} × {c:.2f}) / ({shared:.2f} + {sw['cases'] // 2} × {c:.2f}) = {bound:.2f}× faster; "
                    "the target needs longer cases or a shorter shared start-up.  A fork server started as the "
                    "command's first step, loading the kernels on the other core while the sweep starts, was "
                    "measured and not taken: a fresh interpreter needs 0.65–0.75 s to load them, longer than this "
-                   "process takes to reach its workers (pairs of the same evening: 1.21× with it, 1.37× without).")
+                   "process takes to reach its workers (pairs of the same evening: 1.21× with it, 1.37× without).  "
+                   "Traced on 2026-11-25: under `-j 2` each worker writes its case file (0.02–0.06 s) and the parent "
+                   "copies it in (0.05–0.1 s while both workers compute, three processes on two cores, against 6 ms "
+                   "on an idle core): the 139 MB of this sweep's output are written twice, and the parent's copies "
+                   "take time from the workers.  With `--keep` naming the signals needed, the output and its cost "
+                   "shrink in both.")
     return out + [""]
 
 
