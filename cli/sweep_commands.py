@@ -24,25 +24,15 @@ from .common import MAX_JOBS, MAX_REVOLUTIONS, check_number, check_output, check
 
 def _check_sweep_files(model: Path, output: Path, sets: list[str], keep: Optional[list[str]]) -> None:
     """Before any case runs: the output is not the model or a file it includes and can be written;
-    every `--keep` name is a signal of the model."""
-    from planar_mbs.errors import ModelError
-
+    every `--keep` name is a signal or an entity of the model."""
     inputs = [("the model file" if i == 0 else "a file the model includes", f)
               for i, f in enumerate(model_files(model))]
     check_output(output, "--output", inputs)
     if keep:
         from planar_mbs import load_model
-        from planar_mbs.signals import signal_table
+        from planar_mbs.sweep import kept_signals
 
-        names = [s.name for s in signal_table(load_model(model, **_sets(sets)))]
-        for name in keep:
-            if name not in names:
-                from planar_mbs.errors import did_you_mean
-
-                entity = [n for n in names if n.startswith(name + ".")]
-                hint = (f"`--keep` takes full signal names: {', '.join(entity[:6])}" if entity
-                        else did_you_mean(name, names) or "`mbs plot FILE.h5 --list` lists the signals of a run")
-                raise ModelError(f"`--keep {name}`: the model has no signal `{name}`", "--keep", hint=hint)
+        kept_signals(load_model(model, **_sets(sets)), keep)  # signal or entity names, as the sweep reads them
 
 
 def _pair(text: Optional[str]) -> Optional[list[str]]:

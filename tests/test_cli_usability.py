@@ -165,3 +165,17 @@ def test_analyze_without_section_points_prints_no_numpy_warning(tmp_path):
         warnings.simplefilter("error")  # a RuntimeWarning would now fail the command
         r = runner.invoke(app, ["analyze", str(out)])
     assert r.exit_code == 0 and "0 points" in r.output and "run longer" in r.output, r.output
+
+
+def test_sweep_keep_takes_an_entity_name_as_its_help_says(tmp_path):
+    """`--keep slider` stores every signal of the slider and nothing else (the help: "an entity
+    name (slider) keeps all its signals"); the case's stored names are read back with h5py."""
+    out = tmp_path / "k.h5"
+    res = runner.invoke(app, ["sweep", str(MODELS / "slider_crank_clearance_a.mbs"), "-P", "speed=4000rpm,5000rpm",
+                              "-n", "2", "--per-rev", "36", "-j", "1", "-q", "--keep", "slider", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    with h5py.File(out, "r") as f:
+        for case in f["cases"].values():
+            entities = set(case["signals"].keys())
+            assert entities == {"slider"}, entities
+            assert {"x", "vx", "ax"} <= set(case["signals"]["slider"].dtype.names)

@@ -38,7 +38,7 @@ SWEEP_CASES = (
     + [("--transient", v) for v in ["-1", "nan", "inf"]]
     + [("--period", v) for v in ["0", "-1ms", "nan ms", "3 kg"]]
     + [("--angle", v) for v in ["nan deg", "inf deg", "90 kg"]]
-    + [("--keep", v) for v in ["slider.xx", "slidr.x", "slider", "crank.phi,slider.vv", "time", "slider.x,,nope"]]
+    + [("--keep", v) for v in ["slider.xx", "slidr.x", "slidr", "crank.phi,slider.vv", "time", "slider.x,,nope"]]
     + [("--param", v) for v in ["speed", "speed=", "=1rpm", "speed=1rpm..2rpm:0", "speed=1..2",
                                 "speed=1rpm..2kg:3", "speed=1rpm,1rpm"]]
 )
