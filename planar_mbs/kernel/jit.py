@@ -43,7 +43,7 @@
   make no BLAS call and need none of it.
 * A cached kernel's library loads without parsing its linking bitcode (`_unserialize`), which numba
   needs only to compile another function against it; its defined symbols are read from the object
-  file's symbol table: 60 ms of a warm `mbs run` (the time loop's library is 0.8 MB of bitcode).
+  file's symbol table: 40-60 ms of a warm `mbs run` (the time loop's library is 0.8 MB of bitcode).
 """
 from __future__ import annotations
 
@@ -124,7 +124,7 @@ def defined_symbols(object_code: bytes) -> set[str] | None:
 
 def _unserialize(codegen, state):
     """numba's loading of a cached library (`CPUCodeLibrary._unserialize`), without parsing the
-    library's linking bitcode unless another function is compiled against it: that parse was 60 ms
+    library's linking bitcode unless another function is compiled against it: that parse was 40-60 ms
     of a warm `mbs run` (the time loop's library is 0.8 MB of bitcode), and a run compiles nothing.
     The defined symbols come from the object file's symbol table instead."""
     from functools import partial
