@@ -23,7 +23,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
               step: str | None = None, quiet: bool = False, rerun: Path | None = None, magnify: float = 10.0,
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
-              until_settled: bool = False, max_revolutions: int = 2000) -> int:
+              until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as `app.run`'s); the exit code."""
     from planar_mbs import simulate
     from planar_mbs.compile import load_model
@@ -55,6 +55,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         changes.update(revolutions=revolutions, per_rev=per_rev)
         if integrator is not None:
             integrator_of(integrator, "--integrator")
+        signals = _kept(m, keep, rerun, until_settled)
         rerun_signals = check_choice(rerun_signals, ("envelope", "full"), "--rerun-signals")
         check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
@@ -75,7 +76,8 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
             res = _run_until_settled(m, out, max_revolutions, quiet, changes)
         else:
             with _Progress(quiet) as progress:
-                res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, **changes)
+                res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, signals=signals,
+                               **changes)
     except SimulationError as err:
         if err.results is not None:
             _print_summary(err.results, out)
@@ -100,6 +102,26 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     return 0
 
 
+
+
+def _kept(model, keep: str | None, rerun: Path | None, until_settled: bool) -> list[str] | None:
+    """The signal names of ``--keep`` (None: every signal), checked against the model before the run:
+    full names (``slider.vx``) or entities (``slider``), as `mbs sweep --keep` reads them."""
+    from planar_mbs.errors import ModelError
+
+    if keep is None:
+        return None
+    names = [k.strip() for k in keep.split(",") if k.strip()]
+    if not names:
+        raise ModelError("--keep names no signal", "--keep", hint="e.g. `--keep slider.x,slider.vx` or `--keep slider`")
+    for other, flag in ((rerun is not None, "--rerun"), (until_settled, "--until-settled")):
+        if other:
+            raise ModelError(f"give --keep or {flag}, not both", "--keep",
+                             hint=f"{flag} needs every signal (the mechanism's motion, the Poincaré section)")
+    from planar_mbs.sweep import kept_signals
+
+    kept_signals(model, names)
+    return names
 
 
 def record_run(*args, **kwargs):
@@ -181,7 +203,8 @@ def _print_summary(res, out: Path) -> None:
     from .check_command import print_assembly
 
     a = res.attrs
-    worst = peak(res, "system.position_error") if "system.position_error" in res.signals else float("nan")
+    worst = (f"{peak(res, 'system.position_error'):.3g}" if "system.position_error" in res.signals
+             else "not kept (--keep)")
     con = _console()
     state = "finished" if a.get("complete") else f"stopped ({a.get('status', '?')})"
     con.print(f"[bold]{state}[/] at t = {a.get('t_reached', float('nan')):.6g} s → {out}")
@@ -190,7 +213,7 @@ def _print_summary(res, out: Path) -> None:
         f"rhs evaluations {a.get('n_rhs', 0):,}   contact events {a.get('n_contact_events', 0):,}"
     )
     con.print(f"  time-loop wall time {a.get('wall_time', 0.0):.3f} s   "
-              f"largest constraint error {worst:.3g}   outputs {row_count(res):,}")
+              f"largest constraint error {worst}   outputs {row_count(res):,}")
     print_assembly(list(a.get("assembly_changes", [])))
     for warning in a.get("warnings") or []:
         _console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
@@ -256,6 +279,7 @@ _OPTIONS = {
     "--force": ("force", "flag", None),
     "--until-settled": ("until_settled", "flag", None),
     "--max-revolutions": ("max_revolutions", "int", 1),
+    "--keep": ("keep", "str", None),
 }
 
 

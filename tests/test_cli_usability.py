@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 import typer
 from typer.testing import CliRunner
@@ -179,3 +180,34 @@ def test_sweep_keep_takes_an_entity_name_as_its_help_says(tmp_path):
             entities = set(case["signals"].keys())
             assert entities == {"slider"}, entities
             assert {"x", "vx", "ax"} <= set(case["signals"]["slider"].dtype.names)
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_run_keep_stores_only_the_named_signals_with_the_values_of_a_full_run(tmp_path, fast):
+    """`mbs run --keep slider.vx,crank` (the typer-free path and typer's) stores those signals only,
+    each equal to the same signal of a run that keeps everything; the summary still prints."""
+    full, kept = tmp_path / "full.h5", tmp_path / "kept.h5"
+    args = ["run", str(IDEAL), "-q", "--t-end", "2ms"]
+    assert runner.invoke(app, args + ["-o", str(full)]).exit_code == 0
+    if fast:
+        from planar_mbs.cli.run_command import plain_run, run_model
+
+        kwargs = plain_run(args + ["--keep", "slider.vx,crank", "-o", str(kept)])
+        assert kwargs is not None and run_model(**kwargs) == 0
+    else:
+        r = runner.invoke(app, args + ["--keep", "slider.vx, crank", "-o", str(kept)])
+        assert r.exit_code == 0, r.output
+        assert "largest constraint error not kept (--keep)" in " ".join(r.output.split())
+    a, b = read_results(full), read_results(kept)
+    crank = {name for name in a.signals if name.startswith("crank.")}
+    assert set(b.signals) == {"slider.vx"} | crank and len(crank) >= 6
+    np.testing.assert_array_equal(b.time, a.time)
+    for name in b.signals:
+        np.testing.assert_array_equal(b[name], a[name])
+
+
+@pytest.mark.parametrize("other", [["--rerun", "r.rrd"], ["--until-settled"]])
+def test_run_keep_with_an_option_that_needs_every_signal_is_refused(tmp_path, other):
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--keep", "slider", "-o", str(tmp_path / "k.h5"), *other])
+    assert r.exit_code == 2 and "--keep" in r.output, r.output
+    assert not (tmp_path / "k.h5").exists()

@@ -111,6 +111,7 @@ def test_a_refused_run_exits_with_its_code_through_the_executable(tmp_path):
     ["run", "m.mbs", "-n", "3", "--per-rev", "720", "--magnify", "0", "--fps", "600", "--rerun", "r.rrd",
      "--rerun-signals", "full", "--view"],
     ["run", "m.mbs", "--until-settled", "--max-revolutions", "300", "--revolutions=.5"],
+    ["run", "m.mbs", "--keep", "slider.vx,crank", "-q"], ["run", "m.mbs", "--keep=slider"],
 ])
 def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     """What `plain_run` reads is exactly what the typer command hands to `run_model`."""

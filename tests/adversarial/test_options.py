@@ -18,6 +18,7 @@ RUN_CASES = (
     + [("--rerun-signals", v) for v in ["fulll", "all", "envelop", "none"]]
     + [("--magnify", v) for v in ["nan", "inf", "-1"]]
     + [("--fps", v) for v in ["0", "-30", "nan", "inf"]]
+    + [("--keep", v) for v in ["slider.xx", "slidr", "", " , ", "time", "slider.x,,nope"]]
 )
 
 
