@@ -74,7 +74,8 @@ def simulate(model, output=None, progress=None, signals=None, **settings):
     ``revolutions=5`` and ``per_rev=360`` count in periods of the crank's driver.  ``output``
     writes an HDF5 file as the run goes; ``signals`` keeps only the named signals or entities
     (and the time loop computes only what they read: no accelerations, reactions or driver efforts
-    asked for, no `accelerations` call per output row); ``progress(t, t_end)`` is called after each chunk.  See `planar_mbs.simulation.simulate`."""
+    asked for, no `accelerations` call per output row); ``progress(t, t_end)`` is called after each
+    chunk.  See `planar_mbs.simulation.simulate`."""
     from .simulation import simulate as _simulate
 
     return _simulate(model, output=output, progress=progress, signals=signals, **settings)

@@ -334,6 +334,16 @@ def _check_rows(model: Model, settings: Settings, max_rows: float) -> None:
                          "max_rows (math.inf: no limit) to run it anyway")
 
 
+def signal_selection(model: Model, signals, cfg: np.ndarray):
+    """(table, kept observation columns or None) of a run that keeps `signals` (None: all), with
+    cfg[CFG_SKIP] set so that the time loop computes only the groups of the row they read."""
+    table, cols = signal_table(model), None
+    if signals is not None:
+        table, cols = select_signals(table, list(signals))
+    cfg[CFG_SKIP] = skip_bits(model, cols)
+    return table, cols
+
+
 def select_signals(table, wanted):
     """The signals of `table` named in `wanted` (full names ``slider.x`` or whole
     entities ``slider``), with their columns renumbered onto the kept columns.
@@ -393,11 +403,7 @@ def simulate(
     rows_held = flush_rows(nobs) if output is not None else BUFFER_ROWS
     out_t = np.zeros(rows_held)
     out = np.zeros((rows_held, nobs))
-    table = signal_table(model)
-    cols = None
-    if signals is not None:
-        table, cols = select_signals(table, list(signals))
-    cfg[CFG_SKIP] = skip_bits(model, cols)  # the time loop computes only what the kept signals read
+    table, cols = signal_selection(model, signals, cfg)
 
     # compile (or load from the cache) outside the timed loop, on throw-away copies
     advance(km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
@@ -551,10 +557,7 @@ class Simulation:
         self._ws = make_workspace(self._km)
         nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
         self._out_t, self._out = np.zeros(BUFFER_ROWS), np.zeros((BUFFER_ROWS, nobs))
-        self._table, self._cols = signal_table(model), None
-        if signals is not None:
-            self._table, self._cols = select_signals(self._table, list(signals))
-        self._cfg[CFG_SKIP] = skip_bits(model, self._cols)
+        self._table, self._cols = signal_selection(model, signals, self._cfg)
         self._where = {s.name: s for s in self._table}
         self._times: list[np.ndarray] = []
         self._blocks: list[np.ndarray] = []

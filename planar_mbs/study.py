@@ -39,9 +39,7 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
     motion runs to the end, since chaos can stop after hundreds of revolutions).  ``signals`` keeps only
     those signals (names or entities, as in `simulate`)."""
     from .section import driver_period, settling_of_results
-    from .model import CFG_SKIP
-    from .signals import skip_bits
-    from .simulation import select_signals
+    from .simulation import signal_selection
 
     found = driver_period(model)
     if found is None:
@@ -50,10 +48,7 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
         raise ModelError("a run by revolutions needs a rotation driver at constant speed", model.source_path)
     period = found[0]
     st = Stepper(model, output_step=period / per_rev, t_end=revolutions * period, **settings)
-    table, cols = st.table, None
-    if signals is not None:
-        table, cols = select_signals(st.table, list(signals))
-        st.cfg[CFG_SKIP] = skip_bits(model, cols)  # the time loop computes only what they read
+    table, cols = signal_selection(model, signals, st.cfg)
     times, blocks = [], []
     settled, done = None, 0
     start = time.perf_counter()

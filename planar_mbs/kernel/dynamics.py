@@ -334,10 +334,11 @@ def project(km, t, y, ws, stats):
     if st != 0:
         return st
     multipliers(km, ws, ws.dl)
-    before = kinetic_energy2(minv, qd)
+    restore = ws.flags[FL_REG_SEEN] == 1 and ws.solver[4] != 0.0
+    before = kinetic_energy2(minv, qd) if restore else 0.0
     for r in range(m):
         jac_t_sub(ws, r, ws.dl[r], minv, 1.0, qd)
-    if ws.flags[FL_REG_SEEN] == 1 and ws.solver[4] != 0.0:
+    if restore:
         restore_kinetic_energy(minv, qd, before, ws.Ct)
     ws.flags[FL_REG_SEEN] = 0
     return 0
