@@ -5,7 +5,8 @@ typer: typer's argument handling imports pydantic, which costs more than parsing
 assembling a model.  Likewise a plain ``mbs run MODEL [OPTIONS]`` that `run_command.plain_run` reads
 completely runs `run_command.run_model`.  Every other command line (another command, ``--help``, an
 unusual spelling of an option, a mistake) goes unchanged to the typer app in `app`, which owns usage,
-help and errors.
+help and errors.  ``mbs sweep`` on several cores first starts the fork server of its workers
+(`planar_mbs.sweep_server`), so that they load the kernels while typer reads the command line.
 
 BLAS runs on one thread in this process (unless the user set it): its solves here are small dense
 ones (assembly, Poincaré analysis), for which starting a thread pool per core costs more than it saves.
@@ -70,6 +71,11 @@ def leave(code, printed_only: bool = False) -> None:
 
 
 def main() -> None:
+    if sys.argv[1:2] == ["sweep"]:
+        from planar_mbs import sweep_server
+
+        if sweep_server.wanted(sys.argv[2:], os.cpu_count()):
+            sweep_server.start()  # the workers' kernels load on another core while typer reads the command
     args = plain_check(sys.argv[1:])
     if args is None and sys.argv[1:2] == ["run"]:
         from .run_command import plain_run, run_plain

@@ -605,19 +605,22 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
 def default_executor(jobs: int | None) -> Executor:
     """A local process pool of ``jobs`` long-lived workers (default: the number of cores).
 
-    In a process that has loaded the kernels (`run_sweep` does, `sweep_worker.warm_up`), on Linux
-    each worker is a fork of it that runs cases at once: no second interpreter start-up before the
-    first case (a forkserver's cost a second, as long as three short cases).  Otherwise, with the
-    forkserver (Linux, macOS), the server imports `planar_mbs.sweep_worker` once and the workers are
-    forks of it; elsewhere (spawn) each worker loads them on its first case."""
+    When `mbs sweep` started the fork server at its first line (`sweep_server`), the workers are
+    forks of that server, which has loaded the kernels meanwhile.  Otherwise, in a process that has
+    loaded the kernels (`run_sweep` does, `sweep_worker.warm_up`), on Linux each worker is a fork of
+    it that runs cases at once: no second interpreter start-up before the first case.  Otherwise,
+    with the forkserver (Linux, macOS), the server imports `planar_mbs.sweep_worker` once and the
+    workers are forks of it; elsewhere (spawn) each worker loads them on its first case."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    from .sweep_worker import kernels_loaded
+    from .sweep_server import kernels_loaded, started  # not sweep_worker: importing it loads the kernels
 
     jobs = jobs or os.cpu_count() or 1
     methods = mp.get_all_start_methods()
-    if sys.platform.startswith("linux") and kernels_loaded():  # forks of this process have it all loaded
+    if started():  # its preload is `sweep_worker`
+        ctx = mp.get_context("forkserver")
+    elif sys.platform.startswith("linux") and kernels_loaded():  # forks of this process have it all loaded
         ctx = mp.get_context("fork")
     elif "forkserver" in methods:
         ctx = mp.get_context("forkserver")
@@ -886,9 +889,12 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
             results_iter = futures
         else:
             if executor is None:
-                from .sweep_worker import warm_up
+                from .sweep_server import started
 
-                warm_up()  # the kernels loaded here once; the pool's workers are forks of this process
+                if not started():  # the kernels loaded here once; the pool's workers are forks of this process
+                    from .sweep_worker import warm_up
+
+                    warm_up()
                 parts = _parts_folder(output)
                 pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
                 futures = [pool.submit(run_case_stored, s, parts, compression) for s in pending]

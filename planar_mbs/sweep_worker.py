@@ -1,5 +1,6 @@
-"""Loaded once by a sweep before its workers exist (`warm_up` in the sweep's process, or a
-forkserver's preload; see `sweep.default_executor`).
+"""Loaded once by a sweep before its workers exist (`warm_up` in the sweep's process, or the
+preload of the fork server that `mbs sweep` starts at its first line, `sweep_server`; see
+`sweep.default_executor`).  Importing this module loads the kernels.
 
 Everything a case needs is loaded here, before any worker exists: numba, the kernels and their
 compiled code (read from numba's cache by one short run of a small model), the analysis.  Each
@@ -39,13 +40,7 @@ def warm_up() -> None:
     _WARM.append(True)
 
 
-
-def kernels_loaded() -> bool:
-    """True in a process where the time loop's compiled code is already in memory (tests)."""
-    import sys
-
-    kernel = sys.modules.get("planar_mbs.kernel")
-    return kernel is not None and bool(kernel.advance.overloads)
-
-
-warm_up()
+try:
+    warm_up()
+except Exception:  # noqa: BLE001  a fork server must not die of it: each case then meets it and reports it
+    pass

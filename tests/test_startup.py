@@ -54,7 +54,7 @@ def test_fast_check_prints_and_exits_as_the_typer_command(argv):
 
 def test_sweep_workers_start_with_the_kernels_loaded():
     from planar_mbs.sweep import default_executor
-    from planar_mbs.sweep_worker import kernels_loaded
+    from planar_mbs.sweep_server import kernels_loaded
 
     with default_executor(1) as ex:
         assert ex.submit(kernels_loaded).result(timeout=600)

@@ -150,6 +150,17 @@ def test_library_sweep_refuses_a_locked_file_before_reading_it(tmp_path):
 
 
 # ---------------------------------------------------------------- the pool dies with its parent
+def busy(p) -> bool:
+    """A process that computes: a pool worker (the sweep's fork server and multiprocessing's
+    resource tracker are its descendants too, but wait)."""
+    import psutil
+
+    try:
+        return p.cpu_percent(interval=0.2) > 20
+    except psutil.NoSuchProcess:
+        return False
+
+
 @pytest.mark.slow
 def test_pool_workers_end_when_the_sweep_is_killed(tmp_path):
     import psutil
@@ -161,12 +172,6 @@ def test_pool_workers_end_when_the_sweep_is_killed(tmp_path):
     parent = psutil.Process(proc.pid)
     workers = []
     end = time.time() + 120
-    def busy(p):
-        try:
-            return p.cpu_percent(interval=0.2) > 20
-        except psutil.NoSuchProcess:
-            return False
-
     while time.time() < end:  # the pool's workers: busy descendants of the sweep
         busy_ones = [p for p in parent.children(recursive=True) if busy(p)]
         if len(busy_ones) >= 2:
@@ -183,6 +188,21 @@ def test_pool_workers_end_when_the_sweep_is_killed(tmp_path):
 
 
 # ---------------------------------------------------------------- a worker killed while it writes its case
+def pool_workers(sweep) -> list:
+    """The sweep's pool workers: its descendants that have no child of their own, other than
+    multiprocessing's resource tracker (the fork server, when there is one, is their parent)."""
+    import psutil
+
+    out = []
+    for p in sweep.children(recursive=True):
+        try:
+            if not p.children() and not any("resource_tracker" in a for a in p.cmdline()):
+                out.append(p)
+        except psutil.NoSuchProcess:
+            pass
+    return out
+
+
 @pytest.mark.slow
 def test_a_killed_pool_worker_stops_the_sweep_cleanly_and_it_resumes(tmp_path):
     """The pool's workers write their cases into files of their own beside the sweep file: one killed
@@ -196,7 +216,7 @@ def test_a_killed_pool_worker_stops_the_sweep_cleanly_and_it_resumes(tmp_path):
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert _wait_for_case(out, proc), "the sweep stored no case"
-        workers = psutil.Process(proc.pid).children(recursive=True)
+        workers = pool_workers(psutil.Process(proc.pid))
         assert workers, "no pool worker"
         os.kill(workers[0].pid, signal.SIGKILL)
         stdout, stderr = proc.communicate(timeout=HANG)

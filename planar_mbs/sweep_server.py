@@ -1,0 +1,75 @@
+"""The fork server of a local sweep's workers, started before anything else is loaded.
+
+Every worker of a local sweep needs numba and the compiled kernels (`sweep_worker`), about
+0.4 s of loading.  Loaded in the sweep's own process, they wait for the command line, the model
+and the check of every case (another 0.3 s), and both come before the first case: on a sweep of
+short cases that serial start is a third of the whole run with two workers.
+
+`start` launches multiprocessing's fork server at the first line of ``mbs sweep``, with
+`sweep_worker` as its preload: a fresh interpreter loads the kernels on another core while this
+process reads its command line, parses the model and checks the cases.  The pool's workers are
+then forks of that server (`sweep.default_executor`) and start their first case at once.  The
+server ends with this process (it watches a pipe that only this process holds open).
+"""
+from __future__ import annotations
+
+import sys
+
+_STARTED: list[bool] = []
+
+
+def start() -> bool:
+    """Start the fork server with the sweep's worker preloaded, once; False where there is none
+    (Windows) or it cannot start (the sweep then loads the kernels itself)."""
+    if _STARTED:
+        return True
+    import multiprocessing as mp
+
+    if "forkserver" not in mp.get_all_start_methods():
+        return False
+    try:
+        mp.get_context("forkserver").set_forkserver_preload(["planar_mbs.sweep_worker"])
+        from multiprocessing import forkserver
+
+        forkserver.ensure_running()
+    except (OSError, ValueError) as exc:  # no fork, no socket, a read-only temp folder: load them here
+        print(f"note: the sweep's worker server did not start ({exc}); loading the kernels here",
+              file=sys.stderr)
+        return False
+    _STARTED.append(True)
+    return True
+
+
+def started() -> bool:
+    """True once `start` has launched the server in this process."""
+    return bool(_STARTED)
+
+
+def kernels_loaded() -> bool:
+    """True in a process where the time loop's compiled code is already in memory (a pool forks
+    such a process; see `sweep.default_executor`)."""
+    kernel = sys.modules.get("planar_mbs.kernel")
+    return kernel is not None and bool(kernel.advance.overloads)
+
+
+def wanted(argv: list[str], cores: int | None) -> bool:
+    """Whether the ``mbs sweep`` arguments ``argv`` (after ``sweep``) ask for a local pool: no
+    ``--help``, no dask ``--scheduler``, and ``--jobs`` above 1 (its default is the number of
+    ``cores``).  A guess from the raw arguments, before typer reads them: when it is wrong, the
+    only cost is a server started for nothing (or a sweep that loads its kernels itself)."""
+    jobs = None
+    for i, a in enumerate(argv):
+        if a in ("--help", "--scheduler") or a.startswith("--scheduler="):
+            return False
+        if a in ("-j", "--jobs") and i + 1 < len(argv):
+            jobs = argv[i + 1]
+        elif a.startswith("--jobs="):
+            jobs = a[len("--jobs="):]
+        elif a.startswith("-j") and len(a) > 2:
+            jobs = a[2:]
+    if jobs is None:
+        return (cores or 1) > 1
+    try:
+        return int(jobs) > 1
+    except ValueError:
+        return False

@@ -1,0 +1,63 @@
+"""The fork server that `mbs sweep` starts at its first line (planar_mbs/sweep_server.py): when it
+starts, and that a sweep run through it stores what a sweep in one process stores."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from planar_mbs.sweep_server import wanted
+
+ROOT = Path(__file__).resolve().parents[1]
+IDEAL = str(ROOT / "models" / "slider_crank.mbs")
+
+
+@pytest.mark.parametrize("argv, cores, expected", [
+    (["m.mbs", "-P", "speed=1rpm,2rpm", "-o", "s.h5"], 2, True),  # --jobs defaults to the cores
+    (["m.mbs", "-P", "speed=1rpm,2rpm", "-o", "s.h5"], 1, False),
+    (["m.mbs", "-P", "speed=1rpm,2rpm", "-o", "s.h5"], None, False),
+    (["m.mbs", "-j", "2"], 1, True),
+    (["m.mbs", "-j", "1"], 8, False),
+    (["m.mbs", "-j1"], 8, False),
+    (["m.mbs", "-j4"], 1, True),
+    (["m.mbs", "--jobs=1"], 8, False),
+    (["m.mbs", "--jobs", "3"], 1, True),
+    (["m.mbs", "--jobs", "many"], 8, False),  # typer refuses it; no server for a usage error
+    (["m.mbs", "-j", "2", "--help"], 8, False),
+    (["m.mbs", "-j", "2", "--scheduler", "tcp://h:8786"], 8, False),  # dask's workers, not ours
+    (["m.mbs", "-j", "2", "--scheduler=tcp://h:8786"], 8, False),
+])
+def test_the_server_starts_only_for_a_local_pool(argv, cores, expected):
+    assert wanted(argv, cores) is expected
+
+
+SWEEP = ("import atexit, sys\n"
+         "atexit.register(lambda: print('NUMBA' if 'numba' in sys.modules else 'NO NUMBA', file=sys.stderr))\n"
+         "sys.argv = {argv!r}\nfrom planar_mbs.cli.entry import main\nmain()\n")
+
+
+def _sweep(out: Path, jobs: str):
+    argv = ["mbs", "sweep", IDEAL, "-P", "speed=800rpm..1600rpm:3", "-n", "4", "--per-rev", "90", "-j", jobs,
+            "-q", "-o", str(out)]
+    return subprocess.run([sys.executable, "-c", SWEEP.format(argv=argv)], capture_output=True, text=True,
+                          timeout=600, cwd=ROOT)
+
+
+def test_a_pool_sweep_leaves_the_kernels_to_its_server_and_stores_what_one_process_stores(tmp_path):
+    """With two jobs the sweep's own process never imports numba (its workers are forks of the
+    server, which loaded it); its cases are bit for bit those of a one-process sweep."""
+    pool, alone = _sweep(tmp_path / "pool.h5", "2"), _sweep(tmp_path / "alone.h5", "1")
+    assert pool.returncode == 0 and alone.returncode == 0, pool.stderr + alone.stderr
+    assert pool.stderr.rstrip().endswith("NO NUMBA"), pool.stderr  # the atexit line: a normal exit
+    assert "NO NUMBA" not in alone.stderr  # the one-process sweep ran its cases itself (os._exit: no line)
+    with h5py.File(tmp_path / "pool.h5", "r") as a, h5py.File(tmp_path / "alone.h5", "r") as b:
+        assert sorted(a["cases"]) == sorted(b["cases"]) == ["0", "1", "2"]
+        for k in a["cases"]:
+            ga, gb = a[f"cases/{k}"], b[f"cases/{k}"]
+            assert np.array_equal(ga["time"][()], gb["time"][()])
+            for name in gb["signals"]:
+                assert np.array_equal(ga[f"signals/{name}"][()], gb[f"signals/{name}"][()]), (k, name)
