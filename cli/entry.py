@@ -48,9 +48,11 @@ NEEDS_TEARDOWN = ("rerun", "distributed")
 def leave(code, printed_only: bool = False) -> None:
     """Exit with `code`.  Once numba's compiled kernels are loaded the interpreter's teardown
     takes 0.5-2 s of native finalisers and writes nothing of ours (results files are closed by
-    then), so the process ends at once after flushing its output.  So does a command that only
-    printed (``printed_only``: `mbs check`, a help text), for which the teardown of numpy's,
-    rich's and typer's modules is about a tenth of the process and finishes nothing.  A process
+    then), so the process ends at once after flushing its output.  So does a sweep whose pool came
+    from `planar_mbs.sweep_server` (no numba here, yet 0.2 s of teardown; the server and its
+    workers end with this process), and a command that only printed (``printed_only``: `mbs
+    check`, a help text), for which the teardown of numpy's, rich's and typer's modules is
+    about a tenth of the process and finishes nothing.  A process
     that loaded a module in NEEDS_TEARDOWN, or whose output is not a real file (a test runner),
     exits as usual."""
     if code is None:
@@ -58,7 +60,8 @@ def leave(code, printed_only: bool = False) -> None:
     elif not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
-    if not (printed_only or "numba" in sys.modules) or any(m in sys.modules for m in NEEDS_TEARDOWN):
+    pool = "planar_mbs.sweep_server" in sys.modules and sys.modules["planar_mbs.sweep_server"].started()
+    if not (printed_only or pool or "numba" in sys.modules) or any(m in sys.modules for m in NEEDS_TEARDOWN):
         sys.exit(code)
     try:
         sys.stdout.flush()
