@@ -316,7 +316,8 @@ Output rows: the time loop computes only the groups of the observation row that 
 the driver efforts, an output row makes no `accelerations` call of its own.  The results writer gathers each
 entity's records straight into buffers kept between writes, so HDF5 writes them without a conversion (a strided
 view had cost about 0.1 µs per row and entity), and `simulate` lets the time loop write its rows into the ~8 MB
-block that goes to the file next, in whole HDF5 chunks.
+block that goes to the file next, in whole HDF5 chunks, which go to the file straight (`H5Dwrite_chunk`: HDF5's
+ordinary write copies each chunk into its chunk buffer first).
 """
 
 

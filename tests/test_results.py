@@ -120,6 +120,33 @@ def test_written_records_equal_each_signals_own_extract(tmp_path):
             assert res[s.name].tobytes() == s.extract(block).tobytes(), s.name
 
 
+def test_appends_across_chunk_boundaries_read_back_bit_for_bit(tmp_path):
+    """Whole chunks go straight to the file, the last one of an append padded to a whole chunk, and
+    the next append writes the rest of that chunk over the padding: blocks of any size, starting
+    anywhere in a chunk, read back as the rows written (NaN and infinities included), the file
+    readable after each append as a run that stopped there would leave it."""
+    chunk = ResultsWriter.CHUNK
+    rng = np.random.default_rng(7)
+    sizes = [1, chunk - 1, 5, 2 * chunk + 3, chunk, chunk - 5, 7]
+    rows = rng.standard_normal((sum(sizes), 3)) * 10.0 ** rng.integers(-300, 300, (sum(sizes), 1))
+    rows[::97, 0], rows[5::89, 1], rows[7::83, 2], rows[3::101, 0] = np.nan, np.inf, np.inf, -np.inf
+    t = np.cumsum(rng.random(len(rows)))
+    path = tmp_path / "chunks.h5"
+    w = ResultsWriter(path, TABLE, {})
+    end = 0
+    for n in sizes:
+        w.append(t[end:end + n], rows[end:end + n])
+        end += n
+        with h5py.File(path, "r", locking=False) as f:
+            assert f["time"].shape == (end,) and f["time"][()].tobytes() == t[:end].tobytes()
+            assert f["signals/slider"]["x"].tobytes() == rows[:end, 0].tobytes()
+    w.close({"complete": True})
+    res = read_results(path)
+    assert res.time.tobytes() == t.tobytes()
+    for s in TABLE:
+        assert res[s.name].tobytes() == s.extract(rows).tobytes(), s.name
+
+
 def test_a_run_streamed_to_a_file_equals_the_run_in_memory(tmp_path, monkeypatch):
     """The kernel writes rows straight into the block that goes to the file, which is written in
     whole chunks (and whatever a time-forced write leaves): every signal of the file equals the run
