@@ -304,8 +304,11 @@ install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process
 1.57× instead of 1.29×).  Results files keep one compound dataset per entity instead of one per signal (a 40-link
 chain: 83 HDF5 objects instead of 568 groups and datasets).
 
-Sweeps: a local pool's workers are forks of the sweep's own process after it loaded numba and the kernels
-(`planar_mbs.sweep_worker`); each worker writes its case in a file of its own beside the sweep file, into disk
+Sweeps: `mbs sweep` on several cores starts multiprocessing's fork server at its first line, preloaded with
+numba and the kernels (`planar_mbs.sweep_server`, `planar_mbs.sweep_worker`), so they load on the other core
+while the command line is read and the cases are checked; the pool's workers are forks of that server, and the
+sweep's own process never loads numba (from Python, `run_sweep` loads them itself and forks its workers from
+itself).  Each worker writes its case in a file of its own beside the sweep file, into disk
 space reserved first, and hands back only the table row; the parent copies the case in with HDF5's object copy
 (about 6 ms for a 19 MB case) instead of receiving it through a pipe.  Cases are stored uncompressed (gzip saved
 ~20 % of float64 outputs for ~20× the write time).  The model text of a sweep is parsed once per process
@@ -344,7 +347,7 @@ def process_notes(pr) -> list[str]:
                    "part measured no slower after this work's time-loop changes (paired, 0.87×).")
     o = pr.get("output", {})
     sel = {k: v for k, v in o.items() if isinstance(v, dict)}
-    if "all signals" in sel:
+    if "all signals" in sel and sel["all signals"]["total_us"] >= o.get("target_us", 1.0):
         a = sel["all signals"]
         cheap = [f"{k} ({v['signals']} signals) {v['total_us']:.2f} µs" for k, v in sel.items() if k != "all signals"]
         out.append(f"* An output row of every signal ({a['signals']}) costs {a['total_us']:.2f} µs with the HDF5 "
@@ -365,15 +368,17 @@ def process_notes(pr) -> list[str]:
                    "machine code, the file, and writing each case's signals: 17 MB a case, 0.05 s in `-j 1`), "
                    f"so even a `-j 2` with no cost of its own would be ({shared:.2f} + "
                    f"{sw['cases']} × {c:.2f}) / ({shared:.2f} + {sw['cases'] // 2} × {c:.2f}) = {bound:.2f}× faster; "
-                   "the target needs longer cases or a shorter shared start-up.  A fork server started as the "
-                   "command's first step, loading the kernels on the other core while the sweep starts, was "
-                   "measured and not taken: a fresh interpreter needs 0.65–0.75 s to load them, longer than this "
-                   "process takes to reach its workers (pairs of the same evening: 1.21× with it, 1.37× without).  "
-                   "Traced on 2026-11-25 (timestamps in every process): the parent reaches its pool after 0.49 s, "
-                   "0.2 s of it loading the kernels (which `-j 1` does inside its first case), and the two workers "
-                   "then take 0.69 s for the 8 cases against 1.24 s in `-j 1`; the critical path, start-up + kernel "
-                   "load + half the cases, bounds `-j 2` near 1.5× here whatever the pool does.  The output is not "
-                   "the limit: with `--keep slider` (26 MB instead of 139 MB) `-j 2` is 1.37× faster (7 pairs).")
+                   "the target needs longer cases or a shorter shared start-up.  Traced on 2026-11-25 with the "
+                   "fork server started at the command's first line (timestamps in every process, idle cores): "
+                   "the server has the kernels after 0.39–0.53 s (a fresh interpreter, 0.33 s of imports and "
+                   "cache loads, sharing the machine with the sweep's own start-up), the two workers then take "
+                   "0.73 s for the 8 cases against 1.25 s in `-j 1` (each worker's first case is 0.05 s slower: "
+                   "the model is parsed again and its memory first touched), and the sweep ends 0.06 s after its "
+                   "last case.  The critical path, the server's start + half the cases + the last case's copy, "
+                   "bounds `-j 2` near 1.5× here whatever the pool does.  The early server itself gained little: "
+                   "9 interleaved pairs, 1.30 s against 1.34 s with the kernels loaded in the sweep's process "
+                   "(whose start is as long as the server's).  The output is not the limit: with `--keep slider` "
+                   "(26 MB instead of 139 MB) `-j 2` was 1.37× faster (7 pairs).")
     return out + [""]
 
 
