@@ -136,25 +136,26 @@ def slider_error(path: Path) -> float:
 
 
 # ---------------------------------------------------------------- sweeps
-def sweep(tmp: Path, rounds: int = 5) -> dict:
-    """8 cases of the clearance slider-crank (speeds 4000..5000 rpm, 30 revolutions each, ~0.2 s of time
-    loop), whole `mbs sweep` processes, -j 1 and -j 2 in turn: the ratio of the medians, the smallest and
+def sweep(tmp: Path, rounds: int = 5, revolutions: int = 30) -> dict:
+    """8 cases of the clearance slider-crank (speeds 4000..5000 rpm, 30 revolutions each, ~0.15 s of time
+    loop; `section_process` also runs them 4× longer, where start-up weighs less), whole `mbs sweep` processes, -j 1 and -j 2 in turn: the ratio of the medians, the smallest and
     largest ratio of a round, and the load average before and after (two idle cores are the target's
     premise: with another busy process, -j 2 has one core and cannot be faster)."""
     base = [MBS, "sweep", str(MODELS / "slider_crank_clearance_a.mbs"), "-P", "speed=4000rpm..5000rpm:8",
-            "-n", "30", "--rtol", "1e-6", "--overwrite", "-q"]
+            "-n", str(revolutions), "--rtol", "1e-6", "--overwrite", "-q"]
     load_before = os.getloadavg()
     for j in ("1", "2"):  # one warm-up each (kernel cache, page cache)
-        wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}_warm.h5")])
+        wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}.h5")])
     times = {"-j 1": [], "-j 2": []}
     for r in range(rounds):
         for j in ("1", "2"):
-            times[f"-j {j}"].append(wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}_{r}.h5")]))
+            times[f"-j {j}"].append(wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}.h5")]))
     t = {k: statistics.median(v) for k, v in times.items()}
     per_round = [a / b for a, b in zip(times["-j 1"], times["-j 2"])]
-    case = {f"-j {j}": case_seconds(tmp / f"sweep{j}_{rounds - 1}.h5") for j in ("1", "2")}
+    case = {f"-j {j}": case_seconds(tmp / f"sweep{j}.h5") for j in ("1", "2")}
     return dict(times=t, speedup=t["-j 1"] / t["-j 2"], speedup_min=min(per_round), speedup_max=max(per_round),
-                target=1.6, cases=8, rounds=rounds, case_seconds=case, load=[load_before, os.getloadavg()])
+                target=1.6, cases=8, revolutions=revolutions, rounds=rounds, case_seconds=case,
+                load=[load_before, os.getloadavg()])
 
 
 def case_seconds(path: Path) -> float:
@@ -315,7 +316,7 @@ def chain40(tmp: Path, n: int = 40) -> dict:
 def section_process(only: set[str] | None = None) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="mbs_bench_"))
     out = {}
-    for name, fn in (("startup", lambda: startup(tmp)), ("sweep", lambda: sweep(tmp)),
+    for name, fn in (("startup", lambda: startup(tmp)), ("sweep", lambda: dict(sweep(tmp), longer=sweep(tmp, rounds=3, revolutions=120))),
                      ("loop_vs_scipy", loop_vs_scipy),
                      ("stages", lambda: loop_stages(out["loop_vs_scipy"]["scipy"])), ("output", lambda: output_rows(tmp)),
                      ("chain40", lambda: chain40(tmp))):

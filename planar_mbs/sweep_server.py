@@ -9,13 +9,17 @@ short cases that serial start is a third of the whole run with two workers.
 `sweep_worker` as its preload: a fresh interpreter loads the kernels on another core while this
 process reads its command line, parses the model and checks the cases.  The pool's workers are
 then forks of that server (`sweep.default_executor`) and start their first case at once.  The
-server ends with this process (it watches a pipe that only this process holds open).
+server ends with this process: at once while it is still loading (`die_with_the_sweep`: a first
+sweep with a cold numba cache compiles for a minute), else when the pipe that only this process
+holds open closes.
 """
 from __future__ import annotations
 
+import os
 import sys
 
 _STARTED: list[bool] = []
+SERVER_ENV = "PLANAR_MBS_SWEEP_SERVER"  # set for the server only: the pid of the sweep that started it
 
 
 def start() -> bool:
@@ -27,6 +31,7 @@ def start() -> bool:
 
     if "forkserver" not in mp.get_all_start_methods():
         return False
+    os.environ[SERVER_ENV] = str(os.getpid())
     try:
         mp.get_context("forkserver").set_forkserver_preload(["planar_mbs.sweep_worker"])
         from multiprocessing import forkserver
@@ -36,8 +41,28 @@ def start() -> bool:
         print(f"note: the sweep's worker server did not start ({exc}); loading the kernels here",
               file=sys.stderr)
         return False
+    finally:
+        del os.environ[SERVER_ENV]
     _STARTED.append(True)
     return True
+
+
+def die_with_the_sweep() -> None:
+    """Called first by the server's preload (`sweep_worker`): the kernel kills the server when the
+    sweep's process ends (prctl PR_SET_PDEATHSIG), so a server still loading does not outlive a
+    sweep that stopped at a usage error, an interrupt or SIGKILL.  Elsewhere it does nothing."""
+    owner = os.environ.pop(SERVER_ENV, None)
+    if owner is None:
+        return
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the server ends when its preload is done
+        return
+    if os.getppid() != int(owner):  # the sweep ended before the signal was armed
+        os._exit(0)
 
 
 def started() -> bool:

@@ -12,8 +12,11 @@ from __future__ import annotations
 
 import os
 
+from .sweep_server import die_with_the_sweep
+
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+die_with_the_sweep()  # in `mbs sweep`'s fork server: end with the sweep, even while loading
 
 WARM_MODEL = """
 body crank { mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (0.025, 0) }

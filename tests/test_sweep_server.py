@@ -64,3 +64,42 @@ def test_a_pool_sweep_leaves_the_kernels_to_its_server_and_stores_what_one_proce
             assert np.array_equal(ga["time"][()], gb["time"][()])
             for name in gb["signals"]:
                 assert np.array_equal(ga[f"signals/{name}"][()], gb[f"signals/{name}"][()]), (k, name)
+
+
+def test_a_server_still_loading_ends_with_a_sweep_that_stopped_at_a_usage_error(tmp_path):
+    """With a cold numba cache the server compiles the kernels for a minute; a sweep that ends at
+    once (here an unknown option, exit 2) must not leave it running (it would also hold the sweep's
+    stdout and stderr open: `$(mbs sweep ...)` would wait for it).  Every process started is tagged
+    through its environment and looked up by that tag."""
+    import os
+    import time
+    import uuid
+
+    import psutil
+
+    tag = uuid.uuid4().hex
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cold-cache"), MBS_TEST_TAG=tag)
+    mbs = Path(sys.executable).with_name("mbs")
+    with open(tmp_path / "stderr", "w") as err:  # a file, not a pipe: whoever holds it open cannot delay us
+        code = subprocess.run([str(mbs), "sweep", IDEAL, "-P", "speed=800rpm,900rpm", "-j", "2", "-o",
+                               str(tmp_path / "s.h5"), "--no-such-option"], env=env, stdout=subprocess.DEVNULL,
+                              stderr=err, timeout=120).returncode
+    assert code == 2, (tmp_path / "stderr").read_text()
+
+    def tagged():
+        out = []
+        for p in psutil.process_iter():
+            try:
+                if p.environ().get("MBS_TEST_TAG") == tag:
+                    out.append(p)
+            except (psutil.NoSuchProcess, psutil.AccessDenied, psutil.ZombieProcess):
+                pass
+        return out
+
+    deadline = time.time() + 10  # the kernels' compilation alone takes longer than this
+    while tagged() and time.time() < deadline:
+        time.sleep(0.2)
+    left = tagged()
+    for p in left:
+        p.kill()
+    assert not left, [p.cmdline() for p in left]
