@@ -36,6 +36,7 @@ def start() -> bool:
         mp.get_context("forkserver").set_forkserver_preload(["planar_mbs.sweep_worker"])
         from multiprocessing import forkserver
 
+        _start_quiet_resource_tracker()
         forkserver.ensure_running()
     except (OSError, ValueError) as exc:  # no fork, no socket, a read-only temp folder: load them here
         print(f"note: the sweep's worker server did not start ({exc}); loading the kernels here",
@@ -63,6 +64,23 @@ def die_with_the_sweep() -> None:
         return
     if os.getppid() != int(owner):  # the sweep ended before the signal was armed
         os._exit(0)
+
+
+def _start_quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker with its stderr on /dev/null.  It unlinks the
+    pool's named semaphores when this process ends without releasing them, which an interrupted
+    sweep does (it ends at once, `cli.entry.leave`), and then prints a warning about "leaked
+    semaphore objects" after the user's Ctrl-C: it did its job, the warning is noise."""
+    from multiprocessing import resource_tracker
+
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        resource_tracker.ensure_running()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
 
 
 def started() -> bool:

@@ -103,3 +103,37 @@ def test_a_server_still_loading_ends_with_a_sweep_that_stopped_at_a_usage_error(
     for p in left:
         p.kill()
     assert not left, [p.cmdline() for p in left]
+
+
+@pytest.mark.slow
+def test_an_interrupted_pool_sweep_says_one_sentence_and_leaves_no_process(tmp_path):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) during a pool sweep: exit
+    130, the sentence that says how to resume and nothing else on stderr (multiprocessing's
+    resource tracker would add a warning about the pool's semaphores, which it unlinks), and no
+    process of the sweep left."""
+    import os
+    import signal
+    import time
+
+    import psutil
+
+    mbs = Path(sys.executable).with_name("mbs")
+    proc = subprocess.Popen([str(mbs), "sweep", IDEAL, "-P", "speed=600rpm..1400rpm:6", "-n", "4000", "--per-rev",
+                             "360", "-j", "2", "-q", "-o", str(tmp_path / "s.h5")], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    everyone = []
+    deadline = time.time() + 120
+    while time.time() < deadline and len(everyone) < 4:  # resource tracker, server, two workers
+        time.sleep(0.2)
+        everyone = psutil.Process(proc.pid).children(recursive=True)
+    assert len(everyone) >= 4, "the pool never started"
+    time.sleep(0.5)
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    gone, alive = psutil.wait_procs(everyone, timeout=20)
+    for p in alive:
+        p.kill()
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == [f"interrupted; finished cases are kept in {tmp_path / 's.h5'}: run the same "
+                                        "command again to resume"], err
+    assert not alive, [p.cmdline() for p in alive]
