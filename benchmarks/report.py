@@ -329,6 +329,15 @@ ordinary write copies each chunk into its chunk buffer first).
 """
 
 
+def _longer(sw) -> str:
+    """The sentence part on the same sweep with longer cases, when this run measured it."""
+    lg = sw.get("longer")
+    if not lg:
+        return ""
+    return (f" (the same 8 cases at {lg['revolutions']} revolutions each, where the start weighs a quarter as much: "
+            f"`-j 2` {lg['speedup']:.2f}× faster than `-j 1`)")
+
+
 def process_notes(pr) -> list[str]:
     """What remains, with this run's numbers (`process_table` prints the table itself)."""
     out = ["", "What remains:\n"]
@@ -336,10 +345,13 @@ def process_notes(pr) -> list[str]:
     if help_ratio and help_ratio["ratio"] > help_ratio["target"]:
         t = pr["startup"]["times"]
         out.append(f"* `mbs --help` takes {help_ratio['ratio']:.2f}× a bare `import numpy` here ({t['mbs --help']:.3f} s "
-                   f"against {t['import numpy']:.3f} s; target ≤ {help_ratio['target']:g}×).  Earlier runs, on a "
-                   "loaded machine where numpy's import took 0.2 s, gave 0.89–0.96×.  typer renders its help with "
-                   "rich: `typer.rich_utils` imports `rich.markdown` (with markdown_it) and `rich.traceback`, about "
-                   "0.07 s of the 0.12 s (`python -X importtime`, 2026-11-24).")
+                   f"against {t['import numpy']:.3f} s; target ≤ {help_ratio['target']:g}×).  It sits on the "
+                   "line: five runs of this script on 2026-11-25 (01:56–02:29) gave 1.28–1.60× as numpy's import "
+                   "took 0.083–0.124 s, and interleaved pairs gave 1.48× (15 pairs) and 1.55× (9).  typer renders "
+                   "its help with rich: `typer.rich_utils` imports `rich.markdown` (with markdown_it and pygments) "
+                   "and `rich.traceback` (with attrs), which help text in typer's \"rich\" markup never uses: "
+                   "about 0.05 of the 0.13 s (`python -X importtime`).  Help without them would mean replacing "
+                   "typer's renderer with our own copy of it, or plain click help; neither was done.")
     run_ratio = pr.get("startup", {}).get("ratios", {}).get("mbs run slider_crank / import numba", {})
     if run_ratio and run_ratio["ratio"] > run_ratio["target"]:
         t = pr["startup"]["times"]
@@ -362,11 +374,6 @@ def process_notes(pr) -> list[str]:
                    f"packing and writing its columns to the file {a['total_us'] - a['loop_us']:.2f} µs more.  Rows "
                    "under 1 µs hold for signals that need no accelerations: " + ", ".join(cheap) + ".")
     sw = pr.get("sweep", {})
-    if "longer" in sw:
-        lg = sw["longer"]
-        out.append(f"| … the same cases, {lg['revolutions']} revolutions each, `-j 2` | {lg['times']['-j 2']:.2f} | "
-                   f"`-j 1` | {lg['times']['-j 1']:.2f} | {lg['speedup']:.2f}× faster "
-                   f"(rounds: {lg['speedup_min']:.2f}–{lg['speedup_max']:.2f}×) | | |")
     if "case_seconds" in sw:
         c = sw["case_seconds"]["-j 1"]
         t1 = sw["times"]["-j 1"]
@@ -378,7 +385,8 @@ def process_notes(pr) -> list[str]:
                    "machine code, the file, and writing each case's signals: 17 MB a case, 0.05 s in `-j 1`), "
                    f"so even a `-j 2` with no cost of its own would be ({shared:.2f} + "
                    f"{sw['cases']} × {c:.2f}) / ({shared:.2f} + {sw['cases'] // 2} × {c:.2f}) = {bound:.2f}× faster; "
-                   "the target needs longer cases or a shorter shared start-up.  Traced on 2026-11-25 with the "
+                   "the target needs longer cases or a shorter shared start-up" + _longer(sw) + ".  Traced on "
+                   "2026-11-25 with the "
                    "fork server started at the command's first line (timestamps in every process, idle cores): "
                    "the server has the kernels after 0.39–0.53 s (a fresh interpreter, 0.33 s of imports and "
                    "cache loads, sharing the machine with the sweep's own start-up), the two workers then take "
