@@ -350,8 +350,10 @@ def process_notes(pr) -> list[str]:
                    "took 0.083–0.124 s, and interleaved pairs gave 1.48× (15 pairs) and 1.55× (9).  typer renders "
                    "its help with rich: `typer.rich_utils` imports `rich.markdown` (with markdown_it and pygments) "
                    "and `rich.traceback` (with attrs), which help text in typer's \"rich\" markup never uses: "
-                   "about 0.05 of the 0.13 s (`python -X importtime`).  Help without them would mean replacing "
-                   "typer's renderer with our own copy of it, or plain click help; neither was done.")
+                   "about 0.05 of the 0.13 s (`python -X importtime`).  Loading `Markdown` lazily was asked of "
+                   "typer upstream (a comment on fastapi/typer pull request 1128, 2025-09); typer 0.29.2 still "
+                   "imports it.  Help without them here would mean replacing typer's renderer with our own copy "
+                   "of it, or plain click help; neither was done.")
     run_ratio = pr.get("startup", {}).get("ratios", {}).get("mbs run slider_crank / import numba", {})
     if run_ratio and run_ratio["ratio"] > run_ratio["target"]:
         t = pr["startup"]["times"]
