@@ -1,0 +1,66 @@
+"""What a local sweep's worker process is set up with before its first case
+(planar_mbs/sweep_worker.py): freed memory kept for the next case."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from planar_mbs import sweep_worker
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Four cases run one after the other in one worker of a forkserver pool whose server preloads
+# `sweep_worker`, as `mbs sweep` runs them; prints the minor page faults of each case.
+FAULTS = """
+import os, resource, sys
+import multiprocessing as mp
+from concurrent.futures import ProcessPoolExecutor
+from planar_mbs.sweep import parse_param, plan, run_case_stored
+
+def faults(spec, folder):
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    os.unlink(run_case_stored(spec, folder).part)
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+if __name__ == "__main__":
+    specs = plan(sys.argv[1], [parse_param("speed=4000rpm..4500rpm:4")], revolutions=30, section={})
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["planar_mbs.sweep_worker"])
+    with ProcessPoolExecutor(1, mp_context=ctx) as pool:
+        print(*[pool.submit(faults, s, sys.argv[2]).result() for s in specs])
+"""
+
+
+def case_faults(tmp_path: Path, env: dict) -> list[int]:
+    script = tmp_path / "faults.py"
+    script.write_text(FAULTS)
+    out = subprocess.run([sys.executable, str(script), str(ROOT / "models" / "slider_crank_clearance_a.mbs"),
+                          str(tmp_path)], capture_output=True, text=True, env=env, timeout=600, check=True)
+    return [int(n) for n in out.stdout.split()]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's malloc, Linux page-fault counts")
+def test_a_worker_reuses_the_memory_of_its_previous_case(tmp_path):
+    """The first case maps its memory; the next three of the same size reuse it (a few dozen faults,
+    not thousands).  The control, with malloc left as glibc sets it (a malloc tunable in the
+    environment makes `keep_freed_memory` stand back), maps every case afresh: so this test can fail."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
+    kept = case_faults(tmp_path, env)
+    if kept[0] < 1000:
+        pytest.skip(f"this malloc maps too little to tell ({kept})")
+    assert max(kept[1:]) < 0.05 * kept[0], kept
+    control = case_faults(tmp_path, {**env, "GLIBC_TUNABLES": "glibc.malloc.check=0"})
+    assert min(control[1:]) > 0.3 * control[0], control
+
+
+def test_a_user_s_malloc_settings_are_left_alone(monkeypatch):
+    monkeypatch.setenv("GLIBC_TUNABLES", "glibc.malloc.trim_threshold=1000000")
+    assert sweep_worker.keep_freed_memory() is False
+    monkeypatch.delenv("GLIBC_TUNABLES")
+    monkeypatch.setenv("MALLOC_ARENA_MAX", "2")
+    assert sweep_worker.keep_freed_memory() is False
