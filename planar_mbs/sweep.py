@@ -627,12 +627,21 @@ def default_executor(jobs: int | None) -> Executor:
         ctx.set_forkserver_preload(["planar_mbs.sweep_worker"])
     else:
         ctx = mp.get_context("spawn")
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=end_with_parent,
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=start_worker,
                                initargs=(os.getpid(),))
 
 
+def start_worker(parent: int) -> None:
+    """Pool initializer: the worker keeps its freed memory for the next case
+    (`sweep_worker.keep_freed_memory`) and ends with the sweep's process ``parent``."""
+    from .sweep_worker import keep_freed_memory  # already loaded in a fork; with spawn, loads the kernels now
+
+    keep_freed_memory()
+    end_with_parent(parent)
+
+
 def end_with_parent(parent: int) -> None:
-    """Pool initializer: this worker ends when the sweep's process ends, even when that one is killed
+    """This worker ends when the sweep's process ends, even when that one is killed
     (SIGKILL leaves it no chance to stop its pool).  Two guards: the kernel sends SIGKILL when the
     worker's own parent (the pool's fork server) dies (prctl PR_SET_PDEATHSIG), and a daemon thread
     waits on the sweep process itself (a pidfd, else polling) and ends the worker when it is gone."""

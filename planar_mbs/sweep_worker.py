@@ -7,7 +7,7 @@ compiled code (read from numba's cache by one short run of a small model), the a
 worker is then a fork of this process and starts running cases at once, instead of paying that
 start-up (most of a second to seconds) itself.  BLAS is kept to one thread per process: the
 dense solves of one case are small, and two workers on two cores must not each start a pool.
-Freed memory stays in the process for the next case (`keep_freed_memory`).
+Each worker keeps the memory it frees for its next case (`keep_freed_memory`).
 """
 from __future__ import annotations
 
@@ -18,22 +18,20 @@ from .sweep_server import die_with_the_sweep
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-MMAP_THRESHOLD = 32 << 20  # glibc's own ceiling for its adaptive threshold (DEFAULT_MMAP_THRESHOLD_MAX)
-TRIM_THRESHOLD = 2 * MMAP_THRESHOLD  # what glibc pairs with it when it adapts
-
 
 def keep_freed_memory() -> bool:
-    """Have glibc's malloc keep freed blocks below 32 MB in this process (and its forks) for the
-    next allocation, instead of unmapping them and returning the top of the heap to the kernel.
+    """Called first in every worker of a local pool (`sweep.start_worker`), never in a process that
+    does anything else: glibc's malloc then serves every allocation from the heap (M_MMAP_MAX = 0)
+    and keeps what is freed there (M_TRIM_THRESHOLD = -1, no trimming), for the next case.
 
-    A worker runs case after case of the same size.  Forked from a process that never held a large
-    array, its malloc kept mapping each case's arrays afresh and unmapping them at the end: measured
-    on 30 revolutions of the clearance slider-crank, 9,000-10,000 page faults (40 MB of pages zeroed by
-    the kernel) and 15 ms in every case, against about 10 per case with these settings (as in a
-    process that ran a large case first, where glibc's adaptive threshold rises by itself).  The
-    memory kept is bounded by the largest case.  False (and nothing set) without glibc, or when the
-    user tunes malloc through the environment."""
-    if os.environ.get("GLIBC_TUNABLES", "").count("malloc") or any(v.startswith("MALLOC_") for v in os.environ):
+    A worker runs case after case of about the same size.  With glibc's defaults each case's large
+    arrays were mapped afresh and unmapped at its end, so the kernel zeroed their pages again for
+    every case: measured on the clearance slider-crank, 9,000-10,000 page faults and 15 ms in each
+    0.15-s case of 30 revolutions, 31,000-38,000 faults in each 0.6-s case of 120 (whose time loop
+    then took 0.56-0.67 s instead of 0.64-0.74 s); about 20 per case after the first now.  The
+    worker's memory stays at its largest case, which the next case would map again anyway.  False
+    (and nothing set) without glibc, or when the user tunes malloc through the environment."""
+    if "malloc" in os.environ.get("GLIBC_TUNABLES", "") or any(v.startswith("MALLOC_") for v in os.environ):
         return False
     try:
         import ctypes
@@ -41,12 +39,11 @@ def keep_freed_memory() -> bool:
         mallopt = ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):
         return False
-    M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # malloc.h
-    return bool(mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
+    M_TRIM_THRESHOLD, M_MMAP_MAX = -1, -4  # malloc.h
+    return bool(mallopt(M_MMAP_MAX, 0)) and bool(mallopt(M_TRIM_THRESHOLD, -1))
 
 
 die_with_the_sweep()  # in `mbs sweep`'s fork server: end with the sweep, even while loading
-keep_freed_memory()
 
 WARM_MODEL = """
 body crank { mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (0.025, 0) }

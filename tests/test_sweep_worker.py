@@ -1,5 +1,6 @@
 """What a local sweep's worker process is set up with before its first case
-(planar_mbs/sweep_worker.py): freed memory kept for the next case."""
+(planar_mbs/sweep_worker.py, through the pool's initializer `sweep.start_worker`): freed memory
+kept for the next case."""
 from __future__ import annotations
 
 import os
@@ -13,48 +14,50 @@ from planar_mbs import sweep_worker
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# Four cases run one after the other in one worker of a forkserver pool whose server preloads
-# `sweep_worker`, as `mbs sweep` runs them; prints the minor page faults of each case.
+# Four cases run one after the other in the one worker of the sweep's own pool (a fork server that
+# preloads `sweep_worker`, as `mbs sweep` runs them); prints the minor page faults of each case and
+# the worker's peak memory after it.
 FAULTS = """
 import os, resource, sys
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
-from planar_mbs.sweep import parse_param, plan, run_case_stored
+from planar_mbs.sweep import default_executor, parse_param, plan, run_case_stored
 
 def faults(spec, folder):
     before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
     os.unlink(run_case_stored(spec, folder).part)
-    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+    after = resource.getrusage(resource.RUSAGE_SELF)
+    return f"{after.ru_minflt - before}:{after.ru_maxrss}"
 
 if __name__ == "__main__":
     specs = plan(sys.argv[1], [parse_param("speed=4000rpm..4500rpm:4")], revolutions=30, section={})
-    ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(["planar_mbs.sweep_worker"])
-    with ProcessPoolExecutor(1, mp_context=ctx) as pool:
+    with default_executor(1) as pool:
         print(*[pool.submit(faults, s, sys.argv[2]).result() for s in specs])
 """
 
 
-def case_faults(tmp_path: Path, env: dict) -> list[int]:
+def case_faults(tmp_path: Path, env: dict) -> tuple[list[int], list[int]]:
+    """The page faults of each case and the worker's peak memory (kB) after each."""
     script = tmp_path / "faults.py"
     script.write_text(FAULTS)
     out = subprocess.run([sys.executable, str(script), str(ROOT / "models" / "slider_crank_clearance_a.mbs"),
                           str(tmp_path)], capture_output=True, text=True, env=env, timeout=600, check=True)
-    return [int(n) for n in out.stdout.split()]
+    pairs = [[int(n) for n in case.split(":")] for case in out.stdout.split()]
+    return [f for f, _ in pairs], [m for _, m in pairs]
 
 
 @pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's malloc, Linux page-fault counts")
 def test_a_worker_reuses_the_memory_of_its_previous_case(tmp_path):
     """The first case maps its memory; the next three of the same size reuse it (a few dozen faults,
-    not thousands).  The control, with malloc left as glibc sets it (a malloc tunable in the
-    environment makes `keep_freed_memory` stand back), maps every case afresh: so this test can fail."""
+    not thousands), and the worker's memory stays that of one case.  The control, with malloc left
+    as glibc sets it (a malloc tunable in the environment makes `keep_freed_memory` stand back),
+    maps every case afresh: so this test can fail."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
-    kept = case_faults(tmp_path, env)
+    kept, peak = case_faults(tmp_path, env)
     if kept[0] < 1000:
         pytest.skip(f"this malloc maps too little to tell ({kept})")
     assert max(kept[1:]) < 0.05 * kept[0], kept
-    control = case_faults(tmp_path, {**env, "GLIBC_TUNABLES": "glibc.malloc.check=0"})
+    assert peak[-1] < 1.05 * peak[0], peak
+    control, _ = case_faults(tmp_path, {**env, "GLIBC_TUNABLES": "glibc.malloc.check=0"})
     assert min(control[1:]) > 0.3 * control[0], control
 
 
