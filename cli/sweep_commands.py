@@ -182,10 +182,10 @@ def sweep(
                                 progress=bar.update, worker_timeout=worker_timeout, force=force)
     except MbsError as err:
         _fail(err)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as err:
         _console(stderr=True).print(f"interrupted; finished cases are kept in {output}: run the same command "
                                     "again to resume")
-        raise typer.Exit(ExitCode.INTERRUPTED)
+        raise typer.Exit(128 + _interruptible.signum(err))
     _print_table(summary.rows, [a.name for a in axes])
     for r in summary.rows:
         if r["index"] in summary.failed and r.get("message"):
@@ -203,11 +203,15 @@ def sweep(
 
 
 class _interruptible:
-    """Ctrl-C stops a sweep even when the shell started it with SIGINT ignored (a script
-    without job control, `nohup`): Python then leaves SIGINT ignored, so install the sweep's
-    own handler, as `mbs run` does.  It raises KeyboardInterrupt at once and notes the signal
-    (`sweep.note_interrupt`), so that an interrupt Python drops (raised inside a garbage-collector
-    callback) is raised again at the sweep's next wait."""
+    """Ctrl-C (SIGINT) and SIGTERM stop a sweep the same way: finished cases kept, the pool's case
+    files removed, the sentence that says how to resume, exit 128 + the signal (130, 143), as for
+    `mbs run`.  The handler is installed even when the shell started the sweep with SIGINT ignored
+    (a script without job control, `nohup`), where Python leaves it ignored.  It raises
+    KeyboardInterrupt at once and notes the signal (`sweep.note_interrupt`), so that an interrupt
+    Python drops (raised inside a garbage-collector callback) is raised again at the sweep's next
+    wait.  (SIGTERM used to end the process where it stood, leaving the folder of case files.)"""
+
+    SIGNALS = ("SIGINT", "SIGTERM")
 
     def __enter__(self):
         import signal
@@ -219,18 +223,28 @@ class _interruptible:
             note_interrupt(signum)
             raise KeyboardInterrupt
 
-        self.previous = None
+        self.previous = {}
         PENDING_INTERRUPTS.clear()
         if threading.current_thread() is threading.main_thread():
-            self.previous = signal.signal(signal.SIGINT, interrupt)
+            for name in self.SIGNALS:
+                sig = getattr(signal, name)
+                self.previous[sig] = signal.signal(sig, interrupt)
         return self
 
     def __exit__(self, *exc):
         import signal
 
-        if self.previous is not None:
-            signal.signal(signal.SIGINT, self.previous)
+        for sig, handler in self.previous.items():
+            signal.signal(sig, handler)
         return False
+
+    @staticmethod
+    def signum(err: KeyboardInterrupt) -> int:
+        """The signal that stopped the sweep: the run's own (`simulation.RunInterrupted`, a case run
+        in this process), else the last one noted, else SIGINT."""
+        from planar_mbs.sweep import PENDING_INTERRUPTS
+
+        return int(getattr(err, "signum", 0) or (PENDING_INTERRUPTS[-1] if PENDING_INTERRUPTS else 2))
 
 
 class _cluster:

@@ -236,8 +236,10 @@ CLI = ("import typer; from planar_mbs.cli.sweep_commands import sweep, analyze; 
 
 
 @pytest.mark.slow
-def test_interrupted_sweep_resumes(tmp_path):
-    """SIGINT in the middle of `mbs sweep`; the rerun computes only the cases not yet stored."""
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["SIGINT", "SIGTERM"])
+def test_interrupted_sweep_resumes(tmp_path, sig, code):
+    """SIGINT or SIGTERM in the middle of a one-process `mbs sweep` (exit 128 + the signal); the rerun
+    computes only the cases not yet stored."""
     out = tmp_path / "s.h5"
     cmd = [sys.executable, "-c", CLI, "sweep", str(IDEAL), "-P", "speed=600rpm..1400rpm:6", "-n", "500",
            "--per-rev", "360", "-o", str(out), "-j", "1", "-q"]
@@ -252,8 +254,8 @@ def test_interrupted_sweep_resumes(tmp_path):
                     break
         except (OSError, KeyError):
             pass
-    proc.send_signal(signal.SIGINT)
-    assert proc.wait(timeout=60) == 130
+    proc.send_signal(sig)
+    assert proc.wait(timeout=60) == code
     first = [r for r in read_case_table(out) if r["status"] == "finished"]
     assert 0 < len(first) < 6, "the interrupt should land between the first and the last case"
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)

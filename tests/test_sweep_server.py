@@ -106,11 +106,15 @@ def test_a_server_still_loading_ends_with_a_sweep_that_stopped_at_a_usage_error(
 
 
 @pytest.mark.slow
-def test_an_interrupted_pool_sweep_says_one_sentence_and_leaves_no_process(tmp_path):
-    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) during a pool sweep: exit
-    130, the sentence that says how to resume and nothing else on stderr (multiprocessing's
-    resource tracker would add a warning about the pool's semaphores, which it unlinks), and no
-    process of the sweep left."""
+@pytest.mark.parametrize("signame, group, code", [("SIGINT", True, 130), ("SIGTERM", True, 143), ("SIGTERM", False, 143)],
+                         ids=["Ctrl-C", "SIGTERM to the group", "SIGTERM to the sweep"])
+def test_an_interrupted_pool_sweep_says_one_sentence_and_leaves_nothing(tmp_path, signame, group, code):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it), SIGTERM to the group (a
+    batch system ending a job) or to the sweep alone (`kill PID`) during a pool sweep: exit 128 +
+    the signal, the sentence that says how to resume and nothing else on stderr (multiprocessing's
+    resource tracker would add a warning about the pool's semaphores, which it unlinks), no process
+    of the sweep left, and no file beside the sweep's own (SIGTERM used to leave the folder of the
+    workers' case files)."""
     import os
     import signal
     import time
@@ -128,12 +132,16 @@ def test_an_interrupted_pool_sweep_says_one_sentence_and_leaves_no_process(tmp_p
         everyone = psutil.Process(proc.pid).children(recursive=True)
     assert len(everyone) >= 4, "the pool never started"
     time.sleep(0.5)
-    os.killpg(proc.pid, signal.SIGINT)
+    if group:
+        os.killpg(proc.pid, getattr(signal, signame))
+    else:
+        proc.send_signal(getattr(signal, signame))
     out, err = proc.communicate(timeout=120)
     gone, alive = psutil.wait_procs(everyone, timeout=20)
     for p in alive:
         p.kill()
-    assert proc.returncode == 130, err
+    assert proc.returncode == code, err
     assert err.strip().splitlines() == [f"interrupted; finished cases are kept in {tmp_path / 's.h5'}: run the same "
                                         "command again to resume"], err
     assert not alive, [p.cmdline() for p in alive]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
