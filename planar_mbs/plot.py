@@ -535,12 +535,16 @@ def _slug(text: str) -> str:
 
 
 def _save(fig, path: Path, written: list[Path]) -> None:
-    """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data."""
+    """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data.  The
+    figure is written beside `path` and moved over it once whole, so a full disk or a kill leaves
+    the previous figure (or none), never half a file in its place."""
     import os
+    import secrets
     import stat
 
     from .results import HDF5_SIGNATURE
 
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         if os.path.lexists(path):
@@ -550,13 +554,16 @@ def _save(fig, path: Path, written: list[Path]) -> None:
                 if f.read(len(HDF5_SIGNATURE)) == HDF5_SIGNATURE:
                     raise PlotError(f"error: {path} holds HDF5 data; not writing a figure over it\n"
                                     "hint: choose another --output folder")
-        fig.savefig(path)
+        with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), "wb") as f:  # mode as umask says
+            fig.savefig(f, format=path.suffix[1:])
+        os.replace(tmp, path)
     except OSError as exc:
         raise PlotError(f"error: cannot write {path}: {exc.strerror or exc}") from None
     finally:
         import matplotlib.pyplot as plt
 
         plt.close(fig)
+        tmp.unlink(missing_ok=True)
     written.append(path)
 
 

@@ -155,3 +155,30 @@ def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size)
     r = _mbs("sweep", MODEL, *args, "-o", big)
     assert r.returncode == 0, r.stdout + r.stderr
     assert f"{4 - len(done)} case(s) run, {len(done)} already in the file" in r.stdout
+
+
+def test_a_figure_is_never_left_half_written(tmp_path):
+    """`mbs plot` over the figures of an earlier call, with larger figures of a longer run, on a disk
+    that is now full: a clean error, and every earlier figure still whole, byte for byte (written in
+    place, they were truncated and then half rewritten), with no temporary file left beside them."""
+    short, long = tmp_path / "short" / "a.h5", tmp_path / "long" / "a.h5"  # the same stem: the same figure names
+    for results, t_end in ((short, "0.01s"), (long, "0.1s")):
+        results.parent.mkdir()
+        r = _mbs("run", MODEL, "-o", results, "--t-end", t_end, "-q")
+        assert r.returncode == 0, r.stderr
+    disk = tmp_path / "disk"
+    with small_disk(disk, "2m") as mounted:
+        if not mounted:
+            pytest.skip("no tmpfs can be mounted here, and a figure's write cannot be made to fail otherwise")
+        first = _mbs("plot", short, "-o", disk)
+        assert first.returncode == 0, first.stderr
+        figures = {p.name: p.read_bytes() for p in disk.iterdir()}
+        assert figures and all(data.startswith(b"\x89PNG") for data in figures.values())
+        with open(disk / "filler", "wb", buffering=0) as filler:  # take every byte left
+            with contextlib.suppress(OSError):
+                while True:
+                    filler.write(b"\0" * 4096)
+        again = _mbs("plot", long, "-o", disk)
+        assert again.returncode == 2, again.stdout + again.stderr
+        assert "No space left on device" in again.stderr and "Traceback" not in again.stdout + again.stderr
+        assert {p.name: p.read_bytes() for p in disk.iterdir() if p.name != "filler"} == figures
