@@ -98,7 +98,10 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         return _exit_now(128 + getattr(err, "signum", ExitCode.INTERRUPTED - 128))
     _print_summary(res, out)
     if rerun is not None:
-        record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals)
+        try:
+            record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals)
+        except (MbsError, OSError) as err:  # the results are written; the recording is not
+            return fail_code(err if isinstance(err, MbsError) else f"error: {err}")
     return 0
 
 

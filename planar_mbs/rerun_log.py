@@ -284,11 +284,13 @@ def record_run(
     revolution of the turning body).  With ``model=None`` only signals, events and
     Poincaré points are logged.  `signals` is "envelope" (the default: per bin of
     1/`signal_rate` s, default the frame rate, the first sample, the min and the max) or
-    "full" (every sample); `signal_stride` > 1 logs every n-th sample instead.
+    "full" (every sample); `signal_stride` > 1 logs every n-th sample instead.  A file is
+    written beside `path` and moved over it once rerun's reader finds it whole, so a full disk or
+    a kill never leaves half a recording there (a full disk raises `PlotError`).
     """
     rr = _rerun()
     start = _time.perf_counter()
-    rec = recording
+    rec, part = recording, None
     if rec is None:
         rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
         blueprint = _blueprint(results, model, poincare_pair)
@@ -296,9 +298,57 @@ def record_run(
             rec.spawn(default_blueprint=blueprint)
         elif path is not None:
             Path(path).parent.mkdir(parents=True, exist_ok=True)
-            rec.save(str(path), default_blueprint=blueprint)
+            part = _part_beside(Path(path))
+            rec.save(str(part), default_blueprint=blueprint)
         else:
             raise ValueError("record_run needs a path, spawn=True or a recording")
+    try:
+        info = _record_all(rr, rec, results, model, path, magnify, fps, max_frames, signals, signal_rate,
+                           signal_stride, poincare_pair, skip)
+        if recording is None:
+            if part is not None:
+                rec.disconnect()  # flushes everything to the file and closes it
+                _move_into_place(part, Path(path))
+            else:
+                rec.flush()
+    finally:
+        if part is not None and part.exists():  # stopped before the move: nothing replaces `path`
+            rec.disconnect()
+            part.unlink(missing_ok=True)
+    info.seconds = _time.perf_counter() - start
+    return info
+
+
+def _part_beside(path: Path) -> Path:
+    """The hidden file a recording is written to before it replaces `path`."""
+    import secrets
+
+    return path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
+
+
+def _move_into_place(part: Path, path: Path) -> None:
+    """Move a finished recording over `path`, once rerun's own reader finds it whole (its footer,
+    a few ms): rerun writes from a thread of its own and only logs a failed write (a full disk),
+    so a recording cut short would otherwise replace a good one and be reported as written."""
+    import warnings
+
+    from rerun.chunk import RrdReader
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # "no footer": the write stopped before its end
+            RrdReader(part).store()
+    except Exception as exc:  # noqa: BLE001  (whatever the reader finds wrong, the file is not whole)
+        reason = str(exc).split(". ")[0]
+        raise PlotError(f"error: cannot write the rerun recording {path}: rerun could not write it whole ({reason})\n"
+                        f"hint: is the disk full? `df -h {path.parent}`; nothing was written over {path.name}"
+                        ) from None
+    os.replace(part, path)
+
+
+def _record_all(rr, rec, results, model, path, magnify, fps, max_frames, signals, signal_rate, signal_stride,
+                poincare_pair, skip) -> RecordingInfo:
+    """Log the model's source, the mechanism, the signals, the contacts and the Poincaré points."""
     entities: list[str] = []
     info = RecordingInfo(Path(path) if path else None, 0, np.zeros(0), 0, 0, 0, 0.0, entities)
 
@@ -314,12 +364,6 @@ def record_run(
     _log_signals(rr, rec, results, model, signals, signal_rate, max(1, int(signal_stride)), fps, max_frames, info)
     _log_contacts(rr, rec, results, info)
     _log_poincare(rr, rec, results, model, poincare_pair, skip, info)
-    if recording is None:
-        if path is not None and not spawn:
-            rec.disconnect()  # flushes everything to the file and closes it
-        else:
-            rec.flush()
-    info.seconds = _time.perf_counter() - start
     return info
 
 

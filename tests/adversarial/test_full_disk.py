@@ -182,3 +182,27 @@ def test_a_figure_is_never_left_half_written(tmp_path):
         assert again.returncode == 2, again.stdout + again.stderr
         assert "No space left on device" in again.stderr and "Traceback" not in again.stdout + again.stderr
         assert {p.name: p.read_bytes() for p in disk.iterdir() if p.name != "filler"} == figures
+
+
+def test_a_rerun_recording_is_never_left_half_written(tmp_path):
+    """`mbs view` over an earlier recording on a disk with too little room for the new one: exit 2
+    with a message naming the recording and the full disk, the earlier recording byte for byte (rerun
+    wrote in place, only logged its failed write, and the command reported the recording as written),
+    and no temporary file left."""
+    short, long = tmp_path / "short.h5", tmp_path / "long.h5"
+    for results, t_end in ((short, "0.002s"), (long, "0.2s")):
+        r = _mbs("run", MODEL, "-o", results, "--t-end", t_end, "-q")
+        assert r.returncode == 0, r.stderr
+    disk = tmp_path / "disk"
+    with small_disk(disk, "1m") as mounted:
+        if not mounted:
+            pytest.skip("no tmpfs can be mounted here, and rerun's write cannot be made to fail otherwise")
+        first = _mbs("view", short, "-o", disk / "v.rrd")
+        assert first.returncode == 0, first.stderr
+        before = (disk / "v.rrd").read_bytes()
+        again = _mbs("view", long, "-o", disk / "v.rrd")  # about 4 MB
+        assert again.returncode == 2, again.stdout + again.stderr
+        assert f"cannot write the rerun recording {disk / 'v.rrd'}" in again.stderr, again.stderr
+        assert "Traceback" not in again.stdout + again.stderr and "rerun recording →" not in again.stdout
+        assert [p.name for p in disk.iterdir()] == ["v.rrd"]
+        assert (disk / "v.rrd").read_bytes() == before
