@@ -367,11 +367,8 @@ def analyze(
 
 
 def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
-    import h5py
-    import numpy as np
-
     from planar_mbs import read_results
-    from planar_mbs.analysis import classify, poincare_section, write_section
+    from planar_mbs.analysis import classify, poincare_section, store_section
     from planar_mbs.sweep import read_case_table
 
     from planar_mbs.results import check_results_file, open_results
@@ -409,6 +406,5 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
               (f"   ({verdict.note})" if verdict.note and (verdict.settled_revolution is not None
                                                       or verdict.verdict == "undetermined") else ""))
     if store:
-        with h5py.File(file, "a") as f:
-            write_section(f[group or "/"], sec, verdict)
+        store_section(file, group, sec, verdict)
         con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)

@@ -281,6 +281,41 @@ def write_section(group, sec: PoincareSection, verdict: Verdict | None = None, n
         g.attrs["verdict"] = json.dumps(verdict.as_dict())
 
 
+def store_section(path, group: str, sec: PoincareSection, verdict: Verdict | None = None) -> None:
+    """Store a section (`write_section`) in the results file `path`, under `group` ("" or "/" for a
+    run, ``/cases/3`` for a case of a sweep), as a writer of results does: the file's write lock first
+    (another process writing it is a clean `MbsError`, never two writers), then the disk space the
+    section needs reserved (a full disk is `DiskFull` before a byte is written: HDF5 failing a write
+    halfway could damage the file and crashed the process), released again after."""
+    from pathlib import Path
+
+    from .errors import MbsError
+    from .results import DiskFull, ResultsBusy, open_for_writing, release_reserve, reserve_space
+
+    arrays = [sec.time, np.asarray(sec.revolution), *sec.points.values()]
+    nbytes = sum(np.asarray(a).nbytes for a in arrays) + 4096 * len(arrays) + (1 << 16)  # + headers, attributes
+    try:
+        f, lock = open_for_writing(Path(path), "r+")
+    except (OSError, ResultsBusy) as exc:
+        err = MbsError(f"error: cannot write {path}: {exc}")
+        err.exit_code = 2
+        raise err from None
+    end = None
+    try:
+        try:
+            end = reserve_space(lock.fd, nbytes, path)
+        except DiskFull:
+            raise DiskFull(f"the disk holding {path} is full: the Poincaré section ({nbytes / 1e3:.3g} kB) does "
+                           "not fit (No space left on device); nothing was written: free some space and "
+                           "store it again") from None
+        write_section(f[group or "/"], sec, verdict)
+    finally:
+        f.close()
+        if end is not None:
+            release_reserve(lock.fd, end)
+        lock.release()
+
+
 def read_section(group, name: str = "poincare") -> tuple[PoincareSection, Verdict | None]:
     """Inverse of `write_section`; ``group`` is an open h5py group."""
     import json

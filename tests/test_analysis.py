@@ -153,6 +153,39 @@ def test_angle_section():
     assert np.allclose(sec.points["slider.vx"], 1 + 0.5 * math.cos(math.pi + 0.3), atol=1e-9)
 
 
+def test_a_section_is_not_stored_in_a_file_another_process_writes(tmp_path):
+    """`store_section` takes the results file's write lock, as every writer does: while another
+    process holds it (a run still writing the file), a clean error and the file untouched; once it is
+    free, the section is stored and reads back."""
+    import subprocess
+    import sys
+
+    from planar_mbs.analysis import store_section
+    from planar_mbs.errors import MbsError
+
+    path = tmp_path / "r.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("time", data=np.arange(3.0))
+    sec = poincare_section(fake_run(0.012, 36, 40), ("slider.vx", "slider.ax"), period=0.012)
+    holder = subprocess.Popen([sys.executable, "-c", "import sys\nfrom planar_mbs.results import WriteLock\n"
+                               f"lock = WriteLock(__import__('pathlib').Path({str(path)!r}))\n"
+                               "print('locked', flush=True)\nsys.stdin.read()"],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        before = path.read_bytes()
+        with pytest.raises(MbsError, match="being written by another process") as err:
+            store_section(path, "", sec, classify(sec))
+        assert err.value.exit_code == 2
+        assert path.read_bytes() == before
+    finally:
+        holder.communicate("", timeout=30)
+    store_section(path, "", sec, classify(sec))
+    with h5py.File(path, "r") as f:
+        back, verdict = read_section(f)
+    assert np.array_equal(back.time, sec.time) and verdict is not None
+
+
 def test_section_times_skip_the_transient():
     t = np.linspace(0, 10, 1001)
     assert np.allclose(section_times(t, 2.0, transient=2), [6, 8, 10])

@@ -206,3 +206,34 @@ def test_a_rerun_recording_is_never_left_half_written(tmp_path):
         assert "Traceback" not in again.stdout + again.stderr and "rerun recording →" not in again.stdout
         assert [p.name for p in disk.iterdir()] == ["v.rrd"]
         assert (disk / "v.rrd").read_bytes() == before
+
+
+def test_analyze_store_on_a_full_disk_leaves_the_results_file_as_it_was(tmp_path):
+    """`mbs analyze --store` with no room left for the section: exit 3 and a message naming the full
+    disk, the results file byte for byte as before (HDF5 failing its writes halfway used to print
+    tracebacks, an "internal error", and crash the process with a segmentation fault); once there
+    is room, the same command stores the section, which reads back."""
+    from planar_mbs.analysis import read_section
+
+    disk = tmp_path / "disk"
+    with small_disk(disk, "6m") as mounted:
+        if not mounted:
+            pytest.skip("no tmpfs can be mounted here")
+        out = disk / "a.h5"
+        r = _mbs("run", MODEL, "-o", out, "--t-end", "0.05s", "-q")
+        assert r.returncode == 0, r.stderr
+        before = out.read_bytes()
+        with open(disk / "filler", "wb", buffering=0) as filler:  # take every byte left
+            with contextlib.suppress(OSError):
+                while True:
+                    filler.write(b"\0" * 4096)
+        full = _mbs("analyze", out, "--store")
+        assert full.returncode == 3, full.stdout + full.stderr
+        assert "is full" in full.stderr and "Traceback" not in full.stdout + full.stderr
+        assert out.read_bytes() == before
+        (disk / "filler").unlink()
+        room = _mbs("analyze", out, "--store")
+        assert room.returncode == 0, room.stdout + room.stderr
+        with h5py.File(out, "r") as f:
+            sec, verdict = read_section(f)
+            assert len(sec.time) > 0 and verdict is not None
