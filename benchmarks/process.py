@@ -43,6 +43,25 @@ def wall(cmd, cwd=None, env=None) -> float:
     return dt
 
 
+def wall_and_cpu(cmd) -> tuple[float, float]:
+    """Wall-clock seconds of one command and the CPU seconds of its whole process tree: this process is
+    made a subreaper (prctl PR_SET_CHILD_SUBREAPER), so descendants that outlive the command (a sweep's
+    fork server, its workers) are reparented here and reaped, and their CPU time is counted too."""
+    import ctypes
+    import resource
+
+    ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)  # 36 = PR_SET_CHILD_SUBREAPER
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    dt = wall(cmd)
+    while True:  # the orphans of the command, reparented here: wait for their end
+        try:
+            os.waitpid(-1, 0)
+        except ChildProcessError:
+            break
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return dt, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
 def interleaved(cmds: dict[str, list], rounds: int, cwd=None) -> dict[str, float]:
     """Median wall time of each command, run round-robin ``rounds`` times after one warm-up each."""
     for cmd in cmds.values():
@@ -138,24 +157,29 @@ def slider_error(path: Path) -> float:
 # ---------------------------------------------------------------- sweeps
 def sweep(tmp: Path, rounds: int = 5, revolutions: int = 30) -> dict:
     """8 cases of the clearance slider-crank (speeds 4000..5000 rpm, 30 revolutions each, ~0.15 s of time
-    loop; `section_process` also runs them 4× longer, where start-up weighs less), whole `mbs sweep` processes, -j 1 and -j 2 in turn: the ratio of the medians, the smallest and
-    largest ratio of a round, and the load average before and after (two idle cores are the target's
-    premise: with another busy process, -j 2 has one core and cannot be faster)."""
+    loop; `section_process` also runs them 4× longer, where start-up weighs less), whole `mbs sweep`
+    processes, -j 1 and -j 2 in turn: the ratio of the medians, the smallest and largest ratio of a round, the CPU seconds of each command's whole process tree (`cpu_bound`: the
+    speed-up -j 2 would have if two cores ran its CPU seconds with no wait at all), and the load average
+    before and after (two idle cores are the target's premise: with another busy process, -j 2 has one
+    core and cannot be faster)."""
     base = [MBS, "sweep", str(MODELS / "slider_crank_clearance_a.mbs"), "-P", "speed=4000rpm..5000rpm:8",
             "-n", str(revolutions), "--rtol", "1e-6", "--overwrite", "-q"]
     load_before = os.getloadavg()
     for j in ("1", "2"):  # one warm-up each (kernel cache, page cache)
         wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}.h5")])
-    times = {"-j 1": [], "-j 2": []}
+    times, cpus = {"-j 1": [], "-j 2": []}, {"-j 1": [], "-j 2": []}
     for r in range(rounds):
         for j in ("1", "2"):
-            times[f"-j {j}"].append(wall(base + ["-j", j, "-o", str(tmp / f"sweep{j}.h5")]))
+            dt, cpu = wall_and_cpu(base + ["-j", j, "-o", str(tmp / f"sweep{j}.h5")])
+            times[f"-j {j}"].append(dt)
+            cpus[f"-j {j}"].append(cpu)
     t = {k: statistics.median(v) for k, v in times.items()}
+    cpu = {k: statistics.median(v) for k, v in cpus.items()}
     per_round = [a / b for a, b in zip(times["-j 1"], times["-j 2"])]
     case = {f"-j {j}": case_seconds(tmp / f"sweep{j}.h5") for j in ("1", "2")}
     return dict(times=t, speedup=t["-j 1"] / t["-j 2"], speedup_min=min(per_round), speedup_max=max(per_round),
-                target=1.6, cases=8, revolutions=revolutions, rounds=rounds, case_seconds=case,
-                load=[load_before, os.getloadavg()])
+                target=1.6, cases=8, revolutions=revolutions, rounds=rounds, case_seconds=case, cpu_seconds=cpu,
+                cpu_bound=t["-j 1"] / (cpu["-j 2"] / 2), load=[load_before, os.getloadavg()])
 
 
 def case_seconds(path: Path) -> float:
