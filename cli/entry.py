@@ -73,7 +73,19 @@ def leave(code, printed_only: bool = False) -> None:
     os._exit(code)
 
 
+def _terminate(signum, frame) -> None:
+    """SIGTERM ends a command by an exception rather than at once, so its `finally` blocks run (a
+    figure or a recording being written is removed, never left half-written beside its name; files
+    are closed) and it exits with 128 + the signal, 143.  `mbs run`'s time loop and `mbs sweep`
+    install their own handlers while they work (results kept, a sentence saying so)."""
+    raise SystemExit(128 + signum)
+
+
 def main() -> None:
+    import signal
+
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:  # one the user's shell ignores stays ignored
+        signal.signal(signal.SIGTERM, _terminate)
     if sys.argv[1:2] == ["sweep"]:
         from planar_mbs import sweep_server
 

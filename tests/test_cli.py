@@ -2,6 +2,7 @@
 from pathlib import Path
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from planar_mbs import read_results
@@ -123,6 +124,33 @@ def test_sigterm_and_sigint_keep_a_valid_file(tmp_path):
         kept = read_results(out)
         assert not kept.complete and kept.attrs["status"] == "interrupted"
         assert 0 < kept.time[-1] < 100 and len(kept.time) == len(kept["slider.x"])
+
+
+@pytest.mark.slow
+def test_sigterm_while_a_recording_is_written_leaves_no_file(tmp_path):
+    """SIGTERM to `mbs view` halfway through writing a 20-MB recording: exit 143, and neither the
+    recording nor the hidden file it was being written to is left (the process used to end where it
+    stood, with the file half-written)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    results = tmp_path / "a.h5"
+    mbs = str(Path(sys.executable).with_name("mbs"))
+    subprocess.run([mbs, "run", str(MODELS / "slider_crank_clearance_a.mbs"), "-o", str(results), "--t-end", "1s",
+                    "-q"], check=True, capture_output=True)
+    proc = subprocess.Popen([mbs, "view", str(results), "-o", str(tmp_path / "v.rrd")], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not list(tmp_path.glob(".v.rrd.*.part")):  # rerun has started writing
+        time.sleep(0.02)
+    assert list(tmp_path.glob(".v.rrd.*.part")), "the recording never started"
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"]
 
 
 def test_second_writer_of_a_results_file_is_refused(tmp_path):
