@@ -648,6 +648,8 @@ def open_results(path: str | Path, locking: bool = True):
     import h5py
 
     path = check_results_file(path)
+    if locking:
+        refuse_if_being_written(path)
     with reading(path):
         f = h5py.File(path, "r", locking=locking)
     try:
@@ -655,6 +657,29 @@ def open_results(path: str | Path, locking: bool = True):
             yield f
     finally:
         f.close()
+
+
+def refuse_if_being_written(path) -> None:
+    """Raise `ResultsFileError` when another process holds the file's `WriteLock` (a run or a sweep
+    that has not ended): HDF5 cannot read a file that another process is writing, and its own lock
+    then failed in a way that `reading` reported as a damaged file.  Checked with our lock itself, so
+    it holds with HDF5's locking switched off too (HDF5_USE_FILE_LOCKING=FALSE)."""
+    import fcntl
+
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return  # the open that follows reports it
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise ResultsFileError(f"{path} is being written by another process (a run or a sweep that has not "
+                               "ended)", hint="wait for it to end, or stop it (Ctrl-C keeps what it has written) "
+                               "and read the file then") from None
+    except OSError:  # no flock on this file system: HDF5's own lock decides
+        pass
+    finally:
+        os.close(fd)
 
 
 @contextmanager

@@ -85,6 +85,36 @@ def test_file_readable_while_unfinished(tmp_path):
     assert len(res.time) == 2 and not res.complete
 
 
+def test_a_file_another_process_writes_is_refused_by_name(tmp_path, monkeypatch):
+    """Reading a results file while another process writes it (holds its `WriteLock`): a clear error
+    that says so, with HDF5's own locking on or off (it used to be reported as a damaged file, or,
+    with HDF5's locking off, read halfway through a write); once the writer is gone, it reads."""
+    import subprocess
+    import sys
+
+    import pytest
+
+    from planar_mbs.results import ResultsFileError
+
+    path = tmp_path / "r.h5"
+    w = ResultsWriter(path, TABLE, {})
+    w.append(np.array([0.0, 0.1]), np.ones((2, 3)))
+    w.close()
+    writer = subprocess.Popen([sys.executable, "-c", "import pathlib, sys\nfrom planar_mbs.results import WriteLock\n"
+                               f"lock = WriteLock(pathlib.Path({str(path)!r}))\nprint('writing', flush=True)\n"
+                               "sys.stdin.read()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert writer.stdout.readline().strip() == "writing"
+        for hdf5_locking in ("TRUE", "FALSE"):
+            monkeypatch.setenv("HDF5_USE_FILE_LOCKING", hdf5_locking)
+            with pytest.raises(ResultsFileError, match="is being written by another process") as err:
+                read_results(path)
+            assert "damaged" not in str(err.value) and err.value.exit_code == 2
+    finally:
+        writer.communicate("", timeout=30)
+    assert len(read_results(path).time) == 2
+
+
 def test_unknown_signal_suggests(tmp_path):
     path = tmp_path / "r.h5"
     w = ResultsWriter(path, TABLE, {})
