@@ -4,9 +4,10 @@
 Registered in `app.py` with ``app.command()(sweep)`` and ``app.command()(analyze)``.
 Exit codes as everywhere: 0 success, 2 bad model / usage / a sweep file from
 another model, 3 at least one case failed (its results up to the failure are kept),
-130 interrupted (finished cases are kept; rerunning the command resumes).
+130 interrupted, 143 stopped by SIGTERM (finished cases are kept; rerunning the command resumes).
 """
 import math
+import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -208,8 +209,10 @@ class _interruptible:
     `mbs run`.  The handler is installed even when the shell started the sweep with SIGINT ignored
     (a script without job control, `nohup`), where Python leaves it ignored.  It raises
     KeyboardInterrupt at once and notes the signal (`sweep.note_interrupt`), so that an interrupt
-    Python drops (raised inside a garbage-collector callback) is raised again at the sweep's next
-    wait.  (SIGTERM used to end the process where it stood, leaving the folder of case files.)"""
+    Python drops (raised inside a weakref or garbage-collector callback) is raised again at the
+    sweep's next wait or, in one process, before its next case, instead of being printed as
+    "Exception ignored" while the sweep ran on to its end.  (SIGTERM used to end the process where
+    it stood, leaving the folder of case files.)"""
 
     SIGNALS = ("SIGINT", "SIGTERM")
 
@@ -223,8 +226,13 @@ class _interruptible:
             note_interrupt(signum)
             raise KeyboardInterrupt
 
+        def unraisable(report):
+            if not (isinstance(report.exc_value, KeyboardInterrupt) and PENDING_INTERRUPTS):
+                self.hook(report)  # a dropped interrupt is raised again, not printed as "Exception ignored"
+
         self.previous = {}
         PENDING_INTERRUPTS.clear()
+        self.hook, sys.unraisablehook = sys.unraisablehook, unraisable
         if threading.current_thread() is threading.main_thread():
             for name in self.SIGNALS:
                 sig = getattr(signal, name)
@@ -236,6 +244,7 @@ class _interruptible:
 
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
+        sys.unraisablehook = self.hook
         return False
 
     @staticmethod

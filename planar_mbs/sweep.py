@@ -726,10 +726,14 @@ def _cluster_watch(executor, timeout: float) -> Callable[[], None] | None:
 
 
 class _InlineFuture:
+    """A case run in this process when its result is asked for (``-j 1``)."""
+
     def __init__(self, fn, arg):
         self.fn, self.arg = fn, arg
 
     def result(self):
+        if PENDING_INTERRUPTS:  # an interrupt that Python dropped (raised inside a weakref callback)
+            raise KeyboardInterrupt
         return self.fn(self.arg)
 
 
