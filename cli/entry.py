@@ -81,11 +81,35 @@ def _terminate(signum, frame) -> None:
     raise SystemExit(128 + signum)
 
 
-def main() -> None:
+def _terminate_again(report) -> None:
+    """sys.unraisablehook while `_terminate` is installed: Python drops an exception raised inside a
+    weakref or garbage-collector callback (printing "Exception ignored"), which would let SIGTERM pass
+    unnoticed.  The signal is sent again 10 ms later instead, from a thread (sent from here, its
+    handler would run inside this hook and be dropped in turn), and then ends the command."""
     import signal
 
-    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:  # one the user's shell ignores stays ignored
+    if isinstance(report.exc_value, SystemExit) and report.exc_value.code == 128 + signal.SIGTERM:
+        import threading
+
+        again = threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGTERM))
+        again.daemon = True
+        again.start()
+    else:
+        sys.__unraisablehook__(report)
+
+
+def stop_cleanly_on_sigterm() -> None:
+    """Install `_terminate` for SIGTERM (and `_terminate_again`), unless the user's shell ignores
+    SIGTERM: then it stays ignored."""
+    import signal
+
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
         signal.signal(signal.SIGTERM, _terminate)
+        sys.unraisablehook = _terminate_again
+
+
+def main() -> None:
+    stop_cleanly_on_sigterm()
     if sys.argv[1:2] == ["sweep"]:
         from planar_mbs import sweep_server
 

@@ -290,30 +290,31 @@ def record_run(
     """
     rr = _rerun()
     start = _time.perf_counter()
-    rec, part = recording, None
-    if rec is None:
-        rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
-        blueprint = _blueprint(results, model, poincare_pair)
-        if spawn:
-            rec.spawn(default_blueprint=blueprint)
-        elif path is not None:
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            part = _part_beside(Path(path))
-            rec.save(str(part), default_blueprint=blueprint)
-        else:
-            raise ValueError("record_run needs a path, spawn=True or a recording")
-    try:
+    rec, part, moved = recording, None, False
+    try:  # from before the part file exists: a SIGTERM as it is created still removes it
+        if rec is None:
+            rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
+            blueprint = _blueprint(results, model, poincare_pair)
+            if spawn:
+                rec.spawn(default_blueprint=blueprint)
+            elif path is not None:
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+                part = _part_beside(Path(path))
+                rec.save(str(part), default_blueprint=blueprint)
+            else:
+                raise ValueError("record_run needs a path, spawn=True or a recording")
         info = _record_all(rr, rec, results, model, path, magnify, fps, max_frames, signals, signal_rate,
                            signal_stride, poincare_pair, skip)
         if recording is None:
             if part is not None:
                 rec.disconnect()  # flushes everything to the file and closes it
                 _move_into_place(part, Path(path))
+                moved = True
             else:
                 rec.flush()
     finally:
-        if part is not None and part.exists():  # stopped before the move: nothing replaces `path`
-            rec.disconnect()
+        if part is not None and not moved:  # stopped before the move: nothing replaces `path`
+            rec.disconnect()  # rerun's writing thread has ended: the part cannot come back
             part.unlink(missing_ok=True)
     info.seconds = _time.perf_counter() - start
     return info

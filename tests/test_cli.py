@@ -153,6 +153,36 @@ def test_sigterm_while_a_recording_is_written_leaves_no_file(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"]
 
 
+DROPPED_SIGTERM = """
+import signal, time, weakref
+from planar_mbs.cli.entry import stop_cleanly_on_sigterm
+stop_cleanly_on_sigterm()
+class Thing:
+    pass
+thing = Thing()
+ref = weakref.ref(thing, lambda r: signal.raise_signal(signal.SIGTERM))
+try:
+    del thing  # SIGTERM arrives while Python runs a weakref callback: an exception there is dropped
+    for _ in range(100):
+        time.sleep(0.01)  # the command goes on working
+    print("ran to the end")
+finally:
+    print("finally ran")
+"""
+
+
+def test_a_sigterm_that_lands_in_a_weakref_callback_still_ends_the_command():
+    """SIGTERM's SystemExit raised inside a weakref callback is dropped by Python (printed as
+    "Exception ignored ... SystemExit: 143", the command ran on to exit 0); the signal is sent again
+    and ends the command with 143, its `finally` blocks run, nothing on stderr."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", DROPPED_SIGTERM], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 143, out.stdout + out.stderr
+    assert out.stdout.split() == ["finally", "ran"] and out.stderr == ""
+
+
 def test_second_writer_of_a_results_file_is_refused(tmp_path):
     """Two processes writing one results file: the second gets a clear error (exit 2) and the
     first one's file is not touched."""
