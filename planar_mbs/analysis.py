@@ -289,17 +289,11 @@ def store_section(path, group: str, sec: PoincareSection, verdict: Verdict | Non
     halfway could damage the file and crashed the process), released again after."""
     from pathlib import Path
 
-    from .errors import MbsError
-    from .results import DiskFull, ResultsBusy, open_for_writing, release_reserve, reserve_space
+    from .results import DiskFull, open_for_writing, release_reserve, reserve_space
 
     arrays = [sec.time, np.asarray(sec.revolution), *sec.points.values()]
     nbytes = sum(np.asarray(a).nbytes for a in arrays) + 4096 * len(arrays) + (1 << 16)  # + headers, attributes
-    try:
-        f, lock = open_for_writing(Path(path), "r+")
-    except (OSError, ResultsBusy) as exc:
-        err = MbsError(f"error: cannot write {path}: {exc}")
-        err.exit_code = 2
-        raise err from None
+    f, lock = open_for_writing(Path(path), "r+")
     end = None
     try:
         try:

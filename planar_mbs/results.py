@@ -411,17 +411,23 @@ WRITE_CHUNK_CACHE = 1 << 17  # bytes of HDF5 chunk cache per dataset when writin
 
 
 def open_for_writing(path: Path, mode: str):
-    """(h5py.File, WriteLock) for a writer; raises `ResultsBusy` or OSError."""
+    """(h5py.File, WriteLock) for a writer; a file another process writes (`ResultsBusy`) or that
+    cannot be opened is an `MbsError` (exit code 2) saying so."""
     import h5py
 
-    lock = WriteLock(path)
     try:
-        # a small chunk cache: HDF5's default (1 MiB per dataset) keeps growing with the rows
-        # written (measured: all of them), which would make memory grow with t_end
-        return h5py.File(path, mode, locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE), lock
-    except BaseException:
-        lock.release()
-        raise
+        lock = WriteLock(path)
+        try:
+            # a small chunk cache: HDF5's default (1 MiB per dataset) keeps growing with the rows
+            # written (measured: all of them), which would make memory grow with t_end
+            return h5py.File(path, mode, locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE), lock
+        except BaseException:
+            lock.release()
+            raise
+    except (OSError, ResultsBusy) as exc:
+        err = MbsError(f"cannot write {path}: {exc}")
+        err.exit_code = 2
+        raise err from None
 
 
 class _RowPacker:
@@ -478,14 +484,7 @@ class ResultsWriter:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.table = table
-        try:
-            self.file, self.lock = open_for_writing(self.path, mode)
-        except (OSError, ResultsBusy) as exc:
-            from .errors import MbsError
-
-            err = MbsError(f"cannot write {self.path}: {exc}")
-            err.exit_code = 2
-            raise err from None
+        self.file, self.lock = open_for_writing(self.path, mode)
         self.reserved = 0
         self.broken = False
         self.t_last = 0.0  # time of the last row written

@@ -648,12 +648,9 @@ def end_with_parent(parent: int) -> None:
     import signal
     import threading
 
-    try:
-        import ctypes
+    from .sweep_server import die_with_parent
 
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
+    die_with_parent()
 
     def watch():
         try:

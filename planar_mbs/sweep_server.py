@@ -51,19 +51,25 @@ def start() -> bool:
     return True
 
 
-def die_with_the_sweep() -> None:
-    """Called first by the server's preload (`sweep_worker`): the kernel kills the server when the
-    sweep's process ends (prctl PR_SET_PDEATHSIG), so a server still loading does not outlive a
-    sweep that stopped at a usage error, an interrupt or SIGKILL.  Elsewhere it does nothing."""
-    owner = os.environ.pop(SERVER_ENV, None)
-    if owner is None:
-        return
+def die_with_parent() -> bool:
+    """Have the kernel send SIGKILL to this process when its parent process ends (prctl
+    PR_SET_PDEATHSIG); False where that does not exist (not Linux)."""
     try:
         import ctypes
         import signal
 
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux: the server ends when its preload is done
+    except (OSError, AttributeError):
+        return False
+    return True
+
+
+def die_with_the_sweep() -> None:
+    """Called first by the server's preload (`sweep_worker`): the kernel kills the server when the
+    sweep's process ends (prctl PR_SET_PDEATHSIG), so a server still loading does not outlive a
+    sweep that stopped at a usage error, an interrupt or SIGKILL.  Elsewhere it does nothing."""
+    owner = os.environ.pop(SERVER_ENV, None)
+    if owner is None or not die_with_parent():  # not Linux: the server ends when its preload is done
         return
     if os.getppid() != int(owner):  # the sweep ended before the signal was armed
         os._exit(0)

@@ -157,15 +157,30 @@ def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size)
     assert f"{4 - len(done)} case(s) run, {len(done)} already in the file" in r.stdout
 
 
+def _runs(*runs: tuple[Path, str]) -> None:
+    """`mbs run` of the model into each results file for its simulated time."""
+    for results, t_end in runs:
+        results.parent.mkdir(exist_ok=True)
+        r = _mbs("run", MODEL, "-o", results, "--t-end", t_end, "-q")
+        assert r.returncode == 0, r.stderr
+
+
+def _fill(disk: Path) -> Path:
+    """Take every byte left on the disk mounted at `disk` with a file of its own; returns that file."""
+    filler = disk / "filler"
+    with open(filler, "wb", buffering=0) as f:
+        with contextlib.suppress(OSError):
+            while True:
+                f.write(b"\0" * 4096)
+    return filler
+
+
 def test_a_figure_is_never_left_half_written(tmp_path):
     """`mbs plot` over the figures of an earlier call, with larger figures of a longer run, on a disk
     that is now full: a clean error, and every earlier figure still whole, byte for byte (written in
     place, they were truncated and then half rewritten), with no temporary file left beside them."""
     short, long = tmp_path / "short" / "a.h5", tmp_path / "long" / "a.h5"  # the same stem: the same figure names
-    for results, t_end in ((short, "0.01s"), (long, "0.1s")):
-        results.parent.mkdir()
-        r = _mbs("run", MODEL, "-o", results, "--t-end", t_end, "-q")
-        assert r.returncode == 0, r.stderr
+    _runs((short, "0.01s"), (long, "0.1s"))
     disk = tmp_path / "disk"
     with small_disk(disk, "2m") as mounted:
         if not mounted:
@@ -174,14 +189,11 @@ def test_a_figure_is_never_left_half_written(tmp_path):
         assert first.returncode == 0, first.stderr
         figures = {p.name: p.read_bytes() for p in disk.iterdir()}
         assert figures and all(data.startswith(b"\x89PNG") for data in figures.values())
-        with open(disk / "filler", "wb", buffering=0) as filler:  # take every byte left
-            with contextlib.suppress(OSError):
-                while True:
-                    filler.write(b"\0" * 4096)
+        filler = _fill(disk)
         again = _mbs("plot", long, "-o", disk)
         assert again.returncode == 2, again.stdout + again.stderr
         assert "No space left on device" in again.stderr and "Traceback" not in again.stdout + again.stderr
-        assert {p.name: p.read_bytes() for p in disk.iterdir() if p.name != "filler"} == figures
+        assert {p.name: p.read_bytes() for p in disk.iterdir() if p != filler} == figures
 
 
 def test_a_rerun_recording_is_never_left_half_written(tmp_path):
@@ -190,9 +202,7 @@ def test_a_rerun_recording_is_never_left_half_written(tmp_path):
     wrote in place, only logged its failed write, and the command reported the recording as written),
     and no temporary file left."""
     short, long = tmp_path / "short.h5", tmp_path / "long.h5"
-    for results, t_end in ((short, "0.002s"), (long, "0.2s")):
-        r = _mbs("run", MODEL, "-o", results, "--t-end", t_end, "-q")
-        assert r.returncode == 0, r.stderr
+    _runs((short, "0.002s"), (long, "0.2s"))
     disk = tmp_path / "disk"
     with small_disk(disk, "1m") as mounted:
         if not mounted:
@@ -220,18 +230,14 @@ def test_analyze_store_on_a_full_disk_leaves_the_results_file_as_it_was(tmp_path
         if not mounted:
             pytest.skip("no tmpfs can be mounted here")
         out = disk / "a.h5"
-        r = _mbs("run", MODEL, "-o", out, "--t-end", "0.05s", "-q")
-        assert r.returncode == 0, r.stderr
+        _runs((out, "0.05s"))
         before = out.read_bytes()
-        with open(disk / "filler", "wb", buffering=0) as filler:  # take every byte left
-            with contextlib.suppress(OSError):
-                while True:
-                    filler.write(b"\0" * 4096)
+        filler = _fill(disk)
         full = _mbs("analyze", out, "--store")
         assert full.returncode == 3, full.stdout + full.stderr
         assert "is full" in full.stderr and "Traceback" not in full.stdout + full.stderr
         assert out.read_bytes() == before
-        (disk / "filler").unlink()
+        filler.unlink()
         room = _mbs("analyze", out, "--store")
         assert room.returncode == 0, room.stdout + room.stderr
         with h5py.File(out, "r") as f:
