@@ -39,7 +39,7 @@ from ..model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
-from .workspace import FL_REG_SEEN, FL_SCHUR_REG  # REG, REFINE, TAU, RESTORE: workspace.solver_settings
+from .workspace import FL_REG_SEEN, FL_SCHUR_REG, FL_STEP_REG  # REG, REFINE, ...: workspace.solver_settings
 
 SINGULAR = 4
 DRIFT = 8
@@ -113,6 +113,7 @@ def schur_factor(km, ws, stats):
         return SINGULAR
     ws.flags[FL_SCHUR_REG] = 1
     ws.flags[FL_REG_SEEN] = 1
+    ws.flags[FL_STEP_REG] = 1
     return 0
 
 
@@ -150,7 +151,11 @@ def multipliers(km, ws, x):
 
 @kernel
 def refine(km, ws, x):
-    """The iterated Tikhonov solve of `multipliers` (ws.b, ws.res, ws.v as scratch)."""
+    """The iterated Tikhonov solve of `multipliers` (ws.b, ws.res, ws.v as scratch): REFINE
+    sweeps, then more while each shrinks the residual by at least RATE (up to 64).  A
+    direction of relative eigenvalue s converges by REG / (s + REG) per sweep: those that keep
+    their rank, however small the mass ratio makes them, converge to rounding (the residual
+    then stalls); only those with s below ~REG / RATE (a singular position) stay damped."""
     m = x.shape[0]
     minv = km.minv
     bnorm = 0.0
@@ -158,6 +163,7 @@ def refine(km, ws, x):
         ws.b[r] = x[r]
         bnorm = max(bnorm, abs(x[r]) / math.sqrt(ws.sdiag[r]))
     schur_solve(ws.S, ws.first, x)
+    rold = math.inf
     for it in range(64):
         for k in range(ws.v.shape[0]):
             ws.v[k] = 0.0
@@ -172,8 +178,9 @@ def refine(km, ws, x):
         for r in range(m):
             ws.res[r] = ws.b[r] - jac_dot(ws, r, ws.v)
             rnorm = max(rnorm, abs(ws.res[r]) / math.sqrt(ws.sdiag[r]))
-        if not (rnorm > ws.solver[2] * bnorm) or it >= ws.solver[1]:
+        if not (rnorm > ws.solver[2] * bnorm) or (it >= ws.solver[1] and not (rnorm <= ws.solver[5] * rold)):
             break
+        rold = rnorm
         schur_solve(ws.S, ws.first, ws.res)
         for r in range(m):
             x[r] += ws.res[r]
@@ -346,8 +353,6 @@ def project(km, t, y, ws, stats):
 
 DRIFT_POSITION = 1e-6  # m or rad: bound on |C_r| for fixed-step RK4
 DRIFT_VELOCITY = 1e-4  # m/s or rad/s: bound on |Cq q' + Ct|_r for fixed-step RK4
-LOST_POSITION = 1e-2  # m or rad: the adaptive methods' bound (constraints that cannot be kept)
-LOST_VELOCITY = 1.0  # m/s or rad/s
 
 
 @kernel
@@ -356,9 +361,7 @@ def drift_check(ws, qd, stats, pbound, vbound):
     DRIFT (stats[ST_INFO] = row) when a position residual exceeds pbound or a velocity
     residual vbound.  Fixed-step RK4 (DRIFT_*) has no error control: this stops a run
     that has left its constraints (a too long step) instead of returning wrong results.
-    The adaptive methods (LOST_*) keep the residuals near rtol; beyond LOST_* the
-    constraints cannot be kept at all (a driver pushing through a toggle, where the
-    regularised solve gives way)."""
+    (The adaptive methods' check, scaled to the mechanism, is `loop.lost_check`.)"""
     for r in range(ws.C.shape[0]):
         if not (abs(ws.C[r]) <= pbound) or not (abs(ws.Ct[r] + jac_dot(ws, r, qd)) <= vbound):
             stats[ST_INFO] = r
