@@ -340,6 +340,49 @@ def _projection_note(settings: Settings, ws) -> list[str]:
             "positions and velocities are projected onto the constraints from then on (projection = auto)"]
 
 
+ENERGY_PER_RTOL = 1e3  # a workless mechanism's energy may drift by this many rtol of its largest kinetic energy
+
+
+def _workless(model: Model) -> bool:
+    """No driver, no clearance joint, no damper or actuator: the total energy is conserved."""
+    from .model import ForceType
+
+    k = model.kernel
+    if model.ndriver or model.nclearance:
+        return False
+    for typ, p in zip(k.force_type, k.force_param):
+        if int(typ) in (ForceType.SPRING_DAMPER, ForceType.ROTATIONAL_SPRING_DAMPER) and (p[1] != 0 or p[3] != 0):
+            return False
+    return True
+
+
+def _energy_drift(table, rows: np.ndarray, track: dict[str, float]) -> None:
+    """Track the total energy's first value, its largest change and the largest kinetic energy."""
+    cols = {s.quantity: s.extract(rows) for s in table
+            if s.entity == "system" and s.quantity in ("kinetic_energy", "potential_energy")}
+    if len(cols) < 2 or not len(rows):
+        return
+    T, E = cols["kinetic_energy"], cols["kinetic_energy"] + cols["potential_energy"]
+    if not np.all(np.isfinite(E)):
+        return
+    E0 = track.setdefault("energy.first", float(E[0]))
+    track["energy.drift"] = max(track.get("energy.drift", 0.0), float(np.abs(E - E0).max()))
+    track["energy.kinetic"] = max(track.get("energy.kinetic", 0.0), float(T.max()))
+
+
+def _energy_warning(model: Model, settings: Settings, track: dict[str, float]) -> list[str]:
+    """A workless mechanism whose energy drifted by more than ENERGY_PER_RTOL rtol of its largest
+    kinetic energy: the motion is not to be trusted (a singular position crossed onto another
+    branch, a too loose tolerance)."""
+    drift, T = track.get("energy.drift", 0.0), track.get("energy.kinetic", 0.0)
+    if not _workless(model) or not T > 0 or drift <= ENERGY_PER_RTOL * settings.rtol * T:
+        return []
+    return [f"the total energy of this mechanism, which nothing drives or damps, changed by {drift:.3g} J "
+            f"({drift / T:.2g} of its largest kinetic energy, more than {ENERGY_PER_RTOL:g} rtol): the motion is "
+            "not to be trusted (tighten rtol; with projection = off, a singular position may have been crossed "
+            "onto another branch)"]
+
+
 def _deepest(table, rows: np.ndarray, deepest: dict[str, float]) -> None:
     """Update the largest penetration of each clearance joint with a chunk of rows."""
     for s in table:
@@ -453,6 +496,7 @@ def simulate(
         if writer and k and not disk_full:
             block = out[:k] if cols is None else out[:k, cols]
             _deepest(table, block, deepest)
+            _energy_drift(table, block, deepest)
             try:
                 writer.append(out_t[:k], block)
             except DiskFull as exc:
@@ -490,6 +534,7 @@ def simulate(
                         chunk_t = out_t[:n].copy()
                         chunk = out[:n].copy() if cols is None else out[:n, cols]
                         _deepest(table, chunk, deepest)
+                        _energy_drift(table, chunk, deepest)
                         times.append(chunk_t)
                         blocks.append(chunk)
                 if progress:
@@ -525,7 +570,8 @@ def simulate(
                 "n_contact_events": int(stats[ST_CONTACT_EVENTS]),
                 "n_outputs": int(stats[ST_OUTPUTS]),
             }
-            run_attrs["warnings"] = _physics_warnings(model, deepest) + _projection_note(settings, ws)
+            run_attrs["warnings"] = (_physics_warnings(model, deepest) + _projection_note(settings, ws)
+                                     + _energy_warning(model, settings, deepest))
             run_attrs["assembly_changes"] = changes
             if writer:
                 writer.close(run_attrs)

@@ -348,3 +348,16 @@ def test_check_says_a_singular_initial_pose_is_one(tmp_path):
     assert res.exit_code == 0, res.output
     out = " ".join(res.output.split())
     assert "1 degree of freedom" in out and "singular position" in out and "redundant at the initial pose" not in out
+
+
+@pytest.mark.parametrize("step, warned", [("0.15 s", True), ("1 ms", False)])
+def test_energy_drift_of_a_workless_mechanism_is_reported(step, warned):
+    """A mass on an undamped spring (omega = 10 rad/s) by RK4: at h omega = 1.5 the scheme loses
+    energy each step (conservation is the reference); the run says so, and not at a fine step."""
+    text = ("body bob { mass = 1 kg  inertia = 1e-3 kg*m^2  position = (0.1, 0) }\n"
+            "force spring = spring_damper(ground (-1, 0), bob (0, 0)) { stiffness = 100 N/m  length = 1 m }\n"
+            f"simulate {{ t_end = 6 s  integrator = rk4  step = {step}  output_step = 0.15 s }}\n")
+    res = simulate(text, "spring.mbs")
+    E = res["system.total_energy"]
+    assert (abs(E[-1] - E[0]) > 1e-3 * E[0]) == warned
+    assert any("total energy" in w for w in res.attrs["warnings"]) == warned
