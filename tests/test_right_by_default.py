@@ -361,3 +361,49 @@ def test_energy_drift_of_a_workless_mechanism_is_reported(step, warned):
     E = res["system.total_energy"]
     assert (abs(E[-1] - E[0]) > 1e-3 * E[0]) == warned
     assert any("total energy" in w for w in res.attrs["warnings"]) == warned
+
+
+def test_driven_crank_rocker_next_to_a_change_point():
+    """A crank-rocker 0.1 µm from a change-point linkage (a + d = b + c): once a turn, with the crank
+    pointing away from the rocker's pivot, coupler and rocker lie almost in line and the two
+    assemblies come within 1e-4 m of each other.  Driven, it has no freedom: the rocker's pin is the
+    intersection of two circles, on the side it started (position analysis in closed form)."""
+    a, b, c, d = 0.1, 0.25, 0.2, 0.35 - 1e-7
+    w = 2 * math.pi
+
+    def pin_b(th, side):
+        A = np.array([a * np.cos(th), a * np.sin(th)])
+        O4 = np.array([d, 0.0])
+        u = O4[:, None] - A
+        r = np.hypot(*u)
+        along = (b * b - c * c + r * r) / (2 * r)
+        h = np.sqrt(np.maximum(b * b - along * along, 0.0))
+        e = u / r
+        return A + along * e + side * h * np.array([-e[1], e[0]])
+
+    th0 = 0.0
+    B = [float(x) for x in pin_b(np.array([th0]), 1.0)[:, 0]]
+    A = [a, 0.0]
+    cpl = math.atan2(B[1] - A[1], B[0] - A[0])
+    rck = math.atan2(B[1], B[0] - d)
+    text = f"""
+body crank {{ mass = 0.2 kg  inertia = 2e-4 kg*m^2  position = ({a / 2} m, 0)  angle = 0 deg }}
+body coupler {{ mass = 0.5 kg  inertia = 3e-3 kg*m^2  position = ({(A[0] + B[0]) / 2!r} m, {(A[1] + B[1]) / 2!r} m)
+               angle = {math.degrees(cpl)!r} deg }}
+body rocker {{ mass = 0.4 kg  inertia = 1.5e-3 kg*m^2  position = ({(d + B[0]) / 2!r} m, {B[1] / 2!r} m)  angle = {math.degrees(rck)!r} deg }}
+joint O2 = revolute(ground (0, 0), crank ({-a / 2} m, 0))
+joint A = revolute(crank ({a / 2} m, 0), coupler ({-b / 2} m, 0))
+joint B = revolute(coupler ({b / 2} m, 0), rocker ({c / 2} m, 0))
+joint O4 = revolute(ground ({d!r} m, 0), rocker ({-c / 2} m, 0))
+driver motor = rotation(crank, speed = 60 rpm)
+gravity (0, -9.81 m/s^2)
+simulate {{ t_end = 3 s  integrator = dop853  rtol = 1e-12  atol = 1e-14  output_step = 1 ms }}
+"""
+    res = simulate(text, "change_point.mbs")
+    th = th0 + w * res.time
+    exact = pin_b(th, 1.0)
+    phi = res["rocker.phi"]
+    pin = np.stack([res["rocker.x"] + 0.5 * c * np.cos(phi), res["rocker.y"] + 0.5 * c * np.sin(phi)])
+    assert np.hypot(*(pin - exact)).max() <= 1e-8
+    other = pin_b(th, -1.0)
+    assert np.hypot(*(exact - other)).min() < 1e-3  # it does come close to the other assembly
