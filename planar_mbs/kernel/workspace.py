@@ -45,7 +45,8 @@ class Workspace(NamedTuple):
     cs: np.ndarray  # (nbody, 2) cos, sin of every body angle at the current rhs
     Ct: np.ndarray  # (m,) dC/dt
     gam: np.ndarray  # (m,) gamma
-    S: np.ndarray  # (m, m) Schur complement Cq M^-1 Cq^T (envelope only), factored in place
+    S: np.ndarray  # (profile,) Schur complement Cq M^-1 Cq^T, its envelope packed by rows, factored in place
+    ptr: np.ndarray  # (m,) int: where row r's envelope (columns first[r]..r) starts in S
     sdiag: np.ndarray  # (m,) diagonal of S before factoring
     lam: np.ndarray  # (m,) Lagrange multipliers
     b: np.ndarray  # (m,) right side of the Schur system during `multipliers`
@@ -151,6 +152,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     N = 2 * n
     rowbody = row_bodies(km)
     first, lastrow = envelope(rowbody)
+    ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
     flags[FL_SWITCH_JOINT] = -1
     dense = np.zeros(N_DENSE)
@@ -159,7 +161,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
-        S=np.zeros((m, m)), sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
+        S=np.zeros(int(np.sum(np.arange(m) - first + 1))), ptr=ptr, sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
         Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
