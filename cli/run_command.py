@@ -173,9 +173,13 @@ def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes:
                      n_contact_events=int(stats[ST_CONTACT_EVENTS]))
     out.unlink(missing_ok=True)
     write_results(str(out), res)
-    text = (f"settled on a periodic orbit at revolution {run.settled_at}" if run.settled_at is not None
-            else f"not settled on a periodic orbit after {run.revolutions} revolutions")
-    _console().print(f"{text}; {run.revolutions} revolutions run", markup=False)
+    from planar_mbs.analysis import analyze, report
+
+    stop = ("stopped: the section settled on a periodic orbit" if run.settled_at is not None
+            else "no periodic orbit found (--max-revolutions)")
+    _console().print(f"{run.revolutions} revolutions run; {stop}", markup=False)
+    for line in report(*analyze(res)):  # the verdict as `mbs analyze` gives it on the file
+        _console().print(line, markup=False)
     return res
 
 

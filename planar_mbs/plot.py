@@ -663,6 +663,9 @@ def plot_results(
             _save(series_figure(results, [names], against), outdir / f"{stem}_{_slug(fname)}.{fmt}", written)
         orbit = clearance_names(results)
         slider = slider_body(results, model)
+        if slider is None and notes is not None:
+            notes.append("no slider in this mechanism: no slider figures and no Poincaré map; name the signals "
+                         "to draw (`mbs plot FILE BODY.omega`) and the map's (`-p X:Y`)")
         if slider and (body or turning_body(results, model)):
             p = poincare(full, f"{slider}.vx", f"{slider}.ax", body, skip, model)
             if len(p.t):

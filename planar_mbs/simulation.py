@@ -383,6 +383,7 @@ def simulate(
     with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
     Raises `SimulationError` (with ``.results``) on failure.
     """
+    from .first_compile import first_call
     from .kernel import advance, make_workspace
 
     settings = run_settings(model, **settings_changes)
@@ -406,7 +407,7 @@ def simulate(
     table, cols = signal_selection(model, signals, cfg)
 
     # compile (or load from the cache) outside the timed loop, on throw-away copies
-    advance(km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
+    first_call(advance, km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
 
     attrs = {
         "model_source": model.source_text,
@@ -540,6 +541,7 @@ class Simulation:
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
                  **settings_changes):
+        from .first_compile import first_call
         from .kernel import advance, make_workspace
 
         self.model = model
@@ -563,8 +565,8 @@ class Simulation:
         self._wall = 0.0
         self._status = int(Status.DONE)
         self._failure = ""
-        advance(self._km, self._cfg, self._y.copy(), self._clock.copy(), self._contact.copy(),  # compile first
-                self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
+        first_call(advance, self._km, self._cfg, self._y.copy(), self._clock.copy(),  # compile first
+                   self._contact.copy(), self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
         self._ws = make_workspace(self._km)
         self._attrs = {
             "model_source": model.source_text, "model_path": model.source_path, "parameters": model.parameters,
