@@ -124,7 +124,8 @@ def run(
                              "and largest sample of each signal (peaks kept); full: every output sample.")]
     = "envelope",
     force: Annotated[bool, typer.Option("--force", help="Run even when the estimated output is beyond 10^8 rows "
-                     "or larger than the free disk space (the run then stops cleanly if the disk fills).")] = False,
+                     "or larger than the free disk space (the run then stops cleanly if the disk fills); replace "
+                     "a --rerun file that is not a recording of these results.")] = False,
     until_settled: Annotated[bool, typer.Option("--until-settled", help="Run revolution by revolution until the "
                              "Poincaré points have settled on a periodic orbit (checked every 50 revolutions), at "
                              "most --max-revolutions; see docs/sweeps.md.")] = False,

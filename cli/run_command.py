@@ -25,6 +25,9 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
               until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as `app.run`'s); the exit code."""
+    from planar_mbs.first_compile import announce_if_cold
+
+    announce_if_cold()  # a first run says at once that it compiles the solver (before reading the model)
     from planar_mbs import simulate
     from planar_mbs.compile import load_model
     from planar_mbs.errors import MbsError, ModelError, SimulationError
@@ -33,6 +36,9 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     sets = {}
     out = output
     try:
+        if view_ and rerun is None:  # an option that cannot act says so
+            raise ModelError("--view opens the viewer on the run's rerun recording, and no --rerun is given",
+                             "--view", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
         sets = parse_sets(set_ or [])
         out = output or default_output(model, sets)
         m = load_model(model, sets)
@@ -65,7 +71,10 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         if not make_folder:
             check_output(out, "--output", inputs)
         if rerun is not None:
-            check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
+            from planar_mbs.rerun_log import check_replace, recording_key
+
+            check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)], make_parents=True)
+            check_replace(rerun, recording_key(out), force, "--rerun")
         if not until_settled:
             _check_output_size(m, changes, out, model, force)
         if make_folder:
@@ -82,8 +91,11 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         if err.results is not None:
             _print_summary(err.results, out)
             if rerun is not None:
-                record_run(err.results, m, rerun, magnify=magnify, fps=fps, open_viewer=view_,
-                           signals=rerun_signals)
+                try:
+                    record_run(err.results, m, rerun, magnify=magnify, fps=fps, open_viewer=view_,
+                               signals=rerun_signals, recording_id=_recording_key(out))
+                except (MbsError, OSError) as rec_err:  # the viewer could not start: said, then the failure
+                    fail_code(rec_err if isinstance(rec_err, MbsError) else f"error: {rec_err}")
         _console(stderr=True).print(f"simulation failed: {err.message}\n"
                                     f"results up to t = {err.time:.6g} s kept in {out} (marked incomplete)",
                                     markup=False)
@@ -99,7 +111,8 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     _print_summary(res, out)
     if rerun is not None:
         try:
-            record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals)
+            record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals,
+                       recording_id=_recording_key(out))
         except (MbsError, OSError) as err:  # the results are written; the recording is not
             return fail_code(err if isinstance(err, MbsError) else f"error: {err}")
     return 0
@@ -132,6 +145,12 @@ def record_run(*args, **kwargs):
     from .plot_commands import record_run as record
 
     return record(*args, **kwargs)
+
+
+def _recording_key(out: Path) -> str:
+    from planar_mbs.rerun_log import recording_key
+
+    return recording_key(out)
 
 
 def _driver_period(m):
