@@ -21,9 +21,11 @@ import typer
 from planar_mbs import catalog
 
 from .common import internal_error
+from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
 
 _INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
-EPILOG = ("Exit codes: 0 success · 2 bad model or usage · 3 the simulation failed (results kept) · "
+EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
+          "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed (results kept) · "
           "130/143 interrupted by Ctrl-C/SIGTERM (results kept).")
 
 
@@ -37,10 +39,13 @@ app = typer.Typer(
     ),
     epilog=EPILOG,
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,
     rich_markup_mode="rich",
     pretty_exceptions_enable=False,
+    cls=ReadableGroup,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
+use_one_error_style()
 
 
 def _version(value: bool) -> None:
@@ -75,7 +80,7 @@ _CHECK_HELP = (
     f"Integrators: {', '.join(catalog.names(catalog.INTEGRATORS))}.")
 
 
-@app.command(help=_CHECK_HELP)
+@app.command(help=_CHECK_HELP, cls=ReadableCommand)
 def check(model: ModelArg, set_: SetOpt = None) -> None:
     """Compile a model and print it (help text: _CHECK_HELP, from the catalog)."""
     from .check_command import check_model
@@ -85,7 +90,7 @@ def check(model: ModelArg, set_: SetOpt = None) -> None:
         raise typer.Exit(code)
 
 
-@app.command()
+@app.command(cls=ReadableCommand)
 def run(
     model: ModelArg,
     output: Annotated[Optional[Path], typer.Option(
@@ -119,7 +124,9 @@ def run(
     magnify: Annotated[float, typer.Option(help="Clearance magnification in the rerun drawing.", min=0.0)] = 10.0,
     fps: Annotated[Optional[float], typer.Option(help="rerun frames per simulated second.",
                    show_default="90 per revolution of the driven body")] = None,
-    view_: Annotated[bool, typer.Option("--view", help="Open the rerun viewer on the recording.")] = False,
+    open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the --rerun recording (as "
+                     "`mbs view --open`).")] = False,
+    view_: Annotated[bool, typer.Option("--view", hidden=True, help="The old name of --open.")] = False,
     rerun_signals: Annotated[str, typer.Option("--rerun-signals", help="envelope: per frame the first, smallest "
                              "and largest sample of each signal (peaks kept); full: every output sample.")]
     = "envelope",
@@ -143,8 +150,8 @@ def run(
 
     code = run_model(model, output=output, set_=set_, t_end=t_end, revolutions=revolutions, output_step=output_step,
                      per_rev=per_rev, integrator=integrator, rtol=rtol, atol=atol, step=step, quiet=quiet,
-                     rerun=rerun, magnify=magnify, fps=fps, view_=view_, rerun_signals=rerun_signals, force=force,
-                     until_settled=until_settled, max_revolutions=max_revolutions, keep=keep)
+                     rerun=rerun, magnify=magnify, fps=fps, view_=open_ or view_, rerun_signals=rerun_signals,
+                     force=force, until_settled=until_settled, max_revolutions=max_revolutions, keep=keep)
     if code:
         raise typer.Exit(code)
 
@@ -152,10 +159,8 @@ def run(
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
 from .sweep_commands import analyze, sweep  # noqa: E402  (light: imports only typer)
 
-app.command()(plot)
-app.command()(view)
-app.command()(sweep)
-app.command()(analyze)
+for _command in (plot, view, sweep, analyze):
+    app.command(cls=ReadableCommand)(_command)
 
 
 def main() -> None:

@@ -45,8 +45,10 @@ def plot(
         "--output", "-o", help="Directory for the figures.",
         show_default="<results>_plots/ next to the results file")] = None,
     fmt: Annotated[str, typer.Option("--format", "-f", help="png, svg or pdf.")] = "png",
-    skip: Annotated[int, typer.Option(help="Revolutions dropped as transient before Poincaré sampling.",
-                                      min=0)] = 1,
+    transient: Annotated[int, typer.Option("--transient", help="Revolutions dropped at the start before "
+                                           "Poincaré sampling (as `mbs analyze --transient`).", min=0)] = 1,
+    skip: Annotated[Optional[int], typer.Option("--skip", hidden=True, min=0, help="The old name of --transient.")]
+    = None,
     body: Annotated[Optional[str], typer.Option(
         "--clock", help="Body whose revolutions clock the Poincaré section.",
         show_default="the body that turns most, i.e. the driven crank")] = None,
@@ -63,7 +65,7 @@ def plot(
     per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
-    mbs plot a.h5 --poincare slider.vx:slider.ax --skip 2 · mbs plot a.h5 --orbit A -f svg ·
+    mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
     mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
     """
     from planar_mbs.errors import MbsError
@@ -71,6 +73,7 @@ def plot(
 
     from .common import check_choice, check_number, check_output
 
+    skip = transient if skip is None else skip
     try:
         fmt = check_choice(fmt, FORMATS, "--format")
         file = _results_path(results)

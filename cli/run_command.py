@@ -37,8 +37,8 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     out = output
     try:
         if view_ and rerun is None:  # an option that cannot act says so
-            raise ModelError("--view opens the viewer on the run's rerun recording, and no --rerun is given",
-                             "--view", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
+            raise ModelError("--open opens the viewer on the run's rerun recording, and no --rerun is given",
+                             "--open", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
         sets = parse_sets(set_ or [])
         out = output or default_output(model, sets)
         m = load_model(model, sets)
@@ -300,7 +300,7 @@ _OPTIONS = {
     "--rerun": ("rerun", "path", None),
     "--magnify": ("magnify", "float", 0.0),
     "--fps": ("fps", "float", None),
-    "--view": ("view_", "flag", None),
+    "--open": ("view_", "flag", None), "--view": ("view_", "flag", None),  # --view: the old name
     "--rerun-signals": ("rerun_signals", "str", None),
     "--force": ("force", "flag", None),
     "--until-settled": ("until_settled", "flag", None),

@@ -197,6 +197,12 @@ def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Set
     return dataclasses.replace(model.settings, **changes)
 
 
+# what scipy (solve_ivp's RK45, DOP853), MATLAB (ode45) and Hairer's codes call our integrators: a
+# spelling like `rk45` is closest to `rk4` letter by letter, but means Dormand-Prince 5(4)
+OTHER_INTEGRATOR_NAMES = {"rk45": "dopri5", "ode45": "dopri5", "dopri": "dopri5", "dp5": "dopri5", "dp45": "dopri5",
+                          "rk853": "dop853", "dp8": "dop853", "dopri8": "dop853", "dopri853": "dop853"}
+
+
 def integrator_of(name: str, where: str = "integrator") -> Integrator:
     """The integrator called `name` (catalog.INTEGRATORS); a ModelError naming the valid ones
     (and the closest) otherwise.  `where` labels the error (e.g. "--integrator")."""
@@ -205,7 +211,9 @@ def integrator_of(name: str, where: str = "integrator") -> Integrator:
 
     names = catalog.names(catalog.INTEGRATORS)
     if str(name).lower() not in names:
-        hint = did_you_mean(str(name).lower(), names)
+        ours = OTHER_INTEGRATOR_NAMES.get(str(name).lower())
+        hint = (f"did you mean `{ours}`? (`{name}` in other tools);" if ours
+                else did_you_mean(str(name).lower(), names))
         raise ModelError(f"unknown integrator `{name}`", where,
                          hint=(hint + " " if hint else "") + "choose " + catalog.choices(catalog.INTEGRATORS))
     return Integrator(catalog.integrator(name).code)
