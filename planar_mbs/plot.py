@@ -377,9 +377,26 @@ def wrap_pairs(bits: Sequence[str], width: int) -> str:
     return "\n".join(lines)
 
 
+LONG_RUN_REVOLUTIONS = 10  # a time plot of more revolutions marks the start-up and scales to what follows it
+
+
+def startup_end(results: "Results", transient: int = 1, model: "Model | None" = None) -> float | None:
+    """End of the start-up of a long run (more than `LONG_RUN_REVOLUTIONS` revolutions of the turning
+    body): the time of its `transient`-th revolution; None for a short run or one that does not turn."""
+    body = turning_body(results, model)
+    if body is None or f"{body}.phi" not in results or transient < 1:
+        return None
+    from .section import crossings
+
+    times = crossings(results.time, results[f"{body}.phi"])
+    return float(times[transient - 1]) if len(times) > LONG_RUN_REVOLUTIONS else None
+
+
 def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: str | None = None,
-                  title: str | None = None):
-    """One subplot per panel (sharing x); the signals of a panel share its axes."""
+                  title: str | None = None, startup: float | None = None):
+    """One subplot per panel (sharing x); the signals of a panel share its axes.  ``startup`` (s,
+    time plots only): the start-up is shaded and each panel's y range fits what comes after it,
+    so that one start-up impact does not flatten a long run into a band."""
     names = [n for p in panels for n in p]
     check_signals(results, names)
     x, xlabel = axis_values(results, against)
@@ -398,6 +415,8 @@ def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: 
             else:
                 xs, ys = envelope(x, y)
                 ax.plot(xs, ys, lw=0.7, label=name)
+        if startup is not None and against is None:
+            _mark_startup(ax, results, panel, startup)
         if len(panel) == 1:
             ax.set_ylabel(words_label(panel[0], shown_unit(panel[0])))
         else:
@@ -407,6 +426,19 @@ def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: 
     axes[-1].set_xlabel(xlabel)
     fig.suptitle(title if title is not None else _title(results), fontsize="medium")
     return fig
+
+
+def _mark_startup(ax, results: "Results", panel: Sequence[str], startup: float) -> None:
+    """Shade the start-up and fit the y range to the samples after it (5 % margin)."""
+    after = np.asarray(results.time) > startup
+    values = np.concatenate([np.asarray(results[n], float)[after] for n in panel])
+    values = values[np.isfinite(values)]
+    ax.axvspan(float(results.time[0]), startup, color="0.85", lw=0, zorder=0, label="start-up")
+    ax.text(startup, 0.98, " ← start-up (its peaks off scale)", transform=ax.get_xaxis_transform(), ha="left",
+            va="top", fontsize="x-small", color="0.35")
+    if len(values) and np.ptp(values) > 0:
+        pad = 0.05 * np.ptp(values)
+        ax.set_ylim(values.min() - pad, values.max() + pad)
 
 
 def poincare_figure(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
@@ -706,8 +738,13 @@ def plot_results(
         check_signals(results, [against])
     defaults = not panels and pair is None and not orbit
     if defaults:
+        startup = startup_end(results, skip, model) if window is None else None  # a long run, no window asked
         for fname, names in default_panels(results, model):
-            _save(series_figure(results, [names], against), outdir / f"{stem}_{_slug(fname)}.{fmt}", written)
+            _save(series_figure(results, [names], against, startup=startup),
+                  outdir / f"{stem}_{_slug(fname)}.{fmt}", written)
+        if startup is not None and notes is not None:
+            notes.append(f"a long run: the start-up (to t = {startup:.3g} s, shaded) is off the y scale of the "
+                         "time plots; `--from`/`--to` draws a window")
         orbit = clearance_names(results)
         slider = slider_body(results, model)
         if slider is None and notes is not None:

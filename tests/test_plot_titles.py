@@ -52,3 +52,26 @@ def test_angles_against_an_angle_are_in_degrees(results):
     y = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
     y = y[np.isfinite(y)]
     np.testing.assert_allclose(np.sort(y), np.sort(np.degrees(results["rod.phi"])))
+
+
+def test_a_long_run_marks_its_start_up_and_scales_to_what_follows(tmp_path):
+    """Twelve revolutions with a start-up impact 100 times the steady amplitude: the time plot shades
+    the first revolution and its y range fits the samples after it."""
+    path = tmp_path / "long.h5"
+    write_run(path, revolutions=12.0, n=6000)
+    res = read_results(path)
+    period = res.time[-1] / 12.0
+    start = P.startup_end(res, 1)
+    assert start == pytest.approx(period, rel=1e-3)
+    vx = res["slider.vx"].copy()
+    vx[5] = 100 * np.max(np.abs(vx))  # the start-up impact
+    res.signals["slider.vx"] = vx
+    ax = P.series_figure(res, [["slider.vx"]], startup=start).axes[0]
+    lo, hi = ax.get_ylim()
+    steady = vx[res.time > start]
+    assert hi < 2 * steady.max() and lo <= steady.min() and hi >= steady.max()
+    assert any(abs(p.get_x() + p.get_width() - start) < 1e-12 for p in ax.patches)  # the shaded start-up
+    assert P.startup_end(read_results(tmp_path / "long.h5"), 1) is not None
+    short = tmp_path / "short.h5"
+    write_run(short, revolutions=5.0, n=2000)
+    assert P.startup_end(read_results(short), 1) is None  # a short run is drawn whole
