@@ -282,10 +282,11 @@ def label(name: str, unit: str) -> str:
 
 
 def words_label(name: str, unit: str) -> str:
-    """A y label in words with the signal's name beside: ``slider velocity x (slider.vx) [m/s]``."""
+    """A y label in words with the signal's name under it: ``slider velocity x`` / ``(slider.vx) [m/s]``
+    (two lines, so that it fits beside a panel of a few inches)."""
     entity, _, quantity = name.rpartition(".")
     words = QUANTITY_WORDS.get(quantity)
-    text = f"{entity} {words} ({name})" if words and entity else name
+    text = f"{entity} {words}\n({name})" if words and entity else name
     u = pretty_unit(unit)
     return f"{text} [{u}]" if u else text
 

@@ -27,3 +27,18 @@ def test_the_plots_page_states_the_shipped_tolerance():
     text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
     stated = float(re.search(r"it now ships with rtol (\S+?) --", text)[1])
     assert stated == mbs.load_model(SHIPPED).settings.rtol
+
+
+def test_the_poincare_count_of_the_plots_page():
+    """docs/plots.md: the shipped model run as the page runs it (`--t-end 0.36s`, 30 revolutions at
+    5000 rpm) gives the number of Poincaré points the page states, and the page's revolutions are
+    the run's."""
+    from planar_mbs import plot as P
+
+    text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
+    assert "mbs run models/slider_crank_clearance_a.mbs -o a_5000.h5 --t-end 0.36s" in text
+    revolutions, points = (int(n) for n in re.search(
+        r"The Poincaré map \((\d+) revolutions, the first dropped, so (\d+) points\)", text).groups())
+    res = mbs.simulate(mbs.load_model(SHIPPED), t_end="0.36 s", output_step="100 us")
+    assert revolutions == round(0.36 * 5000 / 60)
+    assert len(P.poincare(res, "slider.vx", "slider.ax").t) == points

@@ -48,7 +48,7 @@ def test_a_window_is_titled_as_asked(results):
 def test_angles_against_an_angle_are_in_degrees(results):
     fig = P.series_figure(results, [["rod.phi"]], against="crank.phi")
     ax = fig.axes[0]
-    assert ax.get_ylabel() == "rod angle (rod.phi) [deg]" and "deg" in ax.get_xlabel()
+    assert ax.get_ylabel() == "rod angle\n(rod.phi) [deg]" and "deg" in ax.get_xlabel()
     y = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
     y = y[np.isfinite(y)]
     np.testing.assert_allclose(np.sort(y), np.sort(np.degrees(results["rod.phi"])))
