@@ -42,3 +42,19 @@ def test_the_poincare_count_of_the_plots_page():
     res = mbs.simulate(mbs.load_model(SHIPPED), t_end="0.36 s", output_step="100 us")
     assert revolutions == round(0.36 * 5000 / 60)
     assert len(P.poincare(res, "slider.vx", "slider.ax").t) == points
+
+
+def test_contact_events_and_onsets_in_the_samples():
+    """docs/plots.md: the run's contact events (onsets the integrator located) against the onsets
+    seen in the output samples: equal at a fine output step, fewer at a coarse one, as the page says
+    (its numbers are these)."""
+    from planar_mbs import plot as P
+
+    text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
+    events, fine, coarse = (int(n) for n in re.search(
+        r"(\d+) events, and\s+(\d+) onsets in the samples at a 10 µs output step, (\d+) at 100 µs", text).groups())
+    model = mbs.load_model(SHIPPED)
+    for step, onsets in (("10 us", fine), ("100 us", coarse)):
+        res = mbs.simulate(model, t_end="24 ms", output_step=step)  # two revolutions at 5000 rpm
+        assert res.attrs["n_contact_events"] == events
+        assert len(P.contact_onsets(res, "A")) == onsets
