@@ -95,7 +95,8 @@ def run(
     model: ModelArg,
     output: Annotated[Optional[Path], typer.Option(
         "--output", "-o", help="HDF5 results file.",
-        show_default="results/<model name>.h5, with the --set values in the name")] = None,
+        show_default="results/<model name>.h5, with the --set values in the name; when that file holds a run with "
+                     "other settings, beside it with the options given in the name (results/a_n=100.h5)")] = None,
     set_: SetOpt = None,
     t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time, with units (\"0.06 s\", 60ms).",
                      show_default="the model's simulate block")] = None,

@@ -67,6 +67,10 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
         inputs = [("the model file" if i == 0 else "a file the model includes", f)
                   for i, f in enumerate(m.source_files or [model])]
+        if output is None:
+            out = _beside_another_run(out, m, changes, {
+                "n": revolutions, "t-end": t_end, "per-rev": per_rev, "output-step": output_step,
+                "integrator": integrator, "rtol": rtol, "atol": atol, "step": step})
         make_folder = output is None and not out.parent.exists()  # results/, made once every check passed
         if not make_folder:
             check_output(out, "--output", inputs)
@@ -166,6 +170,34 @@ def default_output(model: Path, sets: dict[str, str]) -> Path:
 
     tag = "".join(f"_{name}={re.sub(r'[^A-Za-z0-9.+-]', '', value)}" for name, value in sets.items())
     return Path("results") / f"{model.stem}{tag}.h5"
+def _beside_another_run(out: Path, m, changes: dict, given: dict) -> Path:
+    """The default output `out`; or, when it holds a run with other settings (another `-n`, `--t-end`,
+    step or tolerance), a name beside it carrying the options given (results/a_n=100.h5), said on
+    stdout: a default name never replaces the results of a run that differs in more than its time."""
+    import dataclasses
+
+    from planar_mbs.results import read_results
+    from planar_mbs.simulation import run_settings
+
+    if not out.is_file():
+        return out
+    try:
+        before = dict(read_results(out).attrs.get("settings") or {})
+    except Exception:  # noqa: BLE001  (not a results file: the checks of the output deal with it)
+        return out
+    settings = run_settings(m, **changes)
+    now = {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
+    same = all(k in before and (before[k] == now[k] or (isinstance(now[k], float) and math.isclose(before[k], now[k])))
+               for k in ("t_end", "output_step", "integrator", "rtol", "atol", "step"))
+    if same:
+        return out
+    text = lambda v: f"{v:g}" if isinstance(v, float) else str(v)  # noqa: E731  (-n 100 -> n=100)
+    tag = "".join(f"_{opt}={re.sub(r'[^A-Za-z0-9.+-]', '', text(v))}" for opt, v in given.items() if v is not None)
+    beside = out.with_name(f"{out.stem}{tag or '_other'}{out.suffix}")
+    _console().print(f"{out} holds a run with other settings: this one goes to {beside}", markup=False)
+    return beside
+
+
 def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) -> None:
     """Refuse (exit 2) before running what asks for too many rows or more disk than is free."""
     from planar_mbs.output_size import check_output, estimate

@@ -267,3 +267,18 @@ def test_one_name_per_idea_old_names_still_work(monkeypatch):
     for command, shown, hidden in (("run", "--open", "--view"), ("plot", "--transient", "--skip")):
         text = runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"}).output
         assert shown in text and hidden not in text
+
+
+def test_a_default_name_does_not_replace_a_run_with_other_settings(tmp_path, monkeypatch):
+    """results/<model>.h5 of a 2 ms run is kept when a 3 ms run follows: that one goes beside it, its
+    name carrying the option given; the same run again replaces its own file."""
+    monkeypatch.chdir(tmp_path)
+    first = tmp_path / "results" / "slider_crank.h5"
+    assert runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "2ms"]).exit_code == 0
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "3ms"])
+    assert r.exit_code == 0, r.output
+    second = tmp_path / "results" / "slider_crank_t-end=3ms.h5"
+    assert "holds a run with other settings" in r.output and str(second.relative_to(tmp_path)) in r.output
+    assert read_results(first).time[-1] == pytest.approx(2e-3) and read_results(second).time[-1] == pytest.approx(3e-3)
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "2ms"])
+    assert r.exit_code == 0 and "other settings" not in r.output and sorted(first.parent.glob("*.h5")) == [first, second]
