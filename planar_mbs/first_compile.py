@@ -177,9 +177,12 @@ def _start_helper():
 
     if (os.cpu_count() or 1) < 2:
         return None
+    # this very package first on the helper's path (not another copy installed elsewhere)
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")])))
     try:
         return subprocess.Popen([sys.executable, "-m", "planar_mbs.first_compile"], stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     except OSError:
         return None
 

@@ -92,3 +92,25 @@ def test_the_helper_compiles_the_signatures_the_time_loop_uses():
         dispatcher = getattr(importlib.import_module(f"planar_mbs.kernel.{module}"), name)
         keys = [key[0] for key in dispatcher._cache._cache_file._load_index()]
         assert F._signature(dispatcher, km, ws) in keys, name
+
+
+@pytest.mark.slow
+def test_a_cold_mbs_run_says_so_first_and_the_helper_does_part_of_the_work(tmp_path):
+    """`mbs run` with an empty numba cache: the notice is its first line of stderr, the last one before
+    the summary gives the time taken, and the kernels of `HELPER_KERNELS` are in the cache."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    model = Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    mbs = Path(sys.executable).with_name("mbs")
+    res = subprocess.run([str(mbs), "run", str(model), "-q", "--t-end", "2 ms",
+                          "-o", str(tmp_path / "a.h5")], capture_output=True, text=True, env=env, timeout=1800)
+    assert res.returncode == 0, res.stderr
+    lines = res.stderr.splitlines()
+    assert lines[0] == F.HEAD and lines[-1].startswith("compiled the solver in "), res.stderr
+    written = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
+    for module, name in F.HELPER_KERNELS:
+        assert f"{module}.{name}" in written
