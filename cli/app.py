@@ -4,6 +4,7 @@ Exit codes (one table, also in README and `mbs --help`):
 
 ====  ==========================================================
 0     success
+1     an internal error (a bug), or the reader of the output went away (`| head`)
 2     bad model file, bad `--set` value or bad command-line usage
 3     the simulation failed (results up to the failure are kept)
 130   interrupted by Ctrl-C (143: by SIGTERM); results so far kept

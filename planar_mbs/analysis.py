@@ -185,8 +185,11 @@ class Verdict:
         out = []
         if self.verdict == "undetermined":
             out.append(f"too few points: {self.n_points} of at least {MIN_POINTS}")
-        elif self.settled_revolution is None and self.n_total:
-            out.append("not settled")
+        else:
+            if self.settled_revolution is None and self.n_total:
+                out.append("not settled")
+            if self.n_points < MIN_POINTS:  # the settled part (or last half) alone
+                out.append(f"few points: {self.n_points} classified")
         if not self.agree and self.verdict != "undetermined":
             out.append("indicators disagree")
         return out

@@ -192,3 +192,13 @@ def test_mbs_analyze_on_too_few_points_says_so(tmp_path):
     assert out.exit_code == 0, out.output
     assert "too few section points to classify: 2, at least 20 are needed" in out.output
     assert "nan" not in out.output.lower()
+
+
+def test_a_short_classified_part_is_a_doubt():
+    """30 points that do not settle: the last half (15 points) is classified, fewer than MIN_POINTS."""
+    from planar_mbs.analysis import MIN_POINTS
+
+    n = np.arange(30)
+    v = classify(np.column_stack([n / 30.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)]))
+    assert v.n_points == 15 < MIN_POINTS
+    assert "few points: 15 classified" in v.doubts() and "few points: 15 classified" in v.headline()
