@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import io
 import time
+from pathlib import Path
 
 import pytest
 
@@ -114,3 +115,23 @@ def test_a_cold_mbs_run_says_so_first_and_the_helper_does_part_of_the_work(tmp_p
     written = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
     for module, name in F.HELPER_KERNELS:
         assert f"{module}.{name}" in written
+
+
+def test_mbs_run_announces_before_reading_the_model(stderr, monkeypatch, tmp_path):
+    """With no cached time loop, `mbs run` says it will compile before it even reads the model (the
+    first line within a fraction of a second, whatever the model costs to load)."""
+    from planar_mbs import compile as C
+    from planar_mbs.cli.run_command import run_model
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    seen = []
+
+    def load(*args, **kwargs):
+        from planar_mbs.errors import ModelError
+
+        seen.append(stderr.getvalue())
+        raise ModelError("stop here: nothing is compiled", "m.mbs")
+
+    monkeypatch.setattr(C, "load_model", load)
+    assert run_model(Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs") == 2
+    assert seen == [F.HEAD + "\n"]
