@@ -36,9 +36,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     sets = {}
     out = output
     try:
-        if view_ and rerun is None:  # an option that cannot act says so
-            raise ModelError("--open opens the viewer on the run's rerun recording, and no --rerun is given",
-                             "--open", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
+        _needs_rerun(view_, rerun)
         sets = parse_sets(set_ or [])
         out = output or default_output(model, sets)
         m = load_model(model, sets)
@@ -75,10 +73,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         if not make_folder:
             check_output(out, "--output", inputs)
         if rerun is not None:
-            from planar_mbs.rerun_log import check_replace, recording_key
-
-            check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)], make_parents=True)
-            check_replace(rerun, recording_key(out), force, "--rerun")
+            _check_rerun(rerun, out, inputs, force)
         if not until_settled:
             _check_output_size(m, changes, out, model, force)
         if make_folder:
@@ -149,6 +144,24 @@ def record_run(*args, **kwargs):
     from .plot_commands import record_run as record
 
     return record(*args, **kwargs)
+
+
+def _needs_rerun(view_: bool, rerun: Path | None) -> None:
+    """--open without --rerun cannot act: refused (exit 2) rather than ignored."""
+    from planar_mbs.errors import ModelError
+
+    if view_ and rerun is None:
+        raise ModelError("--open opens the viewer on the run's rerun recording, and no --rerun is given",
+                         "--open", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
+
+
+def _check_rerun(rerun: Path, out: Path, inputs: list, force: bool) -> None:
+    """The --rerun file: a writable place (missing folders are made) that holds no recording of other
+    results, unless --force (`rerun_log.check_replace`)."""
+    from planar_mbs.rerun_log import check_replace, recording_key
+
+    check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)], make_parents=True)
+    check_replace(rerun, recording_key(out), force, "--rerun")
 
 
 def _recording_key(out: Path) -> str:
