@@ -338,7 +338,7 @@ class _SweepProgress:
         last = ""
         if outcome is not None:
             vals = ", ".join(f"{k}={v}" for k, v in outcome.values.items())
-            last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.label()}" if outcome.verdict else "")
+            last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
         self.bar.update(self.task, completed=done, last=last)
 
     def __exit__(self, *exc):
