@@ -304,10 +304,8 @@ def test_mbs_run_rerun(tmp_path):
 
 
 # ---------------------------------------------------------------- viewers that fail, outputs of other runs
-def test_view_open_reports_the_viewers_failure(tmp_path, monkeypatch):
-    """A viewer that cannot start (here a stand-in `rerun` that fails as rerun does without a display)
-    makes `mbs view --open` exit 2 with the viewer's exit code and its own reason; the recording is
-    written."""
+def _viewer_that_fails(tmp_path, monkeypatch):
+    """A stand-in `rerun` module, first on the viewer's path, that fails as rerun does without a display."""
     fake = tmp_path / "fake" / "rerun"
     fake.mkdir(parents=True)
     (fake / "__init__.py").write_text("")
@@ -315,6 +313,12 @@ def test_view_open_reports_the_viewers_failure(tmp_path, monkeypatch):
                                       "print('Error: neither WAYLAND_DISPLAY nor DISPLAY is set.', file=sys.stderr)\n"
                                       "sys.exit(7)\n")
     monkeypatch.setenv("PYTHONPATH", str(tmp_path / "fake"))
+
+
+def test_view_open_reports_the_viewers_failure(tmp_path, monkeypatch):
+    """A viewer that cannot start makes `mbs view --open` exit 2 with the viewer's exit code and its
+    own reason; the recording is written."""
+    _viewer_that_fails(tmp_path, monkeypatch)
     h5 = tmp_path / "v.h5"
     write_run(h5, n=300)
     res = runner.invoke(app, ["view", str(h5), "--signals-only", "--open"])
@@ -350,3 +354,18 @@ def test_a_recording_of_other_results_is_not_replaced(tmp_path):
     notes.write_text("my notes")
     assert runner.invoke(app, ["view", str(a), "-o", str(notes), "--signals-only"]).exit_code == 2
     assert notes.read_text() == "my notes"
+
+
+def test_run_open_reports_the_viewers_failure(tmp_path, monkeypatch):
+    """`mbs run --rerun --open`: the run and its recording are written, the viewer's failure is said and
+    the exit code is 2 (it was 0, silently)."""
+    from pathlib import Path
+
+    from planar_mbs.cli.app import app as real
+
+    _viewer_that_fails(tmp_path, monkeypatch)
+    model = Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs"
+    res = runner.invoke(real, ["run", str(model), "-q", "--t-end", "1 ms", "-o", str(tmp_path / "a.h5"),
+                               "--rerun", str(tmp_path / "a.rrd"), "--open"])
+    assert res.exit_code == 2 and "exit code 7" in res.output and "DISPLAY is set" in res.output, res.output
+    assert (tmp_path / "a.rrd").stat().st_size > 0 and read_results(tmp_path / "a.h5").complete
