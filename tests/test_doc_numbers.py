@@ -58,3 +58,15 @@ def test_contact_events_and_onsets_in_the_samples():
         res = mbs.simulate(model, t_end="24 ms", output_step=step)  # two revolutions at 5000 rpm
         assert res.attrs["n_contact_events"] == events
         assert len(P.contact_onsets(res, "A")) == onsets
+
+
+def test_the_readme_poincare_count():
+    """README: the first command (60 revolutions of the shipped model) draws a Poincaré map of the
+    number of points it states."""
+    from planar_mbs import plot as P
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert "--revolutions 60" in text.split("```")[1]  # the first command
+    points = int(re.search(r"a Poincaré map of (\d+) points", text)[1])
+    res = mbs.simulate(mbs.load_model(SHIPPED), revolutions=60, per_rev=90)
+    assert len(P.poincare(res, "slider.vx", "slider.ax").t) == points
