@@ -6,7 +6,10 @@ of a second.  Without a word, that first minute looks like a hang.  `first_call`
 first call of `kernel.advance` in a process and, when numba's cache holds nothing for it, says
 at once on stderr that the solver is being compiled, once, then how long it has taken: a line
 rewritten every second on a terminal, a line every `LOG_EVERY` seconds in a plain log, and a
-last line with the total.
+last line with the total.  Meanwhile a helper process compiles the kernels the time loop's typing
+reaches last (`HELPER_KERNELS`), so that this process loads them from the cache: measured on the
+README's first command, 39.4 s of CPU here and 29.9 s in the helper, against 71.2 s in one process
+(docs/benchmarks.md, "Start-up").
 """
 from __future__ import annotations
 
