@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from . import units as U
 from .errors import ModelError, did_you_mean
-from .spec import BinOp, Call, Expr, Field, Name, Neg, Number, Pos, Statement, Vector
+from .spec import BinOp, Call, Compare, Expr, Field, Name, Neg, Number, Pos, SignalRef, Statement, String, Vector
 
 
 # ------------------------------------------------------------------ values
@@ -129,6 +129,8 @@ class Evaluator:
             if e.name in FUNCTIONS:
                 return self._function(e)
             return CallVal(e)
+        if isinstance(e, (Compare, SignalRef, String)):
+            raise self.expression_only(e)
         raise TypeError(f"unknown expression {e!r}")  # pragma: no cover
 
     def number(self, v, e: Expr) -> Scalar:
@@ -144,6 +146,14 @@ class Evaluator:
             raise self.unknown_function(v.call)
         raise e.pos.error(f"a number was expected, got `{e.pos.text}`",
                           hint="write a number with its unit, e.g. `0.3 kg`, or the name of a param")
+
+    def expression_only(self, e: Expr) -> ModelError:
+        """A comparison, a signal or a quoted text where a constant is expected."""
+        what = {Compare: "a comparison", SignalRef: f"the signal `{e.pos.text}`",
+                String: "a quoted text"}[type(e)]
+        return e.pos.error(f"{what} can only be used in an expression of a load or a motion",
+                           hint="write it in `force NAME = expression(body, fx = ..., fy = ..., torque = ...)` "
+                                "or a driver's `motion = ...`; params are constants")
 
     def unknown_function(self, c: Call) -> ModelError:
         return c.name_pos.error(f"unknown function `{c.name}`",

@@ -12,7 +12,10 @@ Force elements (model.ForceType; ``force_body (nforce, 2)``, ``force_point
   (``+f u`` on i, ``-f u`` on j, ``u = (P_j - P_i)/l``); energy ``k (l - l0)^2 / 2``;
 * ROTATIONAL_SPRING_DAMPER on ``a = phi_j - phi_i``: torque
   ``T = k (a - a0) + c a' + t_act``, ``-T`` on j and ``+T`` on i;
-  energy ``k (a - a0)^2 / 2``.
+  energy ``k (a - a0)^2 / 2``;
+* EXPRESSION: programs ``p = (fx, fy, torque)`` (-1: none, `kernel.expressions`) of (t, q, q'):
+  the global force (fx, fy) at point 0 of body 0 and a torque on it; no potential.  A value that is
+  not finite is recorded in ``km.expr_fault`` (element, t), so a failing run names its expression.
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ from .jit import kernel
 
 from ..model import ForceType, Status
 from .constraints import body_state, point_cs, point_state
+from .expressions import expr_value
 
 BAD_INPUT = int(Status.BAD_INPUT)
 
@@ -29,6 +33,7 @@ CONSTANT_FORCE = int(ForceType.CONSTANT_FORCE)
 CONSTANT_TORQUE = int(ForceType.CONSTANT_TORQUE)
 SPRING_DAMPER = int(ForceType.SPRING_DAMPER)
 ROTATIONAL_SPRING_DAMPER = int(ForceType.ROTATIONAL_SPRING_DAMPER)
+EXPRESSION = int(ForceType.EXPRESSION)
 
 
 @kernel
@@ -43,8 +48,8 @@ def add_point_force(Qe, b, ax, ay, fx, fy):
 
 
 @kernel(inline=True)
-def applied_forces(km, q, qd, cs, Qe):
-    """Qe = gravity + force elements (overwrites Qe); cs: bodies' cos/sin (`body_trig`).
+def applied_forces(km, t, q, qd, cs, Qe):
+    """Qe = gravity + force elements at time t (overwrites Qe); cs: bodies' cos/sin (`body_trig`).
     Returns 0 or 7 (bad code)."""
     nb = km.body_mass.shape[0]
     gx = km.gravity[0]
@@ -87,9 +92,37 @@ def applied_forces(km, q, qd, cs, Qe):
                 Qe[3 * bj + 2] -= T
             if bi >= 0:
                 Qe[3 * bi + 2] += T
+        elif typ == EXPRESSION:
+            expression_load(km, e, t, q, qd, cs, Qe)
         else:
             return BAD_INPUT
     return 0
+
+
+@kernel
+def _load_value(km, e, k, t, q, qd):
+    """Program k of force element e at (t, q, q') (0 for none); a non-finite value is recorded."""
+    if k < 0:
+        return 0.0
+    v = expr_value(km, k, t, q, qd)
+    if not math.isfinite(v):
+        km.expr_fault[0] = e
+        km.expr_fault[1] = t
+    return v
+
+
+@kernel
+def expression_load(km, e, t, q, qd, cs, Qe):
+    """Qe += the force (fx, fy) and torque of expression element e."""
+    bi = km.force_body[e, 0]
+    p = km.force_param[e]
+    fx = _load_value(km, e, int(p[0]), t, q, qd)
+    fy = _load_value(km, e, int(p[1]), t, q, qd)
+    tq = _load_value(km, e, int(p[2]), t, q, qd)
+    Px, Py, ax, ay, vx, vy, w = point_cs(q, qd, cs, bi, km.force_point[e, 0, 0], km.force_point[e, 0, 1])
+    add_point_force(Qe, bi, ax, ay, fx, fy)
+    if bi >= 0:
+        Qe[3 * bi + 2] += tq
 
 
 @kernel

@@ -85,7 +85,7 @@ from ..model import (
     Integrator,
     Status,
 )
-from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, motion, point_cs
+from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, driver_motion, point_cs
 from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
 from .dynamics import (
     DRIFT_POSITION, DRIFT_VELOCITY, LOST_POSITION, LOST_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
@@ -265,7 +265,7 @@ def _observe_dynamics(km, t, q, qd, ws, row, cqdd, cjoint, ceffort, cpower):
         r = km.driver_row[d]
         bi = km.driver_body[d, 0]
         bj = km.driver_body[d, 1]
-        f, fd, fdd = motion(km.driver_motion[d], km.driver_motion_param[d], t)
+        f, fd, fdd = driver_motion(km, d, t)
         eff = 0.0
         if bj >= 0:
             if km.driver_type[d] == ANGLE:

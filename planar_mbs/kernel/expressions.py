@@ -1,0 +1,263 @@
+"""The interpreter of expression programs: loads and motions written as expressions of time,
+parameters and the state (`planar_mbs.expressions` compiles them, docs/language.md).
+
+A program is a run of rows of ``km.expr_code`` (``model.ExprOp``, three operands); row ``i``
+writes register ``km.expr_reg[i]``, so a program is evaluated in one pass in order, with no stack
+and no allocation.  Every model shares these kernels: a model's expressions are data, compiled
+once with the kernels, never per model.
+
+* `expr_value`: the value at (t, q, q') -- loads, evaluated inside every right-hand side;
+* `expr_dual`: value, d/dt and d2/dt2 by forward-mode dual numbers (truncated Taylor arithmetic,
+  Griewank & Walther, "Evaluating Derivatives", ch. 13) -- prescribed motions, which depend on t
+  only, so their driver rows get f' and f'' exactly, not by finite differences;
+* `table_eval`: a table's piecewise cubic and its first two derivatives at x.
+"""
+from __future__ import annotations
+
+import math
+
+from .jit import kernel
+
+from ..model import BQ_OMEGA, BQ_PHI, BQ_VX, BQ_VY, BQ_X, ExprOp
+
+CONST = int(ExprOp.CONST)
+TIME = int(ExprOp.TIME)
+BODY = int(ExprOp.BODY)
+ADD = int(ExprOp.ADD)
+SUB = int(ExprOp.SUB)
+MUL = int(ExprOp.MUL)
+DIV = int(ExprOp.DIV)
+NEG = int(ExprOp.NEG)
+POW = int(ExprOp.POW)
+SIN = int(ExprOp.SIN)
+COS = int(ExprOp.COS)
+EXP = int(ExprOp.EXP)
+SQRT = int(ExprOp.SQRT)
+ABS = int(ExprOp.ABS)
+ATAN2 = int(ExprOp.ATAN2)
+LT = int(ExprOp.LT)
+LE = int(ExprOp.LE)
+IF = int(ExprOp.IF)
+TABLE = int(ExprOp.TABLE)
+LOG = int(ExprOp.LOG)
+TAN = int(ExprOp.TAN)
+
+
+@kernel
+def table_eval(km, k, x):
+    """(y, dy/dx, d2y/dx2) of table k at x: its piecewise cubic; a periodic table wraps x into
+    its period, any other holds its end values outside its knots."""
+    first = km.table_info[k, 0]
+    n = km.table_info[k, 1]
+    seg = km.table_seg
+    x0 = seg[first, 0]
+    xn = seg[first + n - 1, 0]
+    period = km.table_period[k]
+    if period > 0.0:  # its knots span exactly one period (the compiler closes it)
+        x = x - period * math.floor((x - x0) / period)
+    elif x <= x0:
+        return seg[first, 1], 0.0, 0.0
+    if x >= xn:
+        return seg[first + n - 1, 1], 0.0, 0.0
+    lo = first
+    hi = first + n - 1
+    while hi - lo > 1:  # bisection: seg[lo, 0] <= x < seg[hi, 0]
+        mid = (lo + hi) // 2
+        if seg[mid, 0] <= x:
+            lo = mid
+        else:
+            hi = mid
+    d = x - seg[lo, 0]
+    c1 = seg[lo, 2]
+    c2 = seg[lo, 3]
+    c3 = seg[lo, 4]
+    return seg[lo, 1] + d * (c1 + d * (c2 + d * c3)), c1 + d * (2.0 * c2 + 3.0 * d * c3), 2.0 * c2 + 6.0 * d * c3
+
+
+@kernel
+def body_quantity(q, qd, b, which):
+    """x, y, phi, vx, vy or omega (BQ_*) of body b."""
+    k = 3 * b + which % 3
+    if which < 3:
+        return q[k]
+    return qd[k]
+
+
+@kernel
+def expr_value(km, prog, t, q, qd):
+    """The value of program ``prog`` at (t, q, q')."""
+    code = km.expr_code
+    reg = km.expr_reg
+    end = km.expr_prog[prog, 1]
+    for i in range(km.expr_prog[prog, 0], end):
+        op = code[i, 0]
+        a = code[i, 1]
+        b = code[i, 2]
+        if op == CONST:
+            v = km.expr_const[a]
+        elif op == BODY:
+            v = body_quantity(q, qd, a, b)
+        elif op == TIME:
+            v = t
+        elif op == ADD:
+            v = reg[a, 0] + reg[b, 0]
+        elif op == SUB:
+            v = reg[a, 0] - reg[b, 0]
+        elif op == MUL:
+            v = reg[a, 0] * reg[b, 0]
+        elif op == DIV:
+            v = reg[a, 0] / reg[b, 0]
+        elif op == NEG:
+            v = -reg[a, 0]
+        elif op == LT:
+            v = 1.0 if reg[a, 0] < reg[b, 0] else 0.0
+        elif op == LE:
+            v = 1.0 if reg[a, 0] <= reg[b, 0] else 0.0
+        elif op == IF:
+            v = reg[b, 0] if reg[a, 0] != 0.0 else reg[code[i, 3], 0]
+        else:
+            v = _function_value(km, op, reg[a, 0], reg[b, 0], b)
+        reg[i, 0] = v
+    return reg[end - 1, 0]
+
+
+@kernel
+def _function_value(km, op, x, y, b):
+    """The value of a function row (sin, ..., a table); x, y: its operands' values."""
+    if op == SIN:
+        return math.sin(x)
+    if op == COS:
+        return math.cos(x)
+    if op == EXP:
+        return math.exp(x)
+    if op == SQRT:
+        return math.sqrt(x) if x >= 0.0 else math.nan
+    if op == ABS:
+        return abs(x)
+    if op == ATAN2:
+        return math.atan2(x, y)
+    if op == POW:
+        return _pow(x, km.expr_const[b])
+    if op == TABLE:
+        v, _, _ = table_eval(km, b, x)
+        return v
+    if op == LOG:
+        return math.log(x) if x > 0.0 else math.nan
+    if op == TAN:
+        return math.tan(x)
+    return math.nan
+
+
+@kernel
+def _pow(x, p):
+    """x^p for a constant p; NaN (not an exception) for a negative x and a fractional p."""
+    if x < 0.0 and p != math.floor(p):
+        return math.nan
+    if x == 0.0 and p < 0.0:
+        return math.inf
+    return x ** p
+
+
+@kernel
+def expr_dual(km, prog, t):
+    """(f, f', f'') of program ``prog`` (a function of t only) by truncated Taylor arithmetic."""
+    code = km.expr_code
+    reg = km.expr_reg
+    end = km.expr_prog[prog, 1]
+    for i in range(km.expr_prog[prog, 0], end):
+        op = code[i, 0]
+        a = code[i, 1]
+        b = code[i, 2]
+        v = 0.0
+        d1 = 0.0
+        d2 = 0.0
+        if op == CONST:
+            v = km.expr_const[a]
+        elif op == TIME:
+            v = t
+            d1 = 1.0
+        elif op == ADD or op == SUB:
+            s = 1.0 if op == ADD else -1.0
+            v = reg[a, 0] + s * reg[b, 0]
+            d1 = reg[a, 1] + s * reg[b, 1]
+            d2 = reg[a, 2] + s * reg[b, 2]
+        elif op == MUL:
+            v = reg[a, 0] * reg[b, 0]
+            d1 = reg[a, 1] * reg[b, 0] + reg[a, 0] * reg[b, 1]
+            d2 = reg[a, 2] * reg[b, 0] + 2.0 * reg[a, 1] * reg[b, 1] + reg[a, 0] * reg[b, 2]
+        elif op == DIV:
+            v = reg[a, 0] / reg[b, 0]
+            d1 = (reg[a, 1] - v * reg[b, 1]) / reg[b, 0]
+            d2 = (reg[a, 2] - 2.0 * d1 * reg[b, 1] - v * reg[b, 2]) / reg[b, 0]
+        elif op == NEG:
+            v = -reg[a, 0]
+            d1 = -reg[a, 1]
+            d2 = -reg[a, 2]
+        elif op == LT:
+            v = 1.0 if reg[a, 0] < reg[b, 0] else 0.0
+        elif op == LE:
+            v = 1.0 if reg[a, 0] <= reg[b, 0] else 0.0
+        elif op == IF:
+            src = b if reg[a, 0] != 0.0 else code[i, 3]
+            v = reg[src, 0]
+            d1 = reg[src, 1]
+            d2 = reg[src, 2]
+        elif op == ATAN2:
+            v, d1, d2 = _atan2_dual(reg[a, 0], reg[a, 1], reg[a, 2], reg[b, 0], reg[b, 1], reg[b, 2])
+        else:  # a function of one argument: chain rule with its first two derivatives
+            x = reg[a, 0]
+            v, g1, g2 = _function_dual(km, op, x, b)
+            d1 = g1 * reg[a, 1]
+            d2 = g2 * reg[a, 1] * reg[a, 1] + g1 * reg[a, 2]
+        reg[i, 0] = v
+        reg[i, 1] = d1
+        reg[i, 2] = d2
+    return reg[end - 1, 0], reg[end - 1, 1], reg[end - 1, 2]
+
+
+@kernel
+def _function_dual(km, op, x, b):
+    """(g(x), g'(x), g''(x)) of a function row of one argument."""
+    if op == SIN:
+        s = math.sin(x)
+        c = math.cos(x)
+        return s, c, -s
+    if op == COS:
+        s = math.sin(x)
+        c = math.cos(x)
+        return c, -s, -c
+    if op == EXP:
+        e = math.exp(x)
+        return e, e, e
+    if op == SQRT:
+        if x < 0.0:
+            return math.nan, math.nan, math.nan
+        r = math.sqrt(x)
+        return r, 0.5 / r, -0.25 / (r * x)
+    if op == ABS:
+        return abs(x), 1.0 if x >= 0.0 else -1.0, 0.0
+    if op == POW:
+        p = km.expr_const[b]
+        return _pow(x, p), p * _pow(x, p - 1.0), p * (p - 1.0) * _pow(x, p - 2.0)
+    if op == TABLE:
+        return table_eval(km, b, x)
+    if op == LOG:
+        if x <= 0.0:
+            return math.nan, math.nan, math.nan
+        return math.log(x), 1.0 / x, -1.0 / (x * x)
+    if op == TAN:
+        tn = math.tan(x)
+        sec2 = 1.0 + tn * tn
+        return tn, sec2, 2.0 * tn * sec2
+    return math.nan, math.nan, math.nan
+
+
+@kernel
+def _atan2_dual(y, y1, y2, x, x1, x2):
+    """atan2(y, x) with its first two time derivatives: u' = (x y' - y x') / r2."""
+    r2 = x * x + y * y
+    num = x * y1 - y * x1
+    d1 = num / r2
+    dnum = x * y2 - y * x2  # (x y' - y x')' = x y'' - y x''
+    d2 = (dnum * r2 - num * 2.0 * (x * x1 + y * y1)) / (r2 * r2)
+    return math.atan2(y, x), d1, d2
