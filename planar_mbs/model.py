@@ -257,6 +257,8 @@ class KernelModel(NamedTuple):
     expr_prog: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nprog, 2) int: first and end row of each program (result: row end - 1)
     expr_reg: np.ndarray = np.zeros((1, 3))  # (max(ninstr, 1), 3) scratch registers: value, d/dt, d2/dt2 (written by the kernels)
     expr_fault: np.ndarray = np.full(2, -1.0)  # (2,) scratch: [force element, t] of the first non-finite expression (-1: none)
+    expr_mode: np.ndarray = np.zeros(0)  # (ninstr,) scratch: frozen result 0/1 of a comparison row (-1: live)
+    expr_switch: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nswitch, 2) int: comparison row, its program
     table_info: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (ntable, 2) int: first row in table_seg and the number of knots
     table_period: np.ndarray = np.zeros(0)  # (ntable,) period of a periodic table (0: held at its end values outside)
     table_seg: np.ndarray = np.zeros((0, 5))  # (nknot, 5) knot x_k and y = c0 + c1 d + c2 d^2 + c3 d^3, d = x - x_k

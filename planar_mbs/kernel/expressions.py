@@ -11,6 +11,11 @@ once with the kernels, never per model.
   Griewank & Walther, "Evaluating Derivatives", ch. 13) -- prescribed motions, which depend on t
   only, so their driver rows get f' and f'' exactly, not by finite differences;
 * `table_eval`: a table's piecewise cubic and its first two derivatives at x.
+
+Comparisons are switches (as a clearance joint's contact mode): during a step each holds the value
+frozen in ``km.expr_mode``, so both sides of ``if`` stay smooth inside a step; the time loop locates
+where a comparison changes on the step's dense output (`events.locate_switch`), ends the step
+there and flips it (`flip_switch`).  A discontinuous load costs no rejected steps.
 """
 from __future__ import annotations
 
@@ -109,16 +114,46 @@ def expr_value(km, prog, t, q, qd):
             v = reg[a, 0] / reg[b, 0]
         elif op == NEG:
             v = -reg[a, 0]
-        elif op == LT:
-            v = 1.0 if reg[a, 0] < reg[b, 0] else 0.0
-        elif op == LE:
-            v = 1.0 if reg[a, 0] <= reg[b, 0] else 0.0
+        elif op == LT or op == LE:
+            v = km.expr_mode[i]
+            if v < 0.0:
+                v = _compare(op, reg[a, 0], reg[b, 0])
         elif op == IF:
             v = reg[b, 0] if reg[a, 0] != 0.0 else reg[code[i, 3], 0]
         else:
             v = _function_value(km, op, reg[a, 0], reg[b, 0], b)
         reg[i, 0] = v
     return reg[end - 1, 0]
+
+
+@kernel
+def _compare(op, x, y):
+    """1.0 or 0.0: x < y (LT) or x <= y (LE)."""
+    if op == LT:
+        return 1.0 if x < y else 0.0
+    return 1.0 if x <= y else 0.0
+
+
+@kernel
+def live_switch(km, s, t, q, qd):
+    """The value comparison s would have at (t, q, q') if it were not frozen."""
+    row = km.expr_switch[s, 0]
+    frozen = km.expr_mode[row]
+    km.expr_mode[row] = -1.0
+    expr_value(km, km.expr_switch[s, 1], t, q, qd)
+    km.expr_mode[row] = frozen
+    return km.expr_reg[row, 0]
+
+
+@kernel
+def init_switches(km, t, y):
+    """At the start of a run: every comparison frozen at its value in (t, y); no fault recorded."""
+    n = y.shape[0] // 2
+    km.expr_fault[0] = -1.0
+    for s in range(km.expr_switch.shape[0]):
+        km.expr_mode[km.expr_switch[s, 0]] = -1.0
+    for s in range(km.expr_switch.shape[0]):
+        km.expr_mode[km.expr_switch[s, 0]] = live_switch(km, s, t, y[:n], y[n:])
 
 
 @kernel
@@ -193,10 +228,10 @@ def expr_dual(km, prog, t):
             v = -reg[a, 0]
             d1 = -reg[a, 1]
             d2 = -reg[a, 2]
-        elif op == LT:
-            v = 1.0 if reg[a, 0] < reg[b, 0] else 0.0
-        elif op == LE:
-            v = 1.0 if reg[a, 0] <= reg[b, 0] else 0.0
+        elif op == LT or op == LE:
+            v = km.expr_mode[i]
+            if v < 0.0:
+                v = _compare(op, reg[a, 0], reg[b, 0])
         elif op == IF:
             src = b if reg[a, 0] != 0.0 else code[i, 3]
             v = reg[src, 0]
@@ -261,3 +296,10 @@ def _atan2_dual(y, y1, y2, x, x1, x2):
     dnum = x * y2 - y * x2  # (x y' - y x')' = x y'' - y x''
     d2 = (dnum * r2 - num * 2.0 * (x * x1 + y * y1)) / (r2 * r2)
     return math.atan2(y, x), d1, d2
+
+
+@kernel
+def flip_switch(km, s):
+    """Comparison s changes its value (at an event)."""
+    row = km.expr_switch[s, 0]
+    km.expr_mode[row] = 1.0 - km.expr_mode[row]

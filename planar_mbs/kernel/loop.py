@@ -30,7 +30,8 @@ import math
 from .jit import kernel
 from ..model import CT_IMPACT_VELOCITY, TOUCHING
 from .contact import contact_mode
-from .workspace import DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PENDING_OUTPUTS, FL_SWITCH_JOINT
+from .workspace import DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PENDING_OUTPUTS, FL_SWITCH_EXPR, \
+    FL_SWITCH_JOINT
 
 from ..model import (
     CFG_ATOL,
@@ -90,7 +91,8 @@ from .contact import clearance_force, clearance_kinematics, contact_energy, cont
 from .dynamics import (
     DRIFT_POSITION, DRIFT_VELOCITY, LOST_POSITION, LOST_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
 )
-from .events import event_possible, init_modes, locate_event, switch_mode
+from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
+from .expressions import flip_switch, init_switches
 from .forces import force_potential
 from .integrators import (
     ERROR_EXPONENT,
@@ -338,6 +340,10 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     (ONSET_STEP of the contact's time scale), inf otherwise."""
     restart = False
     hcap = math.inf
+    if ws.flags[FL_SWITCH_EXPR] >= 0:
+        flip_switch(km, ws.flags[FL_SWITCH_EXPR])
+        ws.flags[FL_SWITCH_EXPR] = -1
+        restart = True
     k = ws.flags[FL_SWITCH_JOINT]
     if k >= 0:
         switch_mode(km, k, y, contact, stats)
@@ -431,6 +437,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         clock[1] = min(clock[1], hcap)
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
+        init_switches(km, t, y)
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
             return st, 0
@@ -567,7 +574,25 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             elif kev >= 0:
                 for i in range(N):
                     y[i] = ws.yb[i]
-        if kev < 0:
+        sev = -1
+        if km.expr_switch.shape[0] > 0:
+            if method == DOP853:
+                st = dop853_dense_prepare(km, cfg, contact, ws, stats)
+                if st != 0:
+                    clock[0] = t
+                    return st, nw
+            sev, ths = locate_switch(km, ws, th if kev >= 0 else 1.0 + 1e-9)
+            if sev >= 0:  # a comparison switches first: the step ends there, a later contact event waits
+                kev = -1
+                if ths < 1.0:
+                    tnew = t + ths * hh
+                    dense_eval(ws, ths, y)
+                else:
+                    for i in range(N):
+                        y[i] = ws.yb[i]
+                ws.dense[DN_T_END] = tnew
+        ws.flags[FL_SWITCH_EXPR] = sev
+        if kev < 0 and sev < 0:
             for i in range(N):
                 y[i] = ws.yb[i]
         ws.flags[FL_SWITCH_JOINT] = kev

@@ -21,6 +21,7 @@ FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: DOP853's dense output of the last step is prepared (ws.F)
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
 FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
+FL_SWITCH_EXPR = 6  # comparison of an expression that switches at the end of the last step (-1: none)
 N_FLAGS = 8
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
@@ -144,6 +145,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     first, lastrow = envelope(rowbody)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
     flags[FL_SWITCH_JOINT] = -1
+    flags[FL_SWITCH_EXPR] = -1
     dense = np.zeros(N_DENSE)
     dense[DN_FINAL_SAMPLE] = np.nan
     return Workspace(
