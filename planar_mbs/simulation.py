@@ -224,6 +224,11 @@ def _state_name(model: Model, i: int) -> str:
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
+    fault = model.kernel.expr_fault
+    if status in (Status.NONFINITE, Status.STEP_UNDERFLOW) and 0 <= fault[0] < model.nforce:
+        return (f"the expression of force `{model.force_names[int(fault[0])]}` gave NaN or infinity at "
+                f"t = {fault[1]:.9g} s (the run stopped {at}): check it for a square root or logarithm of "
+                "a negative value, or a division by zero, along the motion")
     if status == Status.STEP_UNDERFLOW:
         touching = [n for n, mode in zip(model.clearance_names, contact[:, CT_MODE]) if int(mode) == TOUCHING]
         where = f" while clearance joint{'s' if len(touching) > 1 else ''} " + ", ".join(

@@ -227,10 +227,10 @@ def evaluate(rows: np.ndarray, period: float, x: float) -> float:
     x0, xn = rows[0, 0], rows[-1, 0]
     if period > 0:
         x = x - period * math.floor((x - x0) / period)
-    elif x <= x0:
+    elif x < x0:
         return float(rows[0, 1])
-    if x >= xn:
+    elif x > xn:
         return float(rows[-1, 1])
-    k = int(np.searchsorted(rows[:, 0], x, side="right")) - 1
+    k = min(int(np.searchsorted(rows[:, 0], x, side="right")) - 1, len(rows) - 2)
     d = x - rows[k, 0]
     return float(rows[k, 1] + d * (rows[k, 2] + d * (rows[k, 3] + d * rows[k, 4])))

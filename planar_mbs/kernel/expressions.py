@@ -50,8 +50,8 @@ TAN = int(ExprOp.TAN)
 
 @kernel
 def table_eval(km, k, x):
-    """(y, dy/dx, d2y/dx2) of table k at x: its piecewise cubic; a periodic table wraps x into
-    its period, any other holds its end values outside its knots."""
+    """(y, dy/dx, d2y/dx2) of table k at x: its piecewise cubic (at an end knot, its end segment's
+    derivatives); a periodic table wraps x into its period, any other holds its end values outside."""
     first = km.table_info[k, 0]
     n = km.table_info[k, 1]
     seg = km.table_seg
@@ -60,13 +60,13 @@ def table_eval(km, k, x):
     period = km.table_period[k]
     if period > 0.0:  # its knots span exactly one period (the compiler closes it)
         x = x - period * math.floor((x - x0) / period)
-    elif x <= x0:
+    elif x < x0:
         return seg[first, 1], 0.0, 0.0
-    if x >= xn:
+    elif x > xn:
         return seg[first + n - 1, 1], 0.0, 0.0
     lo = first
     hi = first + n - 1
-    while hi - lo > 1:  # bisection: seg[lo, 0] <= x < seg[hi, 0]
+    while hi - lo > 1:  # bisection: seg[lo, 0] <= x < seg[hi, 0] (x = xn: the last segment)
         mid = (lo + hi) // 2
         if seg[mid, 0] <= x:
             lo = mid
