@@ -130,8 +130,7 @@ SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalo
               "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
               "projection": "on | off", "max_steps": "step limit"}
 # every name that may be called in a model (the rest are unknown functions)
-_CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle",
-               *EXPRESSION_FUNCTIONS}
+_CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle"}
 RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
 SINGLETONS = ("gravity", "simulate")
 
@@ -731,7 +730,8 @@ class _DriverPass:
                     hint="`speed = ...`, `ramp(speed = ..., time = ...)`, `harmonic(amplitude = ..., "
                          "frequency = ...)` or `polynomial(c0, c1, ...)`")
             e = motions[0]
-            if isinstance(e, Call) and e.name in MOTIONS or isinstance(e, Name) and e.name in self.ev.params:
+            if isinstance(e, Call) and e.name not in EXPRESSION_FUNCTIONS or \
+                    isinstance(e, Name) and e.name in self.ev.params:
                 mtype, mp = self._motion(e, coord, rate, p0)
             else:  # an expression of t: its program, derivatives by dual numbers
                 mtype, mp = MotionType.EXPRESSION, [self.programs.program(e, coord, label, state=False)]
@@ -749,7 +749,8 @@ class _DriverPass:
         if not isinstance(v, CallVal) or v.call.name not in MOTIONS:
             name = v.call.name if isinstance(v, CallVal) else e.pos.text
             raise e.pos.error(f"unknown motion `{name}`",
-                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial")
+                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial, or an "
+                                                                  "expression of t (`30 deg * sin(2 * pi * 1 Hz * t)`)")
         c = v.call
         if c.name == "polynomial":
             if c.kwargs or not 1 <= len(c.args) <= N_MOTION_PARAM:

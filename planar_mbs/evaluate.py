@@ -149,13 +149,21 @@ class Evaluator:
 
     def expression_only(self, e: Expr) -> ModelError:
         """A comparison, a signal or a quoted text where a constant is expected."""
-        what = {Compare: "a comparison", SignalRef: f"the signal `{e.pos.text}`",
-                String: "a quoted text"}[type(e)]
+        if isinstance(e, String):
+            return e.pos.error("a quoted text is only used by `include` and as a table's file name",
+                               hint='write names without quotes (`law = hertz`)')
+        what = {Compare: "a comparison", SignalRef: f"the signal `{e.pos.text}`"}[type(e)]
         return e.pos.error(f"{what} can only be used in an expression of a load or a motion",
                            hint="write it in `force NAME = expression(body, fx = ..., fy = ..., torque = ...)` "
                                 "or a driver's `motion = ...`; params are constants")
 
     def unknown_function(self, c: Call) -> ModelError:
+        from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS
+
+        if c.name in EXPRESSION_FUNCTIONS:
+            return c.name_pos.error(f"unknown function `{c.name}` here: it is a function of expressions",
+                                    hint="write it in an expression of a load or a motion (docs/language.md, "
+                                         "Expressions); params use " + ", ".join(FUNCTIONS))
         return c.name_pos.error(f"unknown function `{c.name}`",
                                 hint=did_you_mean(c.name, FUNCTIONS) or "functions: " + ", ".join(FUNCTIONS))
 

@@ -108,7 +108,7 @@ class Programs:
         for rows in seg:
             info.append((first, len(rows)))
             first += len(rows)
-        compares = (int(ExprOp.LT), int(ExprOp.LE))
+        compares = (int(ExprOp.LT), int(ExprOp.LE), int(ExprOp.TABLE))  # switches: located as events
         switches = [(row, k) for k, (first, end) in enumerate(self.progs) for row in range(first, end)
                     if self.code[row][0] in compares]
         return dict(
@@ -117,7 +117,7 @@ class Programs:
             expr_prog=np.array(self.progs, dtype=np.int64).reshape(-1, 2),
             expr_reg=np.zeros((max(1, len(self.code)), 3)),
             expr_fault=np.full(2, -1.0),
-            expr_mode=np.full(len(self.code), -1.0),
+            expr_mode=np.full(len(self.code), -1.0e18),  # kernel.expressions.LIVE
             expr_switch=np.array(switches, dtype=np.int64).reshape(-1, 2),
             table_info=np.array(info, dtype=np.int64).reshape(-1, 2),
             table_period=np.array([p for _, p in self.tables], dtype=np.float64),

@@ -55,7 +55,7 @@ def table_node(progs, e: Call):
                                       hint="declare the column's unit with `x_unit`, or look the table up "
                                            "at a matching signal")
     period = _period(progs, kw, xdim, xs, ys, e)
-    method = _interpolation(kw)
+    method = _interpolation(progs.ev, kw)
     rows = knots(xs, ys, method, period)
     progs.tables.append((rows, period))
     k = len(progs.tables) - 1
@@ -63,11 +63,14 @@ def table_node(progs, e: Call):
     return progs.op(ExprOp.TABLE, [x], ydim, False, value, extra=k)
 
 
-def _interpolation(kw) -> str:
+def _interpolation(ev, kw) -> str:
     if "interpolation" not in kw:
         return "linear"
     v = kw["interpolation"].value
     name = v.name if isinstance(v, Name) else None
+    if name in ev.params:  # a param naming the method (`--set interpolation=cubic`)
+        value = ev.param(name)
+        name = getattr(value, "name", None)
     if name not in INTERPOLATIONS:
         raise v.pos.error(f"unknown interpolation `{v.pos.text}`",
                           hint=did_you_mean(str(name), INTERPOLATIONS) or "choose " + ", ".join(INTERPOLATIONS))

@@ -15,7 +15,9 @@ once with the kernels, never per model.
 Comparisons are switches (as a clearance joint's contact mode): during a step each holds the value
 frozen in ``km.expr_mode``, so both sides of ``if`` stay smooth inside a step; the time loop locates
 where a comparison changes on the step's dense output (`events.locate_switch`), ends the step
-there and flips it (`flip_switch`).  A discontinuous load costs no rejected steps.
+there and flips it (`flip_switch`).  A table's piece is a switch of the same kind: within a step
+the piece's cubic is continued, and the knot is located as an event.  A discontinuous load costs
+no rejected steps.
 """
 from __future__ import annotations
 
@@ -46,37 +48,66 @@ IF = int(ExprOp.IF)
 TABLE = int(ExprOp.TABLE)
 LOG = int(ExprOp.LOG)
 TAN = int(ExprOp.TAN)
+LIVE = -1.0e18  # km.expr_mode of a switch computed afresh (not frozen)
 
 
 @kernel
-def table_eval(km, k, x):
-    """(y, dy/dx, d2y/dx2) of table k at x: its piecewise cubic (at an end knot, its end segment's
-    derivatives); a periodic table wraps x into its period, any other holds its end values outside."""
+def table_piece(km, k, x):
+    """The piece of table k that holds x: -1 before its first knot, n - 1 after its last; a periodic
+    table's pieces are counted on over its periods (piece + (n - 1) * period number), so that
+    passing from one period to the next is a switch too."""
     first = km.table_info[k, 0]
     n = km.table_info[k, 1]
     seg = km.table_seg
     x0 = seg[first, 0]
-    xn = seg[first + n - 1, 0]
     period = km.table_period[k]
+    m = 0.0
     if period > 0.0:  # its knots span exactly one period (the compiler closes it)
-        x = x - period * math.floor((x - x0) / period)
+        m = math.floor((x - x0) / period)
+        x = x - period * m
     elif x < x0:
-        return seg[first, 1], 0.0, 0.0
-    elif x > xn:
-        return seg[first + n - 1, 1], 0.0, 0.0
+        return -1.0
+    elif x >= seg[first + n - 1, 0]:
+        return float(n - 1)
     lo = first
     hi = first + n - 1
-    while hi - lo > 1:  # bisection: seg[lo, 0] <= x < seg[hi, 0] (x = xn: the last segment)
+    while hi - lo > 1:  # bisection: seg[lo, 0] <= x < seg[hi, 0]
         mid = (lo + hi) // 2
         if seg[mid, 0] <= x:
             lo = mid
         else:
             hi = mid
-    d = x - seg[lo, 0]
-    c1 = seg[lo, 2]
-    c2 = seg[lo, 3]
-    c3 = seg[lo, 4]
-    return seg[lo, 1] + d * (c1 + d * (c2 + d * c3)), c1 + d * (2.0 * c2 + 3.0 * d * c3), 2.0 * c2 + 6.0 * d * c3
+    return float(lo - first) + m * (n - 1)
+
+
+@kernel
+def table_eval(km, k, x, mode):
+    """(y, dy/dx, d2y/dx2) of table k at x on its piece ``mode`` (frozen during a step: that piece's
+    cubic continued past its knots), or on the piece holding x when mode is LIVE.  Outside its
+    knots a table holds its end values; a periodic one repeats."""
+    first = km.table_info[k, 0]
+    n = km.table_info[k, 1]
+    seg = km.table_seg
+    piece = table_piece(km, k, x) if mode == LIVE else mode
+    period = km.table_period[k]
+    j = int(piece)
+    if period > 0.0:
+        m = math.floor(piece / (n - 1))
+        j = int(piece - m * (n - 1))
+        x = x - period * m
+    elif j < 0:
+        return seg[first, 1], 0.0, 0.0
+    elif j >= n - 1:
+        if mode == LIVE and x == seg[first + n - 1, 0] and n > 1:
+            j = n - 2  # at the last knot: its end segment's derivatives
+        else:
+            return seg[first + n - 1, 1], 0.0, 0.0
+    r = first + j
+    d = x - seg[r, 0]
+    c1 = seg[r, 2]
+    c2 = seg[r, 3]
+    c3 = seg[r, 4]
+    return seg[r, 1] + d * (c1 + d * (c2 + d * c3)), c1 + d * (2.0 * c2 + 3.0 * d * c3), 2.0 * c2 + 6.0 * d * c3
 
 
 @kernel
@@ -116,12 +147,12 @@ def expr_value(km, prog, t, q, qd):
             v = -reg[a, 0]
         elif op == LT or op == LE:
             v = km.expr_mode[i]
-            if v < 0.0:
+            if v == LIVE:
                 v = _compare(op, reg[a, 0], reg[b, 0])
         elif op == IF:
             v = reg[b, 0] if reg[a, 0] != 0.0 else reg[code[i, 3], 0]
         else:
-            v = _function_value(km, op, reg[a, 0], reg[b, 0], b)
+            v = _function_value(km, op, reg[a, 0], reg[b, 0], b, km.expr_mode[i])
         reg[i, 0] = v
     return reg[end - 1, 0]
 
@@ -136,12 +167,15 @@ def _compare(op, x, y):
 
 @kernel
 def live_switch(km, s, t, q, qd):
-    """The value comparison s would have at (t, q, q') if it were not frozen."""
+    """The value switch s would have at (t, q, q') if it were not frozen: a comparison's 0 or 1, a
+    table's piece (`table_piece`)."""
     row = km.expr_switch[s, 0]
     frozen = km.expr_mode[row]
-    km.expr_mode[row] = -1.0
+    km.expr_mode[row] = LIVE
     expr_value(km, km.expr_switch[s, 1], t, q, qd)
     km.expr_mode[row] = frozen
+    if km.expr_code[row, 0] == TABLE:
+        return table_piece(km, km.expr_code[row, 2], km.expr_reg[km.expr_code[row, 1], 0])
     return km.expr_reg[row, 0]
 
 
@@ -151,14 +185,15 @@ def init_switches(km, t, y):
     n = y.shape[0] // 2
     km.expr_fault[0] = -1.0
     for s in range(km.expr_switch.shape[0]):
-        km.expr_mode[km.expr_switch[s, 0]] = -1.0
+        km.expr_mode[km.expr_switch[s, 0]] = LIVE
     for s in range(km.expr_switch.shape[0]):
         km.expr_mode[km.expr_switch[s, 0]] = live_switch(km, s, t, y[:n], y[n:])
 
 
 @kernel
-def _function_value(km, op, x, y, b):
-    """The value of a function row (sin, ..., a table); x, y: its operands' values."""
+def _function_value(km, op, x, y, b, mode):
+    """The value of a function row (sin, ..., a table); x, y: its operands' values; mode: a table's
+    frozen piece (LIVE: the piece holding x)."""
     if op == SIN:
         return math.sin(x)
     if op == COS:
@@ -174,7 +209,7 @@ def _function_value(km, op, x, y, b):
     if op == POW:
         return _pow(x, km.expr_const[b])
     if op == TABLE:
-        v, _, _ = table_eval(km, b, x)
+        v, _, _ = table_eval(km, b, x, mode)
         return v
     if op == LOG:
         return math.log(x) if x > 0.0 else math.nan
@@ -230,7 +265,7 @@ def expr_dual(km, prog, t):
             d2 = -reg[a, 2]
         elif op == LT or op == LE:
             v = km.expr_mode[i]
-            if v < 0.0:
+            if v == LIVE:
                 v = _compare(op, reg[a, 0], reg[b, 0])
         elif op == IF:
             src = b if reg[a, 0] != 0.0 else code[i, 3]
@@ -241,7 +276,7 @@ def expr_dual(km, prog, t):
             v, d1, d2 = _atan2_dual(reg[a, 0], reg[a, 1], reg[a, 2], reg[b, 0], reg[b, 1], reg[b, 2])
         else:  # a function of one argument: chain rule with its first two derivatives
             x = reg[a, 0]
-            v, g1, g2 = _function_dual(km, op, x, b)
+            v, g1, g2 = _function_dual(km, op, x, b, km.expr_mode[i])
             d1 = g1 * reg[a, 1]
             d2 = g2 * reg[a, 1] * reg[a, 1] + g1 * reg[a, 2]
         reg[i, 0] = v
@@ -251,7 +286,7 @@ def expr_dual(km, prog, t):
 
 
 @kernel
-def _function_dual(km, op, x, b):
+def _function_dual(km, op, x, b, mode):
     """(g(x), g'(x), g''(x)) of a function row of one argument."""
     if op == SIN:
         s = math.sin(x)
@@ -275,7 +310,7 @@ def _function_dual(km, op, x, b):
         p = km.expr_const[b]
         return _pow(x, p), p * _pow(x, p - 1.0), p * (p - 1.0) * _pow(x, p - 2.0)
     if op == TABLE:
-        return table_eval(km, b, x)
+        return table_eval(km, b, x, mode)
     if op == LOG:
         if x <= 0.0:
             return math.nan, math.nan, math.nan
@@ -299,7 +334,7 @@ def _atan2_dual(y, y1, y2, x, x1, x2):
 
 
 @kernel
-def flip_switch(km, s):
-    """Comparison s changes its value (at an event)."""
-    row = km.expr_switch[s, 0]
-    km.expr_mode[row] = 1.0 - km.expr_mode[row]
+def flip_switch(km, s, t, y):
+    """Switch s takes its value at (t, y), on its new side (at an event)."""
+    n = y.shape[0] // 2
+    km.expr_mode[km.expr_switch[s, 0]] = live_switch(km, s, t, y[:n], y[n:])

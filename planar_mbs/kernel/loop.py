@@ -341,7 +341,7 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     restart = False
     hcap = math.inf
     if ws.flags[FL_SWITCH_EXPR] >= 0:
-        flip_switch(km, ws.flags[FL_SWITCH_EXPR])
+        flip_switch(km, ws.flags[FL_SWITCH_EXPR], t, y)
         ws.flags[FL_SWITCH_EXPR] = -1
         restart = True
     k = ws.flags[FL_SWITCH_JOINT]
