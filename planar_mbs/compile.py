@@ -831,8 +831,8 @@ class _ForcePass:
         if not any(f.has(key) for key in dims):
             raise c.pos.error(f"{label} needs `fx`, `fy` or `torque`",
                               hint="e.g. `fx = -800 N * step(slider.vx, -0.01 m/s, 1, 0 m/s, 0)`")
-        progs = [self.programs.program(f.expr(key), dim, f"{label}'s `{key}`") if f.has(key) else -1
-                 for key, dim in dims.items()]
+        progs = [self.programs.result_row(self.programs.program(f.expr(key), dim, f"{label}'s `{key}`"))
+                 if f.has(key) else -1 for key, dim in dims.items()]
         a = self.a
         a["force_type"][k] = int(ForceType.EXPRESSION)
         a["force_body"][k] = (b, -1)

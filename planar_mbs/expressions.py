@@ -80,6 +80,7 @@ class Programs:
         self.consts: list[float] = []
         self.progs: list[tuple[int, int]] = []
         self.tables: list = []  # (knot rows (n, 5), period)
+        self.loads = (0, 0)  # first and end row of the loads' programs
         self._start = 0
 
     # ---------------------------------------------------------------- entry points
@@ -99,7 +100,15 @@ class Programs:
         if r != len(self.code) - 1:  # the result is the program's last row
             self._emit(ExprOp.ADD, r, self.row(self.const(0.0, ONE, True)))
         self.progs.append((self._start, len(self.code)))
+        if state:  # a load: its rows join the loads' block, run once per right-hand side
+            if self.loads[1] not in (0, self._start):
+                raise RuntimeError("the loads' programs must be compiled one after another")  # pragma: no cover
+            self.loads = (self.loads[0] if self.loads[1] else self._start, len(self.code))
         return len(self.progs) - 1
+
+    def result_row(self, prog: int) -> int:
+        """The row holding program prog's value."""
+        return self.progs[prog][1] - 1
 
     def arrays(self) -> dict:
         """The KernelModel fields of these programs and tables."""
@@ -117,6 +126,7 @@ class Programs:
             expr_prog=np.array(self.progs, dtype=np.int64).reshape(-1, 2),
             expr_reg=np.zeros((max(1, len(self.code)), 3)),
             expr_fault=np.full(2, -1.0),
+            expr_loads=np.array(self.loads, dtype=np.int64),
             expr_mode=np.full(len(self.code), -1.0e18),  # kernel.expressions.LIVE
             expr_switch=np.array(switches, dtype=np.int64).reshape(-1, 2),
             table_info=np.array(info, dtype=np.int64).reshape(-1, 2),

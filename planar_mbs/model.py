@@ -96,7 +96,7 @@ class ForceType(IntEnum):
     CONSTANT_TORQUE = 1  # p0 on body 0
     SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act)
     ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act)
-    EXPRESSION = 4  # (fx, fy) global at point 0 of body 0 and a torque: programs p = (fx, fy, torque), -1 = none
+    EXPRESSION = 4  # (fx, fy) global at point 0 of body 0 and a torque: result rows p = (fx, fy, torque), -1 = none
 
 
 class ExprOp(IntEnum):
@@ -257,6 +257,7 @@ class KernelModel(NamedTuple):
     expr_prog: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nprog, 2) int: first and end row of each program (result: row end - 1)
     expr_reg: np.ndarray = np.zeros((1, 3))  # (max(ninstr, 1), 3) scratch registers: value, d/dt, d2/dt2 (written by the kernels)
     expr_fault: np.ndarray = np.full(2, -1.0)  # (2,) scratch: [force element, t] of the first non-finite expression (-1: none)
+    expr_loads: np.ndarray = np.zeros(2, dtype=np.int64)  # first and end row of the loads' programs (together)
     expr_mode: np.ndarray = np.zeros(0)  # (ninstr,) scratch: frozen result 0/1 of a comparison row (-1: live)
     expr_switch: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nswitch, 2) int: comparison row, its program
     table_info: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (ntable, 2) int: first row in table_seg and the number of knots

@@ -651,6 +651,9 @@ class Simulation:
             self._km.force_param[k, :2] = np.asarray(value, dtype=float)
         elif kind == ForceType.CONSTANT_TORQUE:
             self._km.force_param[k, 0] = float(value)
+        elif kind == ForceType.EXPRESSION:
+            raise ModelError(f"`{name}` is an expression force: it has no value to set", "set_load",
+                             hint="write the load as a `constant`, `torque` or spring-damper to set it from Python")
         else:  # spring-dampers: the actuator force or torque
             self._km.force_param[k, 3] = float(value)
 

@@ -317,3 +317,18 @@ def test_the_knots_of_a_table_are_located_as_events():
     np.testing.assert_allclose(res["mass.vx"], v, rtol=0, atol=1e-10)
     np.testing.assert_allclose(res["mass.x"], x, rtol=0, atol=1e-10)
     assert res.attrs["n_rejected"] <= smooth.attrs["n_rejected"]
+
+
+def test_t_is_time_not_a_unit_and_comparisons_need_units():
+    m = mbs.compile_text(FREE_MASS.format(load="fx = F0 * sin(20 Hz*t)"))  # Hz*t is not `Hz` times tonnes
+    assert m.kernel.expr_code.shape[0] > 0
+    err = _error(FREE_MASS.format(load="fx = if(mass.vx < 0, F0, 0 N)"))
+    assert "cannot compare a plain number and a velocity" in err.message and "0 m/s" in err.hint
+    err = _error(FREE_MASS.format(load="fx = if(mass.vx < 0 m/s, F0, 0 N*m)"))
+    assert "cannot choose between a force and a torque" in err.message
+
+
+def test_set_load_refuses_an_expression_force():
+    sim = mbs.Simulation(mbs.compile_text(FREE_MASS.format(load="fx = F0")))
+    with pytest.raises(ModelError, match="expression force"):
+        sim.set_load("push", 1.0)

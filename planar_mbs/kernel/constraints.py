@@ -134,9 +134,10 @@ def motion(mtype, p, t):
     return f, fd, fdd
 
 
-@kernel
+@kernel(inline=True)
 def driver_motion(km, d, t):
-    """f(t), f'(t), f''(t) of driver d: its motion law, or its expression program by dual numbers."""
+    """f(t), f'(t), f''(t) of driver d: its motion law, or its expression program by dual numbers.
+    Inlined: a call that is not passes every array of the KernelModel (kernel/jit.py)."""
     mtype = km.driver_motion[d]
     if mtype == EXPRESSION:
         return expr_dual(km, int(km.driver_motion_param[d, 0]), t)

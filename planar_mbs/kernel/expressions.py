@@ -52,15 +52,15 @@ LIVE = -1.0e18  # km.expr_mode of a switch computed afresh (not frozen)
 
 
 @kernel
-def table_piece(km, k, x):
+def table_piece(tinfo, tperiod, tseg, k, x):
     """The piece of table k that holds x: -1 before its first knot, n - 1 after its last; a periodic
     table's pieces are counted on over its periods (piece + (n - 1) * period number), so that
     passing from one period to the next is a switch too."""
-    first = km.table_info[k, 0]
-    n = km.table_info[k, 1]
-    seg = km.table_seg
+    first = tinfo[k, 0]
+    n = tinfo[k, 1]
+    seg = tseg
     x0 = seg[first, 0]
-    period = km.table_period[k]
+    period = tperiod[k]
     m = 0.0
     if period > 0.0:  # its knots span exactly one period (the compiler closes it)
         m = math.floor((x - x0) / period)
@@ -81,15 +81,15 @@ def table_piece(km, k, x):
 
 
 @kernel
-def table_eval(km, k, x, mode):
+def table_eval(tinfo, tperiod, tseg, k, x, mode):
     """(y, dy/dx, d2y/dx2) of table k at x on its piece ``mode`` (frozen during a step: that piece's
     cubic continued past its knots), or on the piece holding x when mode is LIVE.  Outside its
     knots a table holds its end values; a periodic one repeats."""
-    first = km.table_info[k, 0]
-    n = km.table_info[k, 1]
-    seg = km.table_seg
-    piece = table_piece(km, k, x) if mode == LIVE else mode
-    period = km.table_period[k]
+    first = tinfo[k, 0]
+    n = tinfo[k, 1]
+    seg = tseg
+    piece = table_piece(tinfo, tperiod, tseg, k, x) if mode == LIVE else mode
+    period = tperiod[k]
     j = int(piece)
     if period > 0.0:
         m = math.floor(piece / (n - 1))
@@ -119,18 +119,24 @@ def body_quantity(q, qd, b, which):
     return qd[k]
 
 
-@kernel
+@kernel(inline=True)
 def expr_value(km, prog, t, q, qd):
-    """The value of program ``prog`` at (t, q, q')."""
-    code = km.expr_code
-    reg = km.expr_reg
-    end = km.expr_prog[prog, 1]
-    for i in range(km.expr_prog[prog, 0], end):
+    """The value of program ``prog`` at (t, q, q').  Inlined: the call below passes eight arrays,
+    not the whole KernelModel (numba passes every array of a tuple at a call that is not inlined)."""
+    return run_rows(km.expr_code, km.expr_const, km.expr_reg, km.expr_mode, km.table_info,
+                    km.table_period, km.table_seg, km.expr_prog[prog, 0], km.expr_prog[prog, 1], t, q, qd)
+
+
+@kernel
+def run_rows(code, consts, reg, modes, tinfo, tperiod, tseg, first, end, t, q, qd):
+    """Rows first..end-1 at (t, q, q'); returns the last one's value.  The loads' programs lie
+    together (``km.expr_loads``), so one call per right-hand side evaluates every expression load."""
+    for i in range(first, end):
         op = code[i, 0]
         a = code[i, 1]
         b = code[i, 2]
         if op == CONST:
-            v = km.expr_const[a]
+            v = consts[a]
         elif op == BODY:
             v = body_quantity(q, qd, a, b)
         elif op == TIME:
@@ -146,13 +152,13 @@ def expr_value(km, prog, t, q, qd):
         elif op == NEG:
             v = -reg[a, 0]
         elif op == LT or op == LE:
-            v = km.expr_mode[i]
+            v = modes[i]
             if v == LIVE:
                 v = _compare(op, reg[a, 0], reg[b, 0])
         elif op == IF:
             v = reg[b, 0] if reg[a, 0] != 0.0 else reg[code[i, 3], 0]
         else:
-            v = _function_value(km, op, reg[a, 0], reg[b, 0], b, km.expr_mode[i])
+            v = _function_value(op, reg[a, 0], reg[b, 0], b, modes[i], consts, tinfo, tperiod, tseg)
         reg[i, 0] = v
     return reg[end - 1, 0]
 
@@ -175,7 +181,8 @@ def live_switch(km, s, t, q, qd):
     expr_value(km, km.expr_switch[s, 1], t, q, qd)
     km.expr_mode[row] = frozen
     if km.expr_code[row, 0] == TABLE:
-        return table_piece(km, km.expr_code[row, 2], km.expr_reg[km.expr_code[row, 1], 0])
+        return table_piece(km.table_info, km.table_period, km.table_seg, km.expr_code[row, 2],
+                           km.expr_reg[km.expr_code[row, 1], 0])
     return km.expr_reg[row, 0]
 
 
@@ -191,7 +198,7 @@ def init_switches(km, t, y):
 
 
 @kernel
-def _function_value(km, op, x, y, b, mode):
+def _function_value(op, x, y, b, mode, consts, tinfo, tperiod, tseg):
     """The value of a function row (sin, ..., a table); x, y: its operands' values; mode: a table's
     frozen piece (LIVE: the piece holding x)."""
     if op == SIN:
@@ -207,9 +214,9 @@ def _function_value(km, op, x, y, b, mode):
     if op == ATAN2:
         return math.atan2(x, y)
     if op == POW:
-        return _pow(x, km.expr_const[b])
+        return _pow(x, consts[b])
     if op == TABLE:
-        v, _, _ = table_eval(km, b, x, mode)
+        v, _, _ = table_eval(tinfo, tperiod, tseg, b, x, mode)
         return v
     if op == LOG:
         return math.log(x) if x > 0.0 else math.nan
@@ -228,13 +235,18 @@ def _pow(x, p):
     return x ** p
 
 
-@kernel
+@kernel(inline=True)
 def expr_dual(km, prog, t):
     """(f, f', f'') of program ``prog`` (a function of t only) by truncated Taylor arithmetic."""
-    code = km.expr_code
-    reg = km.expr_reg
-    end = km.expr_prog[prog, 1]
-    for i in range(km.expr_prog[prog, 0], end):
+    return run_dual(km.expr_code, km.expr_const, km.expr_prog, km.expr_reg, km.expr_mode, km.table_info,
+                    km.table_period, km.table_seg, prog, t)
+
+
+@kernel
+def run_dual(code, consts, progs, reg, modes, tinfo, tperiod, tseg, prog, t):
+    """`expr_dual` over the program arrays."""
+    end = progs[prog, 1]
+    for i in range(progs[prog, 0], end):
         op = code[i, 0]
         a = code[i, 1]
         b = code[i, 2]
@@ -242,7 +254,7 @@ def expr_dual(km, prog, t):
         d1 = 0.0
         d2 = 0.0
         if op == CONST:
-            v = km.expr_const[a]
+            v = consts[a]
         elif op == TIME:
             v = t
             d1 = 1.0
@@ -264,7 +276,7 @@ def expr_dual(km, prog, t):
             d1 = -reg[a, 1]
             d2 = -reg[a, 2]
         elif op == LT or op == LE:
-            v = km.expr_mode[i]
+            v = modes[i]
             if v == LIVE:
                 v = _compare(op, reg[a, 0], reg[b, 0])
         elif op == IF:
@@ -276,7 +288,7 @@ def expr_dual(km, prog, t):
             v, d1, d2 = _atan2_dual(reg[a, 0], reg[a, 1], reg[a, 2], reg[b, 0], reg[b, 1], reg[b, 2])
         else:  # a function of one argument: chain rule with its first two derivatives
             x = reg[a, 0]
-            v, g1, g2 = _function_dual(km, op, x, b, km.expr_mode[i])
+            v, g1, g2 = _function_dual(op, x, b, modes[i], consts, tinfo, tperiod, tseg)
             d1 = g1 * reg[a, 1]
             d2 = g2 * reg[a, 1] * reg[a, 1] + g1 * reg[a, 2]
         reg[i, 0] = v
@@ -286,7 +298,7 @@ def expr_dual(km, prog, t):
 
 
 @kernel
-def _function_dual(km, op, x, b, mode):
+def _function_dual(op, x, b, mode, consts, tinfo, tperiod, tseg):
     """(g(x), g'(x), g''(x)) of a function row of one argument."""
     if op == SIN:
         s = math.sin(x)
@@ -307,10 +319,10 @@ def _function_dual(km, op, x, b, mode):
     if op == ABS:
         return abs(x), 1.0 if x >= 0.0 else -1.0, 0.0
     if op == POW:
-        p = km.expr_const[b]
+        p = consts[b]
         return _pow(x, p), p * _pow(x, p - 1.0), p * (p - 1.0) * _pow(x, p - 2.0)
     if op == TABLE:
-        return table_eval(km, b, x, mode)
+        return table_eval(tinfo, tperiod, tseg, b, x, mode)
     if op == LOG:
         if x <= 0.0:
             return math.nan, math.nan, math.nan

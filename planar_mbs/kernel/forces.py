@@ -13,7 +13,7 @@ Force elements (model.ForceType; ``force_body (nforce, 2)``, ``force_point
 * ROTATIONAL_SPRING_DAMPER on ``a = phi_j - phi_i``: torque
   ``T = k (a - a0) + c a' + t_act``, ``-T`` on j and ``+T`` on i;
   energy ``k (a - a0)^2 / 2``;
-* EXPRESSION: programs ``p = (fx, fy, torque)`` (-1: none, `kernel.expressions`) of (t, q, q'):
+* EXPRESSION: result rows ``p = (fx, fy, torque)`` (-1: none) of programs (`kernel.expressions`) of (t, q, q'):
   the global force (fx, fy) at point 0 of body 0 and a torque on it; no potential.  A value that is
   not finite is recorded in ``km.expr_fault`` (element, t), so a failing run names its expression.
 """
@@ -25,7 +25,7 @@ from .jit import kernel
 
 from ..model import ForceType, Status
 from .constraints import body_state, point_cs, point_state
-from .expressions import expr_value
+from .expressions import run_rows
 
 BAD_INPUT = int(Status.BAD_INPUT)
 
@@ -58,6 +58,9 @@ def applied_forces(km, t, q, qd, cs, Qe):
         Qe[3 * b] = km.body_mass[b] * gx
         Qe[3 * b + 1] = km.body_mass[b] * gy
         Qe[3 * b + 2] = 0.0
+    if km.expr_loads[1] > km.expr_loads[0]:  # every expression load's rows, in one call
+        run_rows(km.expr_code, km.expr_const, km.expr_reg, km.expr_mode, km.table_info, km.table_period,
+                 km.table_seg, km.expr_loads[0], km.expr_loads[1], t, q, qd)
     nf = km.force_type.shape[0]
     for e in range(nf):
         typ = km.force_type[e]
@@ -99,26 +102,28 @@ def applied_forces(km, t, q, qd, cs, Qe):
     return 0
 
 
-@kernel
-def _load_value(km, e, k, t, q, qd):
-    """Program k of force element e at (t, q, q') (0 for none); a non-finite value is recorded."""
+@kernel(inline=True)
+def _load_value(km, e, k, t):
+    """The value of result row k of force element e (0 for none; `applied_forces` has run the rows);
+    a non-finite value is recorded."""
     if k < 0:
         return 0.0
-    v = expr_value(km, k, t, q, qd)
+    v = km.expr_reg[k, 0]
     if not math.isfinite(v):
         km.expr_fault[0] = e
         km.expr_fault[1] = t
     return v
 
 
-@kernel
+@kernel(inline=True)
 def expression_load(km, e, t, q, qd, cs, Qe):
-    """Qe += the force (fx, fy) and torque of expression element e."""
+    """Qe += the force (fx, fy) and torque of expression element e: its result rows, which
+    `applied_forces` has just evaluated."""
     bi = km.force_body[e, 0]
     p = km.force_param[e]
-    fx = _load_value(km, e, int(p[0]), t, q, qd)
-    fy = _load_value(km, e, int(p[1]), t, q, qd)
-    tq = _load_value(km, e, int(p[2]), t, q, qd)
+    fx = _load_value(km, e, int(p[0]), t)
+    fy = _load_value(km, e, int(p[1]), t)
+    tq = _load_value(km, e, int(p[2]), t)
     Px, Py, ax, ay, vx, vy, w = point_cs(q, qd, cs, bi, km.force_point[e, 0, 0], km.force_point[e, 0, 1])
     add_point_force(Qe, bi, ax, ay, fx, fy)
     if bi >= 0:
