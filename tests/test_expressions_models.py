@@ -38,7 +38,7 @@ def test_engine_work_balance():
     xs, ys = read_csv((MODELS / "engine_gas_force.csv").read_text(), "engine_gas_force.csv")
     rows = knots(np.radians(xs), ys * 1e3, "linear", 4 * np.pi)
     gas = -np.array([evaluate(rows, 4 * np.pi, p) for p in res["crank.phi"]])
-    power = gas * res["piston.vx"] - 0.08 * res["crank.omega"] ** 2
+    power = gas * res["piston.vx"] - 0.02 * res["crank.omega"] ** 2
     ke = res["system.kinetic_energy"]
     scale = _integral(res.time, np.abs(power))
     assert _integral(res.time, power) == pytest.approx(ke[-1] - ke[0], abs=1e-4 * scale)
