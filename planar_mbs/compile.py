@@ -118,9 +118,10 @@ FORCE_FIELDS = {
     "constant": {"force": "(fx, fy) in the global frame"},
     "torque": {"torque": "e.g. 2 N*m"},
     "spring_damper": {"stiffness": "N/m", "damping": "N*s/m", "length": "free length (default: initial)",
-                      "actuator": "constant actuator force (tension positive)"},
+                      "actuator": "actuator force (tension positive): a constant or an expression"},
     "rotational_spring_damper": {"stiffness": "N*m/rad", "damping": "N*m*s/rad",
-                                 "angle": "free angle (default: initial)", "actuator": "constant torque"},
+                                 "angle": "free angle (default: initial)",
+                                 "actuator": "actuator torque: a constant or an expression"},
     "expression": {"fx": "force along global x: an expression of t, params and signals",
                    "fy": "force along global y (the same)", "torque": "torque on the body (the same)"},
 }
@@ -808,16 +809,25 @@ class _ForcePass:
             free0 = self._angle0(bj) - self._angle0(bi)
             params = (f.scalar("stiffness", U.ROT_STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.ROT_DAMPING, 0.0, nonneg=True),
-                      f.scalar("angle", U.ANGLE, free0), f.scalar("actuator", U.TORQUE, 0.0))
+                      f.scalar("angle", U.ANGLE, free0), *self._actuator(f, U.TORQUE, label))
         else:
             free0 = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
             params = (f.scalar("stiffness", U.STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.DAMPING, 0.0, nonneg=True),
-                      f.scalar("length", U.LENGTH, free0, nonneg=True), f.scalar("actuator", U.FORCE, 0.0))
+                      f.scalar("length", U.LENGTH, free0, nonneg=True), *self._actuator(f, U.FORCE, label))
         a["force_type"][k] = int(ForceType.ROTATIONAL_SPRING_DAMPER if rotational else ForceType.SPRING_DAMPER)
         a["force_body"][k] = (bi, bj)
         a["force_point"][k] = (pi, pj)
         a["force_param"][k] = params
+
+    def _actuator(self, f: Fields, dim: U.Dim, label: str) -> tuple[float, float]:
+        """(constant actuator, 1 + result row of its expression or 0): a constant stays a number, an
+        expression of t or the state becomes a load's program (`expressions`)."""
+        e = f.expr("actuator")
+        if e is None:
+            return 0.0, 0.0
+        value, prog = self.programs.constant_or_program(e, dim, f"{label}'s `actuator`")
+        return (value, 0.0) if prog is None else (0.0, float(self.programs.result_row(prog) + 1))
 
     def _fill_expression_force(self, k: int, st: Statement, c: Call, f: Fields, label: str):
         """`expression(body (p), fx = ..., fy = ..., torque = ...)`: a program per component given."""

@@ -106,6 +106,19 @@ class Programs:
             self.loads = (self.loads[0] if self.loads[1] else self._start, len(self.code))
         return len(self.progs) - 1
 
+    def constant_or_program(self, e: Expr, dim: U.Dim, label: str) -> tuple[float, int | None]:
+        """(value, None) when `e` is a constant (checked as `program` checks), else (0, its program)."""
+        start, consts = len(self.code), len(self.consts)
+        node = self.node(e)
+        if node.const:
+            if not node.plain and node.dim != dim.dimensionality:
+                raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} "
+                                  f"(`{e.pos.text}`)", hint=f"e.g. `{dim.example}`")
+            del self.code[start:], self.consts[consts:]
+            return node.value, None
+        del self.code[start:], self.consts[consts:]
+        return 0.0, self.program(e, dim, label)
+
     def result_row(self, prog: int) -> int:
         """The row holding program prog's value."""
         return self.progs[prog][1] - 1

@@ -94,8 +94,8 @@ CYLINDRICAL_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.cylin
 class ForceType(IntEnum):
     CONSTANT_FORCE = 0  # (p0, p1) global force at point 0 of body 0
     CONSTANT_TORQUE = 1  # p0 on body 0
-    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act)
-    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act)
+    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act, expr row + 1)
+    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act, row + 1)
     EXPRESSION = 4  # (fx, fy) global at point 0 of body 0 and a torque: result rows p = (fx, fy, torque), -1 = none
 
 
@@ -130,7 +130,7 @@ class ExprOp(IntEnum):
 BQ_X, BQ_Y, BQ_PHI, BQ_VX, BQ_VY, BQ_OMEGA = range(6)  # ExprOp.BODY quantities
 
 
-N_FORCE_PARAM = 4
+N_FORCE_PARAM = 5  # spring-dampers: p4 = 1 + the result row of an expression actuator (0: none), added to p3
 
 
 Integrator = IntEnum("Integrator", {s.enum: s.code for s in catalog.INTEGRATORS}, module=__name__)

@@ -654,6 +654,9 @@ class Simulation:
         elif kind == ForceType.EXPRESSION:
             raise ModelError(f"`{name}` is an expression force: it has no value to set", "set_load",
                              hint="write the load as a `constant`, `torque` or spring-damper to set it from Python")
+        elif self._km.force_param[k, 4] > 0:
+            raise ModelError(f"the actuator of `{name}` is an expression: it has no value to set", "set_load",
+                             hint="give the actuator a constant in the model to set it from Python")
         else:  # spring-dampers: the actuator force or torque
             self._km.force_param[k, 3] = float(value)
 

@@ -332,3 +332,17 @@ def test_set_load_refuses_an_expression_force():
     sim = mbs.Simulation(mbs.compile_text(FREE_MASS.format(load="fx = F0")))
     with pytest.raises(ModelError, match="expression force"):
         sim.set_load("push", 1.0)
+
+
+def test_an_actuator_expression_equals_the_same_force_as_an_expression_load():
+    """A spring-damper from a ground point on +x pulls the mass towards it: its actuator tension
+    F0 sin(w t) is the force fx = F0 sin(w t) on the mass (the mass stays left of the anchor)."""
+    spring = "force s = spring_damper(ground (5, 0), mass) {{ stiffness = 4 N/m  length = 5 m{act} }}"
+    a = FREE_MASS.format(load="fx = F0 * sin(w * t)") + spring.format(act="")
+    b = FREE_MASS.format(load="fx = 0 N") + spring.format(act="  actuator = F0 * sin(w * t)")
+    ra, rb = (mbs.simulate(mbs.compile_text(text)) for text in (a, b))
+    np.testing.assert_allclose(rb["mass.x"], ra["mass.x"], rtol=1e-12, atol=1e-14)
+    assert np.ptp(ra["mass.x"]) > 0.01
+    sim = mbs.Simulation(mbs.compile_text(b))
+    with pytest.raises(ModelError, match="actuator of `s` is an expression"):
+        sim.set_load("s", 1.0)

@@ -8,7 +8,8 @@ Force elements (model.ForceType; ``force_body (nforce, 2)``, ``force_point
   ``Q_phi = (A s) x F``; energy ``-F.P``;
 * CONSTANT_TORQUE ``T = p0`` on body 0; energy ``-T phi``;
 * SPRING_DAMPER between P_i (point 0 of body 0) and P_j (point 1 of body 1):
-  tension ``f = k (l - l0) + c l' + f_act`` pulls the points together
+  tension ``f = k (l - l0) + c l' + f_act`` pulls the points together (f_act: p3 plus, when
+  ``p4 > 0``, the expression whose result row is p4 - 1)
   (``+f u`` on i, ``-f u`` on j, ``u = (P_j - P_i)/l``); energy ``k (l - l0)^2 / 2``;
 * ROTATIONAL_SPRING_DAMPER on ``a = phi_j - phi_i``: torque
   ``T = k (a - a0) + c a' + t_act``, ``-T`` on j and ``+T`` on i;
@@ -84,13 +85,13 @@ def applied_forces(km, t, q, qd, cs, Qe):
             ux = dx / l
             uy = dy / l
             ld = ux * (vjx - vix) + uy * (vjy - viy)
-            f = p[0] * (l - p[2]) + p[1] * ld + p[3]
+            f = p[0] * (l - p[2]) + p[1] * ld + p[3] + _load_value(km, e, int(p[4]) - 1, t)
             add_point_force(Qe, bi, aix, aiy, f * ux, f * uy)
             add_point_force(Qe, bj, ajx, ajy, -f * ux, -f * uy)
         elif typ == ROTATIONAL_SPRING_DAMPER:
             _, _, phi_i, _, _, w_i = body_state(q, qd, bi)
             _, _, phi_j, _, _, w_j = body_state(q, qd, bj)
-            T = p[0] * (phi_j - phi_i - p[2]) + p[1] * (w_j - w_i) + p[3]
+            T = p[0] * (phi_j - phi_i - p[2]) + p[1] * (w_j - w_i) + p[3] + _load_value(km, e, int(p[4]) - 1, t)
             if bj >= 0:
                 Qe[3 * bj + 2] -= T
             if bi >= 0:
