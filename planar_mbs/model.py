@@ -61,6 +61,7 @@ class MotionType(IntEnum):
     RAMP = 1  # speed grows linearly 0 -> p1 over p2 s, then stays: f = p0 + p1 t^2/(2 p2) | p0 + p1 (t - p2/2)
     HARMONIC = 2  # f = p0 + p1 sin(2 pi p2 t + p3)
     POLYNOMIAL = 3  # f = sum_k p_k t^k, k = 0..7
+    EXPRESSION = 4  # f = expression program p0 of t (kernel.expressions, exact f' and f'' by dual numbers)
 
 
 N_MOTION_PARAM = 8
@@ -93,11 +94,43 @@ CYLINDRICAL_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.cylin
 class ForceType(IntEnum):
     CONSTANT_FORCE = 0  # (p0, p1) global force at point 0 of body 0
     CONSTANT_TORQUE = 1  # p0 on body 0
-    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act)
-    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act)
+    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act, expr row + 1)
+    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act, row + 1)
+    EXPRESSION = 4  # (fx, fy) global at point 0 of body 0 and a torque: result rows p = (fx, fy, torque), -1 = none
 
 
-N_FORCE_PARAM = 4
+class ExprOp(IntEnum):
+    """Opcodes of the expression programs (`kernel.expressions`): one instruction per row of
+    ``expr_code (ninstr, 4) = (op, a, b, c)``; its result is register ``expr_reg[row]`` (one register
+    per instruction, written in order: no stack).  a, b, c are earlier rows unless noted."""
+
+    CONST = 0  # expr_const[a]
+    TIME = 1  # t
+    BODY = 2  # quantity b (BQ_*) of body a
+    ADD = 3
+    SUB = 4
+    MUL = 5
+    DIV = 6
+    NEG = 7  # -a
+    POW = 8  # a ^ expr_const[b] (a constant exponent)
+    SIN = 9
+    COS = 10
+    EXP = 11
+    SQRT = 12
+    ABS = 13
+    ATAN2 = 14  # atan2(a, b)
+    LT = 15  # 1.0 if a < b else 0.0; switching function a - b
+    LE = 16
+    IF = 17  # b if a != 0 else c
+    TABLE = 18  # table b at x = a (piecewise cubic, table_info / table_seg)
+    LOG = 19
+    TAN = 20
+
+
+BQ_X, BQ_Y, BQ_PHI, BQ_VX, BQ_VY, BQ_OMEGA = range(6)  # ExprOp.BODY quantities
+
+
+N_FORCE_PARAM = 5  # spring-dampers: p4 = 1 + the result row of an expression actuator (0: none), added to p3
 
 
 Integrator = IntEnum("Integrator", {s.enum: s.code for s in catalog.INTEGRATORS}, module=__name__)
@@ -197,7 +230,8 @@ def observation_layout(nbody, njoint, ndriver, nclearance):
 
 
 class KernelModel(NamedTuple):
-    """Everything the numba kernels read, as contiguous arrays (shapes in comments)."""
+    """Everything the numba kernels read, as contiguous arrays (shapes in comments).  The expression
+    and table arrays default to none (a model without `expression` loads or motions)."""
 
     body_mass: np.ndarray  # (nbody,)
     body_inertia: np.ndarray  # (nbody,)
@@ -224,6 +258,17 @@ class KernelModel(NamedTuple):
     force_body: np.ndarray  # (nforce, 2)
     force_point: np.ndarray  # (nforce, 2, 2)
     force_param: np.ndarray  # (nforce, N_FORCE_PARAM)
+    expr_code: np.ndarray = np.zeros((0, 4), dtype=np.int64)  # (ninstr, 4) int: (ExprOp, a, b, c), every program's instructions in turn
+    expr_const: np.ndarray = np.zeros(0)  # (nconst,) constants of the programs (SI)
+    expr_prog: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nprog, 2) int: first and end row of each program (result: row end - 1)
+    expr_reg: np.ndarray = np.zeros((1, 3))  # (max(ninstr, 1), 3) scratch registers: value, d/dt, d2/dt2 (written by the kernels)
+    expr_fault: np.ndarray = np.full(2, -1.0)  # (2,) scratch: [force element, t] of the first non-finite expression (-1: none)
+    expr_loads: np.ndarray = np.zeros(2, dtype=np.int64)  # first and end row of the loads' programs (together)
+    expr_mode: np.ndarray = np.zeros(0)  # (ninstr,) scratch: frozen result 0/1 of a comparison row (-1: live)
+    expr_switch: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nswitch, 2) int: comparison row, its program
+    table_info: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (ntable, 2) int: first row in table_seg and the number of knots
+    table_period: np.ndarray = np.zeros(0)  # (ntable,) period of a periodic table (0: held at its end values outside)
+    table_seg: np.ndarray = np.zeros((0, 5))  # (nknot, 5) knot x_k and y = c0 + c1 d + c2 d^2 + c3 d^3, d = x - x_k
 
 
 def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int) -> int:

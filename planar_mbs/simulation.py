@@ -234,6 +234,11 @@ def _state_name(model: Model, i: int) -> str:
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
+    fault = model.kernel.expr_fault
+    if status in (Status.NONFINITE, Status.STEP_UNDERFLOW) and 0 <= fault[0] < model.nforce:
+        return (f"the expression of force `{model.force_names[int(fault[0])]}` gave NaN or infinity at "
+                f"t = {fault[1]:.9g} s (the run stopped {at}): check it for a square root or logarithm of "
+                "a negative value, or a division by zero, along the motion")
     if status == Status.STEP_UNDERFLOW:
         touching = [n for n, mode in zip(model.clearance_names, contact[:, CT_MODE]) if int(mode) == TOUCHING]
         where = f" while clearance joint{'s' if len(touching) > 1 else ''} " + ", ".join(
@@ -726,6 +731,12 @@ class Simulation:
             self._km.force_param[k, :2] = np.asarray(value, dtype=float)
         elif kind == ForceType.CONSTANT_TORQUE:
             self._km.force_param[k, 0] = float(value)
+        elif kind == ForceType.EXPRESSION:
+            raise ModelError(f"`{name}` is an expression force: it has no value to set", "set_load",
+                             hint="write the load as a `constant`, `torque` or spring-damper to set it from Python")
+        elif self._km.force_param[k, 4] > 0:
+            raise ModelError(f"the actuator of `{name}` is an expression: it has no value to set", "set_load",
+                             hint="give the actuator a constant in the model to set it from Python")
         else:  # spring-dampers: the actuator force or torque
             self._km.force_param[k, 3] = float(value)
 

@@ -224,7 +224,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
 
     Returns a Status code: 0, SINGULAR (stats[ST_INFO] = row), BAD_INPUT."""
     body_trig(q, ws.cs)
-    st = applied_forces(km, q, qd, ws.cs, ws.Qe)
+    st = applied_forces(km, t, q, qd, ws.cs, ws.Qe)
     if st != 0:
         return st
     if km.clearance_body.shape[0] > 0:

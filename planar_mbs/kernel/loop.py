@@ -32,7 +32,7 @@ from ..model import CT_IMPACT_VELOCITY, TOUCHING
 from .contact import contact_mode
 from .workspace import (
     DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_PROJECT_FROM, DN_SPEED, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PASSAGE,
-    FL_PENDING_OUTPUTS, FL_PROJECTING, FL_REG_SEEN, FL_STEP_REG, FL_SWITCH_JOINT,
+    FL_PENDING_OUTPUTS, FL_PROJECTING, FL_REG_SEEN, FL_STEP_REG, FL_SWITCH_EXPR, FL_SWITCH_JOINT,
 )
 
 from ..model import (
@@ -90,12 +90,13 @@ from ..model import (
     Integrator,
     Status,
 )
-from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, motion, point_cs
+from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, driver_motion, point_cs
 from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
 from .dynamics import (
     DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
 )
-from .events import event_possible, init_modes, locate_event, switch_mode
+from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
+from .expressions import flip_switch, init_switches
 from .forces import force_potential
 from .integrators import (
     ERROR_EXPONENT,
@@ -272,7 +273,7 @@ def _observe_dynamics(km, t, q, qd, ws, row, cqdd, cjoint, ceffort, cpower):
         r = km.driver_row[d]
         bi = km.driver_body[d, 0]
         bj = km.driver_body[d, 1]
-        f, fd, fdd = motion(km.driver_motion[d], km.driver_motion_param[d], t)
+        f, fd, fdd = driver_motion(km, d, t)
         eff = 0.0
         if bj >= 0:
             if km.driver_type[d] == ANGLE:
@@ -345,6 +346,10 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     (ONSET_STEP of the contact's time scale), inf otherwise."""
     restart = False
     hcap = math.inf
+    if ws.flags[FL_SWITCH_EXPR] >= 0:
+        flip_switch(km, ws.flags[FL_SWITCH_EXPR], t, y)
+        ws.flags[FL_SWITCH_EXPR] = -1
+        restart = True
     k = ws.flags[FL_SWITCH_JOINT]
     if k >= 0:
         switch_mode(km, k, y, contact, stats)
@@ -508,6 +513,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         clock[1] = min(clock[1], hcap)
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
+        init_switches(km, t, y)
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
             return st, 0
@@ -657,7 +663,25 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             elif kev >= 0:
                 for i in range(N):
                     y[i] = ws.yb[i]
-        if kev < 0:
+        sev = -1
+        if km.expr_switch.shape[0] > 0:
+            if method == DOP853:
+                st = dop853_dense_prepare(km, cfg, contact, ws, stats)
+                if st != 0:
+                    clock[0] = t
+                    return st, nw
+            sev, ths = locate_switch(km, ws, th if kev >= 0 else 1.0 + 1e-9)
+            if sev >= 0:  # a comparison switches first: the step ends there, a later contact event waits
+                kev = -1
+                if ths < 1.0:
+                    tnew = t + ths * hh
+                    dense_eval(ws, ths, y)
+                else:
+                    for i in range(N):
+                        y[i] = ws.yb[i]
+                ws.dense[DN_T_END] = tnew
+        ws.flags[FL_SWITCH_EXPR] = sev
+        if kev < 0 and sev < 0:
             for i in range(N):
                 y[i] = ws.yb[i]
         ws.flags[FL_SWITCH_JOINT] = kev

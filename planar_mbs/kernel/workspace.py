@@ -24,6 +24,7 @@ FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynam
 FL_PROJECTING = 6  # 1: `projection = auto` has turned the projection on (at the first regularised factor)
 FL_STEP_REG = 7  # 1: a factor of the current step was regularised (a singular position or redundant rows)
 FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its successor lands on the next output)
+FL_SWITCH_EXPR = 9  # comparison of an expression that switches at the end of the last step (-1: none)
 N_FLAGS = 10
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
@@ -155,6 +156,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
     flags[FL_SWITCH_JOINT] = -1
+    flags[FL_SWITCH_EXPR] = -1
     dense = np.zeros(N_DENSE)
     dense[DN_FINAL_SAMPLE] = np.nan
     dense[DN_PROJECT_FROM] = np.nan
