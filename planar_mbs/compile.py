@@ -695,12 +695,12 @@ class _ClearancePass:
         if not isinstance(lv, CallVal):
             return f
         law_call = lv.call
-        allowed = LAW_SETTINGS  # the chosen law's group checks them later
+        settings = LAW_SETTINGS  # the chosen law's group checks them later
         extra = []
         for kw in law_call.kwargs:
-            if kw.name not in allowed:
+            if kw.name not in settings:
                 raise kw.pos.error(f"unknown argument `{kw.name}` of the contact law",
-                                   hint=did_you_mean(kw.name, allowed) or "arguments: " + ", ".join(sorted(allowed)))
+                                   hint=did_you_mean(kw.name, settings) or "arguments: " + ", ".join(sorted(settings)))
             extra.append(Field(kw.name, kw.value, kw.pos))
         if law_call.args:
             raise law_call.pos.error("contact law arguments are named, e.g. `restitution = 0.9`")
