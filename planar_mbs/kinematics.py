@@ -337,3 +337,35 @@ def constraint_report(model: Model, q: np.ndarray, t: float = 0.0) -> dict:
     tol = RANK_TOL * max(sv[0] if len(sv) else 0.0, 1.0)
     rank = int(np.count_nonzero(sv > tol))
     return dict(rank=rank, dof=model.ncoord - rank, redundant=_dependent_rows(Cq, owners, sv))
+
+
+def start_gaps(model: Model, q: np.ndarray) -> np.ndarray:
+    """Gap of every clearance element at pose q (> 0 apart, < 0 penetrating), the penetration of
+    `kernel/contact.py` with the opposite sign, computed here without numba (for `mbs check`)."""
+    from .model import CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, PairKind
+
+    k = model.kernel
+    out = np.zeros(model.nclearance)
+    for c in range(model.nclearance):
+        p = k.clearance_param[c]
+        pts, rot = [], np.eye(2)
+        for side in (0, 1):
+            b = int(k.clearance_body[c, side])
+            s = np.asarray(k.clearance_point[c, side], dtype=float)
+            if b < 0:
+                pts.append(s)
+                continue
+            cs, sn = np.cos(q[3 * b + 2]), np.sin(q[3 * b + 2])
+            R = np.array([[cs, -sn], [sn, cs]])
+            rot = R if side == 0 else rot
+            pts.append(q[3 * b:3 * b + 2] + R @ s)
+        e = pts[1] - pts[0]
+        kind = int(p[CP_KIND])
+        if kind == PairKind.CIRCLE_ON_LINE:
+            out[c] = float(e @ (rot @ p[[CP_NX, CP_NY]])) - p[CP_R_JOURNAL]
+        elif kind == PairKind.CIRCLE_ON_CIRCLE:
+            out[c] = float(np.hypot(*e)) - p[CP_R_BEARING] - p[CP_R_JOURNAL]
+        else:
+            ratio = p[CP_BREAKDOWN] if kind == PairKind.LUBRICATED else 1.0
+            out[c] = ratio * p[CP_CLEARANCE] - float(np.hypot(*e))
+    return out
