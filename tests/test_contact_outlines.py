@@ -136,3 +136,41 @@ def test_cam_follower_follows_the_lift_and_leaves_at_the_closed_form_speed():
     w = 1.05 * w_star
     s = (P + k * e) / (e * (m * w * w - k))
     assert math.sin(above["cam.phi"][first]) == pytest.approx(s, abs=0.02)
+
+
+def test_check_reports_what_touches_at_the_start():
+    """`mbs check`'s gaps (kinematics.start_gaps, without numba) against the geometry: a disc 3 mm above
+    the floor, a ball pressed 2 um into a socket's wall, two circles 1 mm apart."""
+    from planar_mbs.kinematics import assemble, start_gaps
+
+    text = """
+body disc { mass = 1 kg  inertia = 1e-3 kg*m^2  position = (0.01, 0.053)  angle = 30 deg }
+body ball { mass = 1 kg  inertia = 1e-3 kg*m^2  position = (1, 0.001002) }
+body pin  { mass = 1 kg  inertia = 1e-3 kg*m^2  position = (2.031, 0) }
+gravity (0, -9.81)
+joint floor = contact(ground (0, 0), disc) { shape = circle_on_line  normal = (0, 1)  radius = 50 mm
+                                             stiffness = 1e9  law = hertz }
+joint socket = contact(ground (1, 0), ball) { shape = circle_in_circle  first_radius = 6 mm  radius = 5 mm
+                                              stiffness = 1e9  law = hertz }
+joint pair = contact(ground (2, 0), pin) { shape = circle_on_circle  first_radius = 10 mm  radius = 20 mm
+                                           stiffness = 1e9  law = hertz }
+"""
+    m = compile_text(text)
+    q, qd = assemble(m)
+    assert start_gaps(m, q) == pytest.approx([0.003, -2e-6, 0.001], abs=1e-12)
+
+
+@pytest.mark.parametrize("fields, message", [
+    ("shape = square  radius = 1 mm  law = hertz  stiffness = 1e9", "shape"),
+    ("shape = circle_on_line  normal = (0, 1)  law = hertz", "sharp corner"),
+    ("shape = circle_on_line  normal = (0, 1)  first_radius = 1 mm  stiffness = 1e9  law = hertz", "takes no"),
+    ("shape = circle_in_circle  first_radius = 1 mm  radius = 2 mm  stiffness = 1e9  law = hertz", "smaller"),
+    ("shape = circle_on_line  normal = (0, 1)  radius = 1 mm  stiffness = 1e9  law = esdu78035", "bearing"),
+])
+def test_bad_contacts_are_refused_with_the_line(fields, message):
+    from planar_mbs.errors import ModelError
+
+    text = f"body d {{ mass = 1 kg  inertia = 1 kg*m^2 }}\ngravity (0, -9.81)\njoint J = contact(ground, d) {{ {fields} }}\n"
+    with pytest.raises(ModelError) as err:
+        compile_text(text, "bad.mbs")
+    assert err.value.line == 3 and message in str(err.value)

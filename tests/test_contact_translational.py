@@ -66,3 +66,32 @@ def test_rattling_block_with_a_lossless_law_conserves_energy():
     assert all(res[f"S_{c}.in_contact"].max() == 1 for c in CORNERS)
     assert np.max(np.abs(E - E[0])) / E[0] < 1e-6
     assert np.max(np.abs(res["block.vx"] - 0.3)) < 1e-9  # no friction: the slide is untouched
+
+
+@pytest.mark.parametrize("fields, message", [
+    ("clearance = 25 mm  length = 60 mm  width = 20 mm  stiffness = 1e9  law = hertz", "smaller than the block"),
+    ("clearance = 0.5 mm  length = 60 mm  width = 20 mm  law = hertz", "sharp corner"),
+    ("clearance = 0.5 mm  length = 60 mm  width = 20 mm  corner_radius = 15 mm  stiffness = 1e9  law = hertz",
+     "half the block"),
+])
+def test_bad_translational_joints_are_refused_with_the_line(fields, message):
+    from planar_mbs.errors import ModelError
+
+    text = ("body b { mass = 1 kg  inertia = 1 kg*m^2 }\ngravity (0, -9.81)\n"
+            f"joint S = clearance_translational(ground, b, axis = (1, 0)) {{ {fields} }}\n")
+    with pytest.raises(ModelError) as err:
+        compile_text(text, "bad.mbs")
+    assert err.value.line == 3 and message in str(err.value)
+
+
+def test_the_block_closing_a_loop_starts_centred_and_aligned():
+    """In the slider-crank the assembly treats the joint as an ideal sliding joint: the slider starts on
+    the guide's centre line, aligned, every corner 0.15 mm from its surface."""
+    from planar_mbs import load_model
+    from planar_mbs.kinematics import assemble, start_gaps
+    from pathlib import Path
+
+    m = load_model(Path(__file__).resolve().parent.parent / "models" / "slider_crank_clearance_s.mbs")
+    q, qd = assemble(m)
+    assert start_gaps(m, q) == pytest.approx([0.15e-3] * 4, abs=1e-12)
+    assert qd[m.body_names.index("slider") * 3 + 1] == pytest.approx(0.0, abs=1e-12)
