@@ -86,3 +86,27 @@ def test_film_breaks_down_into_dry_contact_past_the_stated_ratio():
     assert res["J.in_contact"][-1] == 1
     assert res["J.e"][-1] / C > eps_b
     assert res["J.penetration"][-1] > 0
+
+
+@pytest.mark.parametrize("eps, epsd", [(0.3, 2.0), (0.7, -5.0), (0.9, 1.0)])
+def test_film_force_wedge_and_squeeze_terms_are_the_pi_film_integral(eps, epsd):
+    """The kernel's closed form (wedge and squeeze terms) against Reynolds' short-bearing pressure with
+    the whole wedge-plus-squeeze term A, integrated over the pi-film the wedge fixes (psi in (-pi, 0)),
+    while the wedge dominates (|eps w| = 100 |eps'|, where the kernel's s is within 1e-4 of 1)."""
+    from planar_mbs.kernel.contact import film_force
+    from planar_mbs.model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_LENGTH, CP_R_JOURNAL, CP_VISCOSITY,
+                                  N_CLEARANCE_PARAM, PairKind)
+
+    w = 100 * abs(epsd) / eps
+    p = np.zeros(N_CLEARANCE_PARAM)
+    p[CP_CLEARANCE], p[CP_R_JOURNAL], p[CP_LENGTH], p[CP_VISCOSITY] = C, R, L, MU
+    p[CP_BREAKDOWN], p[CP_KIND] = 0.99, int(PairKind.LUBRICATED)
+    Fr, Ft = film_force(p, eps * C, epsd * C, 0.0, w)
+
+    def P(s):
+        A = 0.5 * w * C * eps * math.sin(s) - C * epsd * math.cos(s)
+        return -MU * L ** 3 * A / (C * (1 - eps * math.cos(s))) ** 3
+    fr = -R * quad(lambda s: P(s) * math.cos(s), -math.pi, 0, limit=200)[0]
+    ft = -R * quad(lambda s: P(s) * math.sin(s), -math.pi, 0, limit=200)[0]
+    assert Fr == pytest.approx(fr, rel=1e-9)
+    assert Ft == pytest.approx(ft, rel=1e-3)
