@@ -135,7 +135,7 @@ SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalo
               "atol": "absolute tolerance", "step": "RK4 step / first trial step", "h_min": "smallest step",
               "h_max": "largest step", "output_step": "time between outputs",
               "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
-              "projection": "on | off", "max_steps": "step limit"}
+              "projection": "auto | on | off", "max_steps": "step limit"}
 # every name that may be called in a model (the rest are unknown functions)
 _CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle"}
 RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
@@ -954,8 +954,8 @@ class _SettingsPass:
         s.output_step = f.scalar("output_step", U.TIME, s.output_step, positive=True)
         s.alpha = f.scalar("alpha", U.RATE, s.alpha, nonneg=True)
         s.beta = f.scalar("beta", U.RATE, s.beta, nonneg=True)
-        s.projection = f.symbol("projection", ["on", "off", "true", "false", "yes", "no"],
-                                "on" if s.projection else "off") in ("on", "true", "yes")
+        p = f.symbol("projection", ["auto", "on", "off", "true", "false", "yes", "no"], s.projection)
+        s.projection = {"true": "on", "yes": "on", "false": "off", "no": "off"}.get(p, p)
         n = f.scalar("max_steps", U.NUMBER, float(s.max_steps), positive=True)
         if n != int(n) or n > 2**62:
             raise f.expr("max_steps").pos.error("`max_steps` must be a whole number", hint="e.g. `max_steps = 1e6`")

@@ -123,10 +123,14 @@ CFG_HMAX = 5  # largest step (0 = output_step)
 CFG_OUTPUT_STEP = 6
 CFG_ALPHA = 7  # Baumgarte alpha (velocity feedback 2 alpha C')
 CFG_BETA = 8  # Baumgarte beta (position feedback beta^2 C)
-CFG_PROJECT = 9  # 1 = project q, q' onto the constraints after each accepted step
+CFG_PROJECT = 9  # 1 = project q, q' onto the constraints after each accepted step; 0 = never;
+# 2 = auto: from the first regularised factor on (a singular position or redundant joints: PROJECT_*)
 CFG_MAX_STEPS = 10
 CFG_SKIP = 11  # groups of the observation row no stored signal needs (OBS_SKIP_* bits; 0 = the whole row)
-N_CFG = 12
+CFG_SIZE = 12  # the mechanism's size (m, `Model.size`): the bounds of the constraint check scale with it
+CFG_LOST = 13  # relative bound of that check (`lost_bound`): residual / size, velocity residual / speed
+N_CFG = 14
+PROJECT_OFF, PROJECT_ON, PROJECT_AUTO = 0.0, 1.0, 2.0
 # OBS_SKIP_* bits of cfg[CFG_SKIP]: the time loop's `observe` leaves those columns NaN and skips their work.
 # Accelerations, joint reactions and driver efforts/powers take a full `accelerations` per row (its Schur
 # solve); the constraint errors need the constraint rows; the rest is cheap.  `signals.skip_bits` sets them.
@@ -148,6 +152,8 @@ class Status(IntEnum):
     CONTACT_SOLVE = 6  # an implicit contact law found no force
     BAD_INPUT = 7
     DRIFT = 8  # fixed-step RK4 left the constraints (residual above the documented bound)
+    CONSTRAINTS_LOST = 9  # an adaptive run left its constraints beyond the bound scaled to the mechanism
+    PASSAGE = 10  # a fixed RK4 step across a singular position that step halving does not confirm
 
 
 # contact state of the clearance joints, `contact` (nclearance, N_CONTACT_STATE) float64, kept across calls
@@ -244,6 +250,24 @@ class SourceRef:
     column: int
 
 
+def projection_code(value) -> float:
+    """cfg[CFG_PROJECT] of a `projection` setting: "on", "off", "auto" (True / False as on / off)."""
+    if value is True or value is False:
+        return PROJECT_ON if value else PROJECT_OFF
+    return {"on": PROJECT_ON, "off": PROJECT_OFF, "auto": PROJECT_AUTO}[str(value)]
+
+
+LOST_FLOOR = 1e-9  # the constraint check's relative bound is never below this ...
+LOST_PER_RTOL = 10.0  # ... and is this many rtol: every shipped model at rtol 1e-3, its own and 1e-8 passes the
+# check even at 1 rtol (a run keeps its residuals well below rtol); beyond, the constraints gave way
+
+
+def lost_bound(rtol: float) -> float:
+    """Relative bound of the adaptive methods' constraint check (`kernel.loop.lost_check`): a residual
+    beyond it times the mechanism's size (its velocity: times its speed) stops the run."""
+    return max(LOST_FLOOR, LOST_PER_RTOL * rtol)
+
+
 @dataclass
 class Settings:
     """The `simulate` block, resolved to SI."""
@@ -258,11 +282,13 @@ class Settings:
     output_step: float = 1e-4
     alpha: float = 5.0
     beta: float = 5.0
-    projection: bool = False
+    projection: str = "auto"  # "on", "off" (unchecked: may cross a singular position onto another branch), "auto"
     max_steps: int = 100_000_000
 
-    def cfg(self) -> np.ndarray:
+    def cfg(self, size: float = 1.0) -> np.ndarray:
+        """The time loop's settings array; `size` is the mechanism's (`Model.size`)."""
         c = np.zeros(N_CFG)
+        c[CFG_SIZE] = size
         c[CFG_METHOD] = int(self.integrator)
         c[CFG_RTOL] = self.rtol
         c[CFG_ATOL] = self.atol
@@ -272,7 +298,8 @@ class Settings:
         c[CFG_OUTPUT_STEP] = self.output_step
         c[CFG_ALPHA] = self.alpha
         c[CFG_BETA] = self.beta
-        c[CFG_PROJECT] = 1.0 if self.projection else 0.0
+        c[CFG_PROJECT] = projection_code(self.projection)
+        c[CFG_LOST] = lost_bound(self.rtol)
         c[CFG_MAX_STEPS] = self.max_steps
         return c
 
@@ -332,6 +359,24 @@ class Model:
     @property
     def ncoord(self) -> int:
         return 3 * self.nbody
+
+    @property
+    def size(self) -> float:
+        """The mechanism's size (m): twice the longest distance from a body's centre of mass to one of
+        its joint, driver, clearance or force points (a link's length), else the extent of the initial
+        pose.  The bounds of the constraint check scale with it."""
+        k = self.kernel
+        r = 0.0
+        for pts, bodies in ((k.joint_point, k.joint_body), (k.driver_point, k.driver_body),
+                            (k.clearance_point, k.clearance_body), (k.force_point, k.force_body)):
+            pts = np.asarray(pts, dtype=float).reshape(-1, 2, 2)
+            on_body = np.asarray(bodies).reshape(-1, 2) >= 0
+            if pts.size and on_body.any():
+                r = max(r, 2.0 * float(np.hypot(pts[..., 0], pts[..., 1])[on_body].max()))
+        if not r > 0.0 and self.nbody:
+            xy = np.asarray(self.q0, dtype=float).reshape(-1, 3)[:, :2]
+            r = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0))))
+        return r if r > 0.0 else 1.0
 
     @property
     def nconstraint(self) -> int:

@@ -358,7 +358,7 @@ simulate { integrator = rk4  step = 1 us  projection = on  max_steps = 1e6  alph
     np.testing.assert_allclose(k.gravity, [0, -9.81])
     np.testing.assert_allclose(m.qd0[6:], [1, 0, 2 * math.pi])
     s = m.settings
-    assert (s.integrator, s.step, s.projection, s.max_steps, s.alpha, s.beta) == (Integrator.RK4, 1e-6, True,
+    assert (s.integrator, s.step, s.projection, s.max_steps, s.alpha, s.beta) == (Integrator.RK4, 1e-6, "on",
                                                                                    10 ** 6, 10, 10)
     assert m.force_names == ["f", "t2", "s", "r"]
 
