@@ -149,12 +149,14 @@ def run(
 
 
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
-from .sweep_commands import analyze, sweep  # noqa: E402  (light: imports only typer)
+from .sweep_commands import analyze, route, sweep, sweep_merge, sweep_replay  # noqa: E402  (light: typer)
 
 app.command()(plot)
 app.command()(view)
 app.command()(sweep)
 app.command()(analyze)
+app.command("sweep-replay", hidden=True)(sweep_replay)
+app.command("sweep-merge", hidden=True)(sweep_merge)
 
 
 def main() -> None:
@@ -163,6 +165,7 @@ def main() -> None:
     MBS_TRACEBACK=1 asks for it."""
     import sys
 
+    route(sys.argv)
     try:
         app()
     except Exception as exc:  # noqa: BLE001  (the last line of defence: never a traceback)

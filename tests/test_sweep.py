@@ -88,7 +88,7 @@ def test_sweep_file_layout_and_resume(tmp_path):
         assert verdict.verdict == "periodic" and verdict.period == 1, verdict.summary()
     with h5py.File(out, "r") as f:
         assert f.attrs["kind"] == "sweep"
-        assert list(f["cases_table/speed_si"][()]) == pytest.approx([20 * np.pi, 30 * np.pi, 40 * np.pi])
+        assert list(f["cases_table/params_si/speed"][()]) == pytest.approx([20 * np.pi, 30 * np.pi, 40 * np.pi])
         stamp = f["cases/0/time"][-1], f["cases/2"].attrs["case_wall_time"]
 
     # rerun: nothing recomputed
