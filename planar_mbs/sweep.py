@@ -54,7 +54,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .errors import MbsError, ModelError
-from .results import WRITE_CHUNK_CACHE, DiskFull, ResultsBusy, open_results, release_reserve, reserve_space
+from .results import WRITE_CHUNK_CACHE, DiskFull, ResultsBusy, WriteLock, open_results, release_reserve, reserve_space
 
 FINISHED, FAILED = "finished", "failed"
 MAX_CASES = 1_000_000  # cases of one sweep
@@ -786,10 +786,21 @@ def run_sweep(
             from None
     except OSError as exc:
         raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
+    existed = output.exists()
+    try:
+        # no other writer (`mbs run -o`, `analyze --store`) on the scan file; none there: none made (a kill
+        # before the first gather must not leave an empty file)
+        lock.output = WriteLock(output) if existed else None
+    except (ResultsBusy, OSError):
+        lock.release(remove=True)
+        raise SweepError(f"{output} is being written by another sweep or run; wait for it to end (or choose "
+                         "another -o)") from None
     try:
         clean_leftovers(output)
         state = _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force)
     except BaseException:
+        if lock.output is not None:
+            lock.output.release()
         lock.release(remove=True)
         raise
     header = {"kind": "sweep", "config": json.dumps(config, default=str), "params": json.dumps(state.merged),
@@ -827,7 +838,7 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
 
     rows: dict[str, dict] = {}
     folder = journal_folder(output)
-    fresh = overwrite or not output.exists()
+    fresh = overwrite or not output.exists() or output.stat().st_size == 0
     merged = [[a.name, list(a.values)] for a in axes]
     if overwrite:
         for _, part in case_files(folder):
@@ -922,7 +933,7 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
     config_text = header["config"]
     try:
         if dirty:  # the file exists from the start; a killed sweep's whole cases are gathered first
-            scan_bytes = _gather(output, header, rows, params, fresh)
+            scan_bytes = _gather(output, lock, header, rows, params, fresh)
             fresh = dirty = False
         if progress:
             progress(done, total, None)
@@ -945,7 +956,7 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
             results_iter = _completed(futures, _cluster_watch(executor, worker_timeout))
         for fut in results_iter:
             outcome = _outcome(fut, executor, len(state.skipped) + len(ran), output)
-            if outcome.part is None:  # from a cluster: written here
+            if outcome.part is None and not outcome.store_error:  # from a cluster: written here
                 outcome = store_outcome(outcome, folder, compression, config_text)
             if outcome.store_error:  # the case could not be written (a full disk)
                 raise SweepStopped(f"case {outcome.index} could not be written ({outcome.store_error}); the "
@@ -955,7 +966,7 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
             dirty = True
             journal += outcome.part_bytes
             if journal >= max(scan_bytes, GATHER_MIN):
-                scan_bytes = _gather(output, header, rows, params, fresh)
+                scan_bytes = _gather(output, lock, header, rows, params, fresh)
                 fresh, dirty, journal = False, False, 0
             ran.append(outcome.index)
             if outcome.status != FINISHED:
@@ -975,8 +986,10 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
             pool.shutdown(wait=True)
         try:
             if dirty:
-                _gather(output, header, rows, params, fresh)
+                _gather(output, lock, header, rows, params, fresh)
         finally:
+            if lock.output is not None:
+                lock.output.release()
             lock.release(remove=True)
     order = {s.key: i for i, s in enumerate(state.numbered)}
     out_rows = sorted(rows.values(), key=lambda r: order.get(r["key"], 1 << 30))
@@ -991,13 +1004,20 @@ def _file_params(output: Path) -> str | None:
         return None
 
 
-def _gather(output, header, rows, params, fresh) -> int:
+def _gather(output, lock, header, rows, params, fresh) -> int:
     """`sweep_store.gather` of the cases of ``rows``; a full disk or a write error stops the sweep
     with the finished cases kept (in the old scan file and the journal)."""
     from .sweep_store import gather
 
     try:
-        return gather(output, header, rows, params, parameter_si, fresh=fresh)
+        size = gather(output, header, rows, params, parameter_si, fresh=fresh)
+        old, lock.output = lock.output, WriteLock(output)  # the new scan file, locked as the old one was
+        if old is not None:
+            old.release()
+        return size
+    except ResultsBusy:
+        raise SweepStopped(f"{output} was opened for writing by another process; the finished cases are kept: "
+                           "run the same command again to resume") from None
     except (OSError, RuntimeError) as exc:
         raise SweepStopped(f"cannot write {output} ({exc}); the finished cases are kept beside it: make room and "
                            "run the same command again to resume") from None

@@ -51,6 +51,7 @@ class JournalLock:
         from .results import ResultsBusy
 
         self.folder = journal_folder(output)
+        self.output = None  # the scan file's own WriteLock, held by the sweep beside this one
         for _ in range(10):
             self.folder.mkdir(exist_ok=True)
             path = self.folder / ".lock"

@@ -217,7 +217,7 @@ def test_cli_sweep_and_analyze(tmp_path):
     out = tmp_path / "s.h5"
     runner = CliRunner()
     args = ["sweep", str(IDEAL), "-P", "speed=600rpm..1200rpm:2", "-n", "22", "--per-rev", "24", "-o", str(out),
-            "-j", "1", "-q"]
+            "-j", "1", "-q", "--keep", "all"]
     r = runner.invoke(_app(), args)
     assert r.exit_code == 0, r.output
     assert "2 case(s) run" in r.output and "periodic" in r.output

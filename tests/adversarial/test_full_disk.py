@@ -96,7 +96,7 @@ def test_full_disk_before_the_first_row_is_a_clean_error(tmp_path):
 
 
 SWEEP = ["-P", "speed=2500rpm,5000rpm,1200rpm,800rpm", "--revolutions", "2", "--per-rev", "180", "-j", "1",
-         "--no-section", "-q"]
+         "--no-section", "-q", "--keep", "all"]
 
 
 def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
@@ -134,7 +134,7 @@ def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size)
     disk named, whole cases only, no case file left behind), and the sweep resumes with room."""
     disk = tmp_path / "disk"
     args = ["-P", "speed=2500rpm,5000rpm,1200rpm,800rpm", "--revolutions", "2", "--per-rev", "180", "-j", "2",
-            "--no-section", "-q"]
+            "--no-section", "-q", "--keep", "all"]
     with small_disk(disk, size) as mounted:
         if not mounted:
             pytest.skip("needs a size-limited tmpfs (mount): the workers' files are not reserved")
