@@ -406,11 +406,38 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
         params = list(rows[0]["values"]) if rows else []
         _print_table(rows, params)
         return
+    con = _console()
+    stored = _stored_case(file, group) if is_sweep and group else None
+    if stored is not None:  # a case of a scan that kept no signal: its stored section and verdict
+        sec, verdict = stored
+        con.print(f"{results} keeps no signals (`mbs sweep replay {file} {group.strip('/').split('/')[-1]} "
+                  "-o case.h5` runs it again with all of them); its stored section:", markup=False)
+        _print_verdict(con, results, sec, verdict)
+        return
     res = read_results(results)
     signals = opts.pop("signals", None)  # None: the slider, chosen as plots and sweeps do
     sec = poincare_section(res, signals, **opts)
     verdict = classify(sec)
-    con = _console()
+    _print_verdict(con, results, sec, verdict)
+    if store:
+        store_section(file, group, sec, verdict)
+        con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)
+
+
+def _stored_case(file: str, group: str):
+    """(section, verdict) stored for a sweep's case that has no signals; None otherwise."""
+    from planar_mbs.analysis import read_section
+    from planar_mbs.results import open_results
+
+    with open_results(file) as f:
+        g = f.get(group)
+        if g is None or "signals" in g or "poincare" not in g:
+            return None
+        sec, verdict = read_section(g)
+    return (sec, verdict) if verdict is not None else None
+
+
+def _print_verdict(con, results, sec, verdict) -> None:
     con.print(f"Poincaré section of {results}: {len(sec)} points of {', '.join(sec.names)} "
               f"({sec.kind}, period {sec.period if sec.period else float('nan'):.6g} s, {sec.method}, "
               f"transient {sec.transient:g})", markup=False)
@@ -427,9 +454,6 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
               f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}" +
               (f"   ({verdict.note})" if verdict.note and (verdict.settled_revolution is not None
                                                       or verdict.verdict == "undetermined") else ""))
-    if store:
-        store_section(file, group, sec, verdict)
-        con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)
 
 
 SUBCOMMANDS = {"replay": "sweep-replay", "merge": "sweep-merge"}

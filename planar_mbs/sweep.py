@@ -7,32 +7,29 @@
               [parse_param("speed=800rpm,1200rpm"), parse_param("clearance=0.1mm..0.5mm:5")],
               "sweep.h5", revolutions=60, per_rev=720)
 
-File layout (each case is laid out exactly as the file of one run, see results.py)::
+File layout (each case is laid out as the file of one run, see results.py)::
 
     /                    attrs: kind = "sweep", config (JSON: model fingerprint, --set values,
-                         settings, section options, ...), model_source, model_path, version,
+                         settings, section options, ...), model_source, model_path, model_key,
+                         model_includes (the snapshot: `ModelSnapshot`), version,
                          params (JSON: [[name, [values...]], ...] in command order)
-    /cases/<k>/time, /cases/<k>/signals/<entity>, attrs of a run
-                         + case (k), case_key, case_values (JSON)
+    /cases/<k>/time, /cases/<k>/signals/<entity>   the --keep signals (none by default)
+                         + attrs of a run, case (k), case_key, case_values (JSON)
     /cases/<k>/poincare  the Poincaré section of the case and its verdict (analysis.py)
-    /cases_table/        one row per case: index, key, status, one column per parameter (the
-                         value text), <param>_si (SI value, NaN for names), verdict, period,
-                         K, lyapunov, dimension
+    /cases/<k>/summary   min, max, RMS of every signal (sweep_store.py)
+    /cases_table/        one row per case (sweep_store.write_table)
 
 Identity and resumption: a case is identified by its parameter values (``case_key``,
 the JSON of ``{name: value text without spaces}``).  Opening an existing sweep file
-checks that the model source (the file and everything it includes), the ``--set``
+checks that the model snapshot (the file and everything it includes), the ``--set``
 values and the run settings are the same, and refuses otherwise; cases already
 finished (or failed: a failed simulation fails again) are never run twice.  Adding
 values to an axis appends the new cases.
 
-Only the parent process writes the file: a worker (`run_case`, a pure function of
-a picklable `CaseSpec`) returns its results in memory, or, in a local pool, lays its
-case out in a file of its own beside the sweep file (`run_case_stored`), and the parent
-copies or writes each case when it arrives, first under ``/incoming/<k>`` and then
-moves it to ``/cases/<k>``, so ``/cases`` only ever holds whole cases.  Any executor with the
-`concurrent.futures` interface can run the cases: a local `ProcessPoolExecutor`
-(default) or, for a cluster, ``distributed.Client(address).get_executor()``.
+Whoever runs a case writes it whole into the sweep's journal (`store_outcome`); the sweep's process
+gathers the journal into the scan file by an atomic rename (`sweep_store.gather`), so no kill loses
+a finished case.  Any executor with the `concurrent.futures` interface can run the cases: a local
+`ProcessPoolExecutor` (default) or, for a cluster, ``distributed.Client(address).get_executor()``.
 """
 from __future__ import annotations
 

@@ -75,6 +75,25 @@ def test_a_replayed_case_equals_the_stored_section_and_summary_to_the_bit(tmp_pa
         assert a[name].tobytes() == b[name].tobytes(), name
     with pytest.raises(SweepError, match="no case 7"):
         replay_case(out, 7, tmp_path / "x.h5")
+    # `mbs analyze` of a case without signals prints its stored verdict
+    r = CliRunner().invoke(app, ["analyze", f"{out}:/cases/1"])
+    assert r.exit_code == 0 and "keeps no signals" in r.output and "K =" in r.output, r.output
+
+
+def test_mbs_sweep_replay_and_merge_are_subcommands(tmp_path, monkeypatch):
+    from planar_mbs.cli.sweep_commands import route
+
+    argv = ["mbs", "sweep", "replay", "s.h5", "3", "-o", "c.h5"]
+    route(argv)
+    assert argv == ["mbs", "sweep-replay", "s.h5", "3", "-o", "c.h5"]
+    argv = ["mbs", "sweep", "merge", "a.h5", "b.h5", "-o", "c.h5"]
+    route(argv)
+    assert argv[1] == "sweep-merge"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "replay").write_text("a model file named replay")
+    argv = ["mbs", "sweep", "replay", "-P", "speed=1rpm", "-o", "x.h5"]
+    route(argv)
+    assert argv[1:3] == ["sweep", "replay"]
 
 
 def test_keep_all_stores_every_signal(tmp_path):
