@@ -155,6 +155,7 @@ def write_process_section(data) -> None:
 
 
 ORDER_HEADING = "## Order of the model text and size (`benchmarks/order_scaling.py`)"
+SCAN_HEADING = "## Scans at scale (`benchmarks/scan_scaling.py`)"  # written by hand from that script's output
 
 
 def _kept_section(heading: str) -> list[str]:
@@ -275,6 +276,7 @@ def write(data) -> None:
         out.append(order_scaling.markdown(data["order_scaling"]) + "\n")
     else:
         out.extend(_kept_section(ORDER_HEADING))
+    out.extend(_kept_section(SCAN_HEADING))
     if "stress" in data:
         s = data["stress"]
         out.append("## Stress tests (`pytest -m slow tests/test_stress.py`)\n")

@@ -292,6 +292,7 @@ class CaseOutcome:
     summary: dict | None = None  # (min, max, RMS) of every signal (`sweep_store.signal_summary`)
     units: dict | None = None
     part_bytes: int = 0
+    cpu_time: float = 0.0  # CPU seconds of the case in its process (the benchmarks' serial fraction)
 
 
 def case_settings(model, spec: CaseSpec) -> dict:
@@ -332,7 +333,7 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     from .errors import SimulationError
     from .section import AnalysisError, poincare_section
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     try:
         overrides = {**spec.sets, **spec.values}
         model = spec.snapshot.compile(overrides) if spec.snapshot else load_model(spec.model_path, overrides)
@@ -368,7 +369,7 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     if res is not None:
         res.attrs.update(case=spec.index, case_key=spec.key, case_values=spec.values)
     return CaseOutcome(spec.index, spec.key, dict(spec.values), status, message, res, section, verdict,
-                       time.perf_counter() - start, summary=summary, units=units)
+                       time.perf_counter() - start, summary=summary, units=units, cpu_time=time.process_time() - cpu)
 
 
 def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
@@ -1056,6 +1057,7 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
     g.attrs["sweep_status"] = outcome.status
     g.attrs["sweep_message"] = outcome.message
     g.attrs["case_wall_time"] = outcome.wall_time
+    g.attrs["case_cpu_time"] = outcome.cpu_time
     if outcome.section is not None:
         write_section(g, outcome.section, outcome.verdict)
     if outcome.summary is not None:
