@@ -836,7 +836,7 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
 
     rows: dict[str, dict] = {}
     folder = journal_folder(output)
-    fresh = overwrite or not output.exists() or output.stat().st_size == 0
+    fresh = overwrite or not output.exists()
     merged = [[a.name, list(a.values)] for a in axes]
     if overwrite:
         for _, part in case_files(folder):
