@@ -935,23 +935,7 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
             fresh = dirty = False
         if progress:
             progress(done, total, None)
-        specs = pending
-        if executor is None and (jobs == 1 or len(pending) <= 1):
-            results_iter = [_InlineFuture(run_case_stored, s, str(folder), compression, config_text) for s in specs]
-        else:
-            if executor is None:
-                from .sweep_server import started
-
-                if not started():  # the kernels loaded here once; the pool's workers are forks of this process
-                    from .sweep_worker import warm_up
-
-                    warm_up()
-                pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
-                futures = [pool.submit(run_case_stored, s, str(folder), compression, config_text) for s in specs]
-            else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
-                pool = executor
-                futures = [pool.submit(run_case, s) for s in specs]
-            results_iter = _completed(futures, _cluster_watch(executor, worker_timeout))
+        pool, results_iter = _start(pending, str(folder), jobs, executor, compression, config_text, worker_timeout)
         for fut in results_iter:
             outcome = _outcome(fut, executor, len(state.skipped) + len(ran), output)
             if outcome.part is None and not outcome.store_error:  # from a cluster: written here
@@ -992,6 +976,26 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
     order = {s.key: i for i, s in enumerate(state.numbered)}
     out_rows = sorted(rows.values(), key=lambda r: order.get(r["key"], 1 << 30))
     return SweepSummary(output, total, ran, state.skipped, failed, time.perf_counter() - start, out_rows)
+
+
+def _start(pending, folder: str, jobs, executor, compression, config_text, worker_timeout):
+    """(pool, the cases' futures as they finish): in this process (``-j 1``), a local pool whose workers
+    write their cases into the journal themselves, or a dask executor whose results come back here."""
+    if executor is None and (jobs == 1 or len(pending) <= 1):
+        return None, [_InlineFuture(run_case_stored, s, folder, compression, config_text) for s in pending]
+    if executor is None:
+        from .sweep_server import started
+
+        if not started():  # the kernels loaded here once; the pool's workers are forks of this process
+            from .sweep_worker import warm_up
+
+            warm_up()
+        pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
+        futures = [pool.submit(run_case_stored, s, folder, compression, config_text) for s in pending]
+    else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
+        pool = executor
+        futures = [pool.submit(run_case, s) for s in pending]
+    return pool, _completed(futures, _cluster_watch(executor, worker_timeout))
 
 
 def _file_params(output: Path) -> str | None:

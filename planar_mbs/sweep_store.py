@@ -149,10 +149,9 @@ def gather(output: Path, header: dict, rows: dict[str, dict], params: list[str],
             shutil.copyfile(output, tmp)
         with h5py.File(tmp, "w" if fresh else "r+", locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE) as f:
             f.attrs.update(header)
-            g = f.require_group("cases")
-            for index, path in cases:
-                if str(index) in g:
-                    del g[str(index)]
+            for index, path in cases:  # /cases appears with the first case
+                if f"cases/{index}" in f:
+                    del f[f"cases/{index}"]
                 with h5py.File(path, "r", locking=False) as part:
                     f.copy(part[f"cases/{index}"], f"cases/{index}")
             write_table(f, list(rows.values()), params, parameter_si)

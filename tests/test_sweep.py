@@ -116,7 +116,7 @@ def _tree(path) -> dict:
         if isinstance(obj, h5py.Dataset) and "wall_time" not in name:
             out[name] = obj[()].tobytes() if obj.dtype.kind != "O" else list(obj[()])
         for key, value in obj.attrs.items():
-            if "wall_time" not in key:
+            if "wall_time" not in key and "cpu_time" not in key:  # measured, not computed
                 out[f"{name}@{key}"] = value.tolist() if hasattr(value, "tolist") else value
 
     with h5py.File(path, "r") as f:
@@ -242,7 +242,7 @@ def test_interrupted_sweep_resumes(tmp_path, sig, code):
     computes only the cases not yet stored."""
     out = tmp_path / "s.h5"
     cmd = [sys.executable, "-c", CLI, "sweep", str(IDEAL), "-P", "speed=600rpm..1400rpm:6", "-n", "500",
-           "--per-rev", "360", "-o", str(out), "-j", "1", "-q"]
+           "--per-rev", "360", "-o", str(out), "-j", "1", "-q", "--keep", "all"]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     deadline = time.time() + 120

@@ -43,7 +43,8 @@ SWEEP = ("import os, sys\n_exit = os._exit\n"
 
 
 def _sweep(out: Path, jobs: str):
-    argv = ["mbs", "sweep", IDEAL, "-P", "speed=800rpm..1600rpm:3", "-n", "4", "--per-rev", "90", "-j", jobs, "--keep", "all",
+    argv = ["mbs", "sweep", IDEAL, "-P", "speed=800rpm..1600rpm:3", "-n", "4", "--per-rev", "90", "-j", jobs,
+            "--keep", "all",
             "-q", "-o", str(out)]
     return subprocess.run([sys.executable, "-c", SWEEP.format(argv=argv)], capture_output=True, text=True,
                           timeout=600, cwd=ROOT)

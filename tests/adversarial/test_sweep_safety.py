@@ -213,7 +213,7 @@ def test_a_killed_pool_worker_stops_the_sweep_cleanly_and_it_resumes(tmp_path):
 
     out = tmp_path / "s.h5"
     cmd = [MBS, "sweep", str(IDEAL), "-P", "speed=600rpm..1400rpm:6", "-n", "300", "--per-rev", "360", "-j", "2",
-           "-q", "--no-section", "-o", str(out)]
+           "-q", "--no-section", "--keep", "all", "-o", str(out)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert _wait_for_case(out, proc), "the sweep stored no case"
