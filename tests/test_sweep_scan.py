@@ -188,6 +188,13 @@ def test_a_merge_of_two_halves_equals_the_whole_scan(tmp_path):
     assert [r["index"] for r in read_case_table(merged)] == [0, 1, 2, 3]
     with h5py.File(merged, "r") as f, h5py.File(whole, "r") as g:
         assert f.attrs["params"] == g.attrs["params"]
+    from planar_mbs.cli.app import app
+
+    r = CliRunner().invoke(app, ["sweep-merge", str(a), str(b), "-o", str(tmp_path / "cli.h5")])
+    assert r.exit_code == 0 and "4 case(s) from 2 files" in r.output, r.output
+    assert _by_key(tmp_path / "cli.h5") == _by_key(whole)
+    r = CliRunner().invoke(app, ["sweep-merge", str(a), str(merged), "-o", str(tmp_path / "x.h5")])
+    assert r.exit_code == 2 and "in both" in r.output and "Traceback" not in r.output
     with pytest.raises(SweepError, match="in both"):  # duplicates refused
         merge_sweeps([a, merged], tmp_path / "x.h5")
     other = tmp_path / "other.h5"
