@@ -53,7 +53,7 @@ import numpy as np
 from .errors import MbsError, ModelError
 from .results import WRITE_CHUNK_CACHE, DiskFull, ResultsBusy, WriteLock, open_results, release_reserve, reserve_space
 
-FINISHED, FAILED = "finished", "failed"
+FINISHED, FAILED, PENDING = "finished", "failed", "pending"
 MAX_CASES = 1_000_000  # cases of one sweep
 # atomic groups and a greedy tail: linear time on any text (no retrying of shorter digit runs)
 _NUMBER = r"[-+]?(?>\d+(?:\.\d*)?|\.\d+)(?>[eE][-+]?\d+)?"
@@ -832,7 +832,7 @@ class _Plan:
 
 def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force) -> _Plan:
     """Read what the scan file and its journal hold (under the lock), number and check the cases to run."""
-    from .sweep_store import case_file_row, case_files, journal_folder
+    from .sweep_store import case_file_row, case_files, journal_folder, read_plan, write_plan
 
     rows: dict[str, dict] = {}
     folder = journal_folder(output)
@@ -854,20 +854,31 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
         _same_sweep(output, their, config, list(row["values"]), params)
         rows[row["key"]] = row
 
-    next_index = max((r["index"] for r in rows.values()), default=-1) + 1
+    plan = {} if overwrite else read_plan(folder)  # a killed sweep's numbering, before its first gather
+    plan.update({key: r["index"] for key, r in rows.items()})
+    next_index = max(plan.values(), default=-1) + 1
     numbered = []
     for spec in specs:  # keep the file's indices, append the new ones
-        if spec.key in rows:
-            numbered.append(dataclasses.replace(spec, index=rows[spec.key]["index"]))
-        else:
-            numbered.append(dataclasses.replace(spec, index=next_index))
+        if spec.key not in plan:
+            plan[spec.key] = next_index
             next_index += 1
+        numbered.append(dataclasses.replace(spec, index=plan[spec.key]))
+        if spec.key not in rows:  # in the table from the first gather on: its index is kept by a resume
+            rows[spec.key] = _pending_row(numbered[-1])
+    write_plan(folder, plan)
     done_status = {FINISHED} | (set() if retry_failed else {FAILED})
     pending = [s for s in numbered if rows.get(s.key, {}).get("status") not in done_status]
     skipped = [s.index for s in numbered if s not in pending]
     expected = check_cases(pending, output, force)
     order = sorted(range(len(pending)), key=lambda i: -expected[i])  # longest first: no core finishes alone
     return _Plan(rows, merged, numbered, [pending[i] for i in order], skipped, fresh)
+
+
+def _pending_row(spec: CaseSpec) -> dict:
+    """The table's row of a case not yet run."""
+    return {"index": spec.index, "key": spec.key, "status": PENDING, "message": "", "values": dict(spec.values),
+            "verdict": "", "period": np.nan, "K": np.nan, "lyapunov": np.nan, "dimension": np.nan,
+            "wall_time": np.nan}
 
 
 def _read_scan(output: Path):
@@ -1150,8 +1161,8 @@ def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bo
     for p, old, old_params, rows in heads:
         _same_sweep(p, old, config, [n for n, _ in old_params], names)
         for r in rows:
-            if r["status"] == "missing":
-                raise SweepError(f"{p}: case {r['index']} is in the table but not in the file")
+            if r["status"] == "missing":  # a case not run yet (pending), or its group gone
+                raise SweepError(f"{p}: case {r['index']} has not been run: run its sweep command again first")
             if r["key"] in seen:
                 raise SweepError(f"case {r['key']} is in both {seen[r['key']]} and {p}: a merge takes each "
                                  "case once")

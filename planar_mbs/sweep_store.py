@@ -84,7 +84,7 @@ def clean_leftovers(output: Path) -> None:
     half-written copy of the scan file, the case folders of earlier versions (the caller holds
     the lock)."""
     folder = journal_folder(output)
-    for p in folder.glob(".case-*.tmp"):
+    for p in [*folder.glob(".case-*.tmp"), *folder.glob(f".{PLAN}.*.tmp")]:
         p.unlink(missing_ok=True)
     for p in output.parent.glob(f".{output.name}.tmp-*"):
         p.unlink(missing_ok=True)
@@ -162,6 +162,25 @@ def gather(output: Path, header: dict, rows: dict[str, dict], params: list[str],
     for _, path in cases:
         path.unlink(missing_ok=True)
     return output.stat().st_size
+
+
+PLAN = "plan.json"  # the journal's record of every case's index, written before any case runs
+
+
+def write_plan(folder: Path, plan: dict[str, int]) -> None:
+    """Record ``{case key: index}`` in the journal (atomically), so that a sweep killed before its
+    first gather numbers its cases the same way when it resumes, whichever of them had finished."""
+    tmp = folder / f".{PLAN}.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps(plan))
+    publish(tmp, folder / PLAN)
+
+
+def read_plan(folder: Path) -> dict[str, int]:
+    try:
+        plan = json.loads((folder / PLAN).read_text())
+    except (OSError, ValueError):
+        return {}
+    return {str(k): int(v) for k, v in plan.items()} if isinstance(plan, dict) else {}
 
 
 def journal_bytes(folder: Path) -> int:

@@ -229,3 +229,25 @@ def test_cases_a_killed_sweep_left_in_its_journal_are_read_and_gathered(tmp_path
     assert s.ran == [] and sorted(s.skipped) == [0, 1, 2]
     assert not folder.exists()
     assert _by_key(out) == _by_key(other)
+
+
+def test_a_sweep_killed_before_its_first_gather_keeps_its_numbering(tmp_path):
+    """The last case finished first (a pool) and the sweep was killed before it gathered anything:
+    its journal holds that case and the plan of the numbering, so the resumed scan numbers every
+    case as the uninterrupted one does (not the unfinished cases after the finished one)."""
+    from planar_mbs.sweep_store import write_plan
+
+    speeds = [parse_param("speed=600rpm,900rpm,1200rpm")]
+    whole, out = tmp_path / "whole.h5", tmp_path / "s.h5"
+    run_sweep(IDEAL, speeds, whole, **OPTS)
+    rows = read_case_table(whole)
+    folder = journal_folder(out)
+    folder.mkdir()
+    write_plan(folder, {r["key"]: r["index"] for r in rows})
+    with h5py.File(whole, "r") as src, h5py.File(folder / "case-2.h5", "w") as part:
+        src.copy(src["cases/2"], part, "cases/2")
+        part.attrs["sweep_row"] = json.dumps(rows[2])
+        part.attrs["sweep_config"] = src.attrs["config"]
+    s = run_sweep(IDEAL, speeds, out, **OPTS)
+    assert sorted(s.ran) == [0, 1] and s.skipped == [2]
+    assert _by_key(out) == _by_key(whole)
