@@ -774,25 +774,9 @@ def run_sweep(
     config = _config(snapshot, sets, settings, revolutions, per_rev, keep, section)
     params = [a.name for a in axes]
     _check_param_names(params)
-    from .sweep_store import JournalLock, clean_leftovers
+    from .sweep_store import clean_leftovers
 
-    output.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        lock = JournalLock(output)
-    except ResultsBusy:
-        raise SweepError(f"{output} is being written by another sweep; wait for it to end (or choose another -o)") \
-            from None
-    except OSError as exc:
-        raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
-    existed = output.exists()
-    try:
-        # no other writer (`mbs run -o`, `analyze --store`) on the scan file; none there: none made (a kill
-        # before the first gather must not leave an empty file)
-        lock.output = WriteLock(output) if existed else None
-    except (ResultsBusy, OSError):
-        lock.release(remove=True)
-        raise SweepError(f"{output} is being written by another sweep or run; wait for it to end (or choose "
-                         "another -o)") from None
+    lock = _lock(output)
     try:
         clean_leftovers(output)
         state = _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force)
@@ -805,6 +789,29 @@ def run_sweep(
               "version": _version(), **snapshot.attrs()}
     return _run_cases(state, lock, output, header, params, jobs, executor, compression, progress, start,
                       worker_timeout)
+
+
+def _lock(output: Path):
+    """The sweep's `sweep_store.JournalLock` on ``output``, with the scan file's own write lock when the
+    file exists (``lock.output``): no other sweep, and no other writer of the file, while this one runs."""
+    from .sweep_store import JournalLock
+
+    output.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        lock = JournalLock(output)
+    except ResultsBusy:
+        raise SweepError(f"{output} is being written by another sweep; wait for it to end (or choose another -o)") \
+            from None
+    except OSError as exc:
+        raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
+    try:
+        # none there: none made (a kill before the first gather must not leave an empty file)
+        lock.output = WriteLock(output) if output.exists() else None
+    except (ResultsBusy, OSError):
+        lock.release(remove=True)
+        raise SweepError(f"{output} is being written by another sweep or run; wait for it to end (or choose "
+                         "another -o)") from None
+    return lock
 
 
 def _version() -> str:

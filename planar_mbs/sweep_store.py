@@ -183,10 +183,6 @@ def read_plan(folder: Path) -> dict[str, int]:
     return {str(k): int(v) for k, v in plan.items()} if isinstance(plan, dict) else {}
 
 
-def journal_bytes(folder: Path) -> int:
-    return sum(p.stat().st_size for _, p in case_files(folder) if p.exists())
-
-
 # ---------------------------------------------------------------- the table of cases
 def _text(v) -> str:
     return v.decode() if isinstance(v, bytes) else str(v)
