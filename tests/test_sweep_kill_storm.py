@@ -84,7 +84,7 @@ class _Lane:
         self.proc = subprocess.Popen([sys.executable, "-c", SCRIPT, str(self.out), str(self.jobs)], env=self.env,
                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
         # a random moment, from the start-up to the last case; one run in six is left to finish
-        self.deadline = time.monotonic() + (self.rng.uniform(0.2, 3.0) if self.rng.random() > 1 / 6 else 1e9)
+        self.deadline = time.monotonic() + (self.rng.uniform(0.2, 2.2) if self.rng.random() > 1 / 6 else 1e9)
 
     def step(self, expected: dict) -> int:
         """Kill the sweep once its moment has come, or see it end; check the output.  Returns the kills."""
