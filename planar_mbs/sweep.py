@@ -946,6 +946,7 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
     fresh, dirty = state.fresh, state.fresh or any(True for _ in folder.glob("case-*.h5"))
     scan_bytes = 0 if fresh else output.stat().st_size
     journal = 0
+    stopping = False
     config_text = header["config"]
     try:
         if dirty:  # the file exists from the start; a killed sweep's whole cases are gathered first
@@ -977,6 +978,7 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
         if header["params"] != _file_params(output):
             dirty = True
     except BaseException:
+        stopping = True  # a failed gather below must not hide why the sweep stopped
         if pool is not None and executor is None:
             pool.shutdown(wait=False, cancel_futures=True)
             pool = None
@@ -987,6 +989,9 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
         try:
             if dirty:
                 _gather(output, lock, header, rows, params, fresh)
+        except SweepStopped:
+            if not stopping:
+                raise
         finally:
             if lock.output is not None:
                 lock.output.release()
@@ -1039,8 +1044,12 @@ def _gather(output, lock, header, rows, params, fresh) -> int:
         raise SweepStopped(f"{output} was opened for writing by another process; the finished cases are kept: "
                            "run the same command again to resume") from None
     except (OSError, RuntimeError) as exc:
-        raise SweepStopped(f"cannot write {output} ({exc}); the finished cases are kept beside it: make room and "
-                           "run the same command again to resume") from None
+        import errno
+
+        why = f"the disk holding {output} is full" if getattr(exc, "errno", None) == errno.ENOSPC else \
+            f"cannot write {output} ({exc})"
+        raise SweepStopped(f"{why}; the finished cases are kept beside it: make room and run the same command "
+                           "again to resume") from None
 
 
 def _outcome(fut, executor, kept: int, output) -> CaseOutcome:
