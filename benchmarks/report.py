@@ -338,8 +338,8 @@ numba and the kernels (`planar_mbs.sweep_server`, `planar_mbs.sweep_worker`), so
 while the command line is read and the cases are checked; the pool's workers are forks of that server, and the
 sweep's own process never loads numba (from Python, `run_sweep` loads them itself and forks its workers from
 itself).  Each worker writes its case in a file of its own beside the sweep file, into disk
-space reserved first, and hands back only the table row; the parent copies the case in with HDF5's object copy
-(about 6 ms for a 19 MB case) instead of receiving it through a pipe.  Cases are stored uncompressed (gzip saved
+space reserved first (the sweep's journal), and hands back only the table row; the parent gathers the journal
+into the scan file with HDF5's object copy (about 6 ms for a 19 MB case) instead of receiving cases through a pipe.  Cases are stored uncompressed (gzip saved
 ~20 % of float64 outputs for ~20× the write time).  The model text of a sweep is parsed once per process
 (`parse.PARSED_CACHE`), not once for the parent's check of each case and again in each case.
 
