@@ -344,11 +344,14 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
 
 def _projection_note(settings: Settings, ws) -> list[str]:
     """`projection = auto` turned the projection on: say when (a singular position or redundant joints)."""
-    from .kernel.workspace import DN_PROJECT_FROM
+    from .kernel.workspace import DN_PROJECT_FROM, FL_PROJECTING
 
     t = float(ws.dense[DN_PROJECT_FROM])
     if settings.projection != "auto" or np.isnan(t):
         return []
+    if ws.flags[FL_PROJECTING] == 2:
+        return [f"the constraint residuals drifted past their bound at t = {t:.9g} s: the positions and "
+                "velocities are projected onto the constraints from then on (projection = auto)"]
     return [f"the constraints lost rank at t = {t:.9g} s (a singular position or redundant joints): the "
             "positions and velocities are projected onto the constraints from then on (projection = auto)"]
 
