@@ -133,6 +133,9 @@ def run(
     keep: Annotated[Optional[str], typer.Option("--keep", help="Comma-separated signals to store (slider.vx); an "
                     "entity name (slider) keeps all its signals.  Fewer signals make smaller files and cheaper "
                     "output rows (no accelerations computed unless kept).", show_default="all")] = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace the output even when it is not the "
+                         "results of a run (a sweep file, any other file); never the model or its includes.")]
+    = False,
 ) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
@@ -143,7 +146,7 @@ def run(
     code = run_model(model, output=output, set_=set_, t_end=t_end, revolutions=revolutions, output_step=output_step,
                      per_rev=per_rev, integrator=integrator, rtol=rtol, atol=atol, step=step, quiet=quiet,
                      rerun=rerun, magnify=magnify, fps=fps, view_=view_, rerun_signals=rerun_signals, force=force,
-                     until_settled=until_settled, max_revolutions=max_revolutions, keep=keep)
+                     until_settled=until_settled, max_revolutions=max_revolutions, keep=keep, overwrite=overwrite)
     if code:
         raise typer.Exit(code)
 

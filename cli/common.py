@@ -76,7 +76,7 @@ def quantity(text: Optional[str], dimension: str, option: str) -> Optional[float
 
 
 # ---------------------------------------------------------------- option values, checked before anything runs
-MAX_T_END = 1e6  # s of simulated time (11.6 days): beyond it a typo is far likelier than a wish
+from planar_mbs.settings_check import MAX_T_END  # noqa: E402  (one bound for the CLI and the API)
 MAX_JOBS = 1024
 MAX_REVOLUTIONS = 1e7  # driver periods of one run
 
@@ -90,21 +90,11 @@ def _option_error(option: str, message: str, hint: str):
 def check_number(value: Optional[float], option: str, *, low: Optional[float] = None, high: Optional[float] = None,
                  low_ok: bool = False, high_ok: bool = True, hint: str = "") -> Optional[float]:
     """`value` if it is a finite number in the interval (low, high] (``low_ok``/``high_ok``
-    close or open either end); None passes.  Raises `ModelError` naming the option otherwise."""
-    import math
+    close or open either end); None passes.  Raises `ModelError` naming the option otherwise
+    (worded as the Python API words its settings: `planar_mbs.settings_check`)."""
+    from planar_mbs.settings_check import check_number as checked
 
-    if value is None:
-        return None
-    text = f"{value:g}" if isinstance(value, float) else str(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        raise _option_error(option, f"`{option} {text}` is not a finite number", hint)
-    if low is not None and (value < low or (value == low and not low_ok)):
-        raise _option_error(option, f"`{option} {text}` must be {'at least' if low_ok else 'greater than'} {low:g}",
-                            hint)
-    if high is not None and (value > high or (value == high and not high_ok)):
-        raise _option_error(option, f"`{option} {text}` must be {'at most' if high_ok else 'less than'} {high:g}",
-                            hint)
-    return value
+    return checked(value, option, low=low, high=high, low_ok=low_ok, high_ok=high_ok, hint=hint)
 
 
 def positive_time(text: Optional[str], option: str, high: float = MAX_T_END) -> Optional[float]:

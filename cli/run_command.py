@@ -23,11 +23,13 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
               step: str | None = None, quiet: bool = False, rerun: Path | None = None, magnify: float = 10.0,
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
-              until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None) -> int:
+              until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None,
+              overwrite: bool = False) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as `app.run`'s); the exit code."""
     from planar_mbs import simulate
     from planar_mbs.compile import load_model
     from planar_mbs.errors import MbsError, ModelError, SimulationError
+    from planar_mbs.results import refuse_replacing
     from planar_mbs.simulation import integrator_of
 
     sets = {}
@@ -61,23 +63,24 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
         inputs = [("the model file" if i == 0 else "a file the model includes", f)
                   for i, f in enumerate(m.source_files or [model])]
+        _check_settings(m, changes, model, until_settled)
         make_folder = output is None and not out.parent.exists()  # results/, made once every check passed
         if not make_folder:
             check_output(out, "--output", inputs)
+            refuse_replacing(out, overwrite=overwrite, inputs=m.source_files)
         if rerun is not None:
             check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
         if not until_settled:
             _check_output_size(m, changes, out, model, force)
         if make_folder:
-            out.parent.mkdir(parents=True)
-            (out.parent / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
+            _make_results_folder(out.parent)
             check_output(out, "--output", inputs)
         if until_settled:
-            res = _run_until_settled(m, out, max_revolutions, quiet, changes)
+            res = _run_until_settled(m, out, max_revolutions, quiet, changes, overwrite)
         else:
             with _Progress(quiet) as progress:
                 res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, signals=signals,
-                               **changes)
+                               overwrite=overwrite, **changes)
     except SimulationError as err:
         if err.results is not None:
             _print_summary(err.results, out)
@@ -155,10 +158,33 @@ def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) ->
     check_output(estimate(m, run_settings(m, **changes)), out, str(model), force=force)
 
 
-def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes: dict):
+def _make_results_folder(folder: Path) -> None:
+    """The default output's folder (results/), ignored by git; a folder that cannot be made is exit 2."""
+    from planar_mbs.errors import ModelError
+
+    try:
+        folder.mkdir(parents=True)
+        (folder / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
+    except OSError as exc:
+        raise ModelError(f"cannot create the folder `{folder}` for the results: {exc.strerror or exc}",
+                         "--output", hint="run from a folder you can write, or give an output with -o") from None
+
+
+def _check_settings(m, changes: dict, model: Path, until_settled: bool) -> None:
+    """The run's settings through the validation `simulate` applies (`planar_mbs.settings_check`),
+    worded for the command line."""
+    from planar_mbs.settings_check import CLI, check_settings, given_settings
+    from planar_mbs.simulation import run_settings
+
+    given = {k: v for k, v in changes.items() if not (until_settled and k == "t_end")}
+    settings = run_settings(m, **given)
+    check_settings(settings, given=given_settings(given), style=CLI, source=str(model))
+
+
+def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes: dict, overwrite: bool = False):
     """`planar_mbs.study.long_run` until the section settles; the results written to ``out``."""
     from planar_mbs.model import ST_CONTACT_EVENTS, ST_REJECTED, ST_RHS, ST_STEPS
-    from planar_mbs.results import write_results
+    from planar_mbs.results import write_beside
     from planar_mbs.study import long_run
 
     changes = {k: v for k, v in changes.items() if k != "t_end" and v is not None}
@@ -171,8 +197,7 @@ def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes:
                      settled_at=run.settled_at if run.settled_at is not None else -1,
                      n_steps=int(stats[ST_STEPS]), n_rejected=int(stats[ST_REJECTED]), n_rhs=int(stats[ST_RHS]),
                      n_contact_events=int(stats[ST_CONTACT_EVENTS]))
-    out.unlink(missing_ok=True)
-    write_results(str(out), res)
+    write_beside(out, res, overwrite=overwrite, inputs=m.source_files)
     text = (f"settled on a periodic orbit at revolution {run.settled_at}" if run.settled_at is not None
             else f"not settled on a periodic orbit after {run.revolutions} revolutions")
     _console().print(f"{text}; {run.revolutions} revolutions run", markup=False)
@@ -283,6 +308,7 @@ _OPTIONS = {
     "--until-settled": ("until_settled", "flag", None),
     "--max-revolutions": ("max_revolutions", "int", 1),
     "--keep": ("keep", "str", None),
+    "--overwrite": ("overwrite", "flag", None),
 }
 
 

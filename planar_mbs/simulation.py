@@ -46,6 +46,7 @@ from .model import (
     observation_size,
 )
 from .output_size import MAX_ROWS, estimate
+from .settings_check import check_memory, check_settings, check_stop, given_settings as _given
 from .results import DiskFull, FileResults, Results, ResultsWriter
 from .signals import signal_table, skip_bits
 
@@ -339,7 +340,7 @@ def signal_selection(model: Model, signals, cfg: np.ndarray):
     cfg[CFG_SKIP] set so that the time loop computes only the groups of the row they read."""
     table, cols = signal_table(model), None
     if signals is not None:
-        table, cols = select_signals(table, list(signals))
+        table, cols = select_signals(table, [signals] if isinstance(signals, str) else list(signals))
     cfg[CFG_SKIP] = skip_bits(model, cols)
     return table, cols
 
@@ -369,6 +370,7 @@ def simulate(
     progress: Callable[[float, float], None] | None = None,
     signals: list[str] | None = None,
     max_rows: float = MAX_ROWS,
+    overwrite: bool = False,
     **settings_changes,
 ) -> Results:
     """Integrate `model` from its assembled initial state to ``t_end``.
@@ -381,11 +383,14 @@ def simulate(
     computes only the groups of the observation row they read (`signals.skip_bits`).
     A run asking for more than ``max_rows`` output rows (``math.inf``: no limit) is refused
     with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
-    Raises `SimulationError` (with ``.results``) on failure.
+    Raises `SimulationError` (with ``.results``) on failure.  ``output`` replaces an existing file
+    only if it holds the results of a run (``overwrite=True``: any file), and never the model
+    file or a file it includes.
     """
     from .kernel import advance, make_workspace
 
     settings = run_settings(model, **settings_changes)
+    check_settings(settings, given=_given(settings_changes), source=model.source_path)
     check_tolerances(settings)
     _check_rows(model, settings, max_rows)
     q, qd = assemble(model)
@@ -417,7 +422,8 @@ def simulate(
         "version": __version__,
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},
     }
-    writer = ResultsWriter(output, table, attrs) if output is not None else None
+    writer = ResultsWriter(output, table, attrs, overwrite=overwrite, inputs=model.source_files) \
+        if output is not None else None
     times, blocks = [], []  # all rows, kept only without an output file
     held = [0]  # rows of out_t/out not yet written to the file
     deepest: dict[str, float] = {}
@@ -539,11 +545,14 @@ class Simulation:
     """
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
-                 **settings_changes):
+                 overwrite: bool = False, **settings_changes):
         from .kernel import advance, make_workspace
 
         self.model = model
         self.settings = run_settings(model, **settings_changes)
+        check_settings(self.settings, given=_given(settings_changes), source=model.source_path)
+        check_tolerances(self.settings)
+        check_memory(model, self.settings)
         self.t_end = self.settings.t_end
         q, qd = assemble(model)
         self._y0 = np.concatenate([q, qd])
@@ -571,7 +580,8 @@ class Simulation:
             "version": __version__,
             "settings": {f.name: getattr(self.settings, f.name) for f in dataclasses.fields(self.settings)},
         }
-        self._writer = ResultsWriter(output, self._table, self._attrs) if output is not None else None
+        self._writer = ResultsWriter(output, self._table, self._attrs, overwrite=overwrite,
+                                     inputs=model.source_files) if output is not None else None
         self.output = output
 
     # ---------------------------------------------------------------- driving
@@ -592,6 +602,7 @@ class Simulation:
         from .kernel import advance
 
         t_stop = _seconds(t, "t")
+        check_stop(t_stop, self.t_end)
         if self._failure:
             raise SimulationError(self._failure, time=self.t, results=self.results())
         dto = self.settings.output_step
@@ -670,10 +681,10 @@ class Simulation:
 
     def latest(self, name: str) -> float:
         """A signal's last sample (at `t` after a step)."""
-        if not self._blocks:
-            raise KeyError("no samples yet: step first")
         if name not in self._where:
             self[name]  # raises the KeyError with a hint
+        if not self._blocks:
+            raise KeyError("no samples yet: step first")
         return float(self._where[name].extract(self._blocks[-1][-1:])[0])
 
     @property
