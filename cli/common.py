@@ -13,6 +13,111 @@ class ExitCode(IntEnum):
     INTERRUPTED = 130  # 128 + SIGINT; SIGTERM gives 143
 
 
+# ---------------------------------------------------------------- standard streams
+_ASCII = {"→": "->", "←": "<-", "λ": "lambda", "µ": "u", "μ": "u", "²": "^2", "³": "^3", "×": "x", "≈": "~",
+          "…": "...", "—": "--", "–": "-", "°": " deg", "φ": "phi", "≤": "<=", "≥": ">=", "±": "+/-", "·": "*",
+          "─": "-", "│": "|", "━": "-", "┃": "|", "•": "*", "✓": "ok", "✗": "x", "Δ": "d", "π": "pi", "ω": "w",
+          "\ufffd": "?"}
+
+
+def _to_ascii(err):
+    """Codec error handler "mbs-ascii": a character the stream's encoding lacks is written in ASCII
+    (→ as ->, µ as u, λ as lambda, accents dropped, anything else as ?)."""
+    import unicodedata
+
+    bad = err.object[err.start:err.end]
+    out = []
+    for ch in bad:
+        plain = _ASCII.get(ch)
+        if plain is None:
+            plain = unicodedata.normalize("NFKD", ch).encode("ascii", "ignore").decode() or "?"
+        out.append(plain)
+    return "".join(out), err.end
+
+
+class _GuardedStream:
+    """stdout or stderr, whose failed writes (a closed stream, /dev/full, an I/O error) are noted
+    instead of raised: the command finishes its work (its files are whole) and `stream_failure`
+    says afterwards why the output was lost.  A broken pipe (the reader went away) is raised as
+    before: the command stops at its next line of output."""
+
+    def __init__(self, wrapped, name: str):
+        self.wrapped, self.name, self.wrote = wrapped, name, False
+        self.failure = "" if wrapped is not None else "it is closed"
+
+    def _guard(self, call, *args):
+        import errno
+
+        if self.wrapped is None:
+            return None
+        try:
+            return call(*args)
+        except OSError as exc:
+            if exc.errno == errno.EPIPE:
+                raise
+            self.failure = self.failure or (exc.strerror or str(exc))
+            return None
+        except ValueError:  # closed
+            self.failure = self.failure or "it is closed"
+            return None
+
+    def write(self, text):
+        self.wrote = self.wrote or bool(text)
+        if self.wrapped is None:
+            return len(text)
+        self._guard(self.wrapped.write, text)
+        return len(text)
+
+    def flush(self):
+        if self.wrapped is not None:
+            self._guard(self.wrapped.flush)
+
+    def isatty(self) -> bool:
+        return bool(self.wrapped is not None and self._guard(self.wrapped.isatty))
+
+    def fileno(self):
+        if self.wrapped is None:
+            raise OSError(9, "stream closed")
+        return self.wrapped.fileno()
+
+    @property
+    def encoding(self):
+        return getattr(self.wrapped, "encoding", None) or "utf-8"
+
+    def __getattr__(self, attr):
+        return getattr(self.wrapped, attr)
+
+
+def guard_streams() -> None:
+    """Make stdout and stderr safe to write whatever happens to them: characters their encoding
+    lacks degrade to ASCII (PYTHONIOENCODING=ascii, a C locale), and a closed stream or a full
+    device (`>&-`, `>/dev/full`) is noted, not a traceback (`stream_failure`).  Called once by
+    `entry.main`."""
+    import codecs
+    import sys
+
+    codecs.register_error("mbs-ascii", _to_ascii)
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if isinstance(stream, _GuardedStream):
+            continue
+        try:
+            if stream is not None and hasattr(stream, "reconfigure"):
+                "→µλ".encode(stream.encoding or "utf-8")
+        except (UnicodeError, LookupError):
+            stream.reconfigure(errors="mbs-ascii")
+        setattr(sys, name, _GuardedStream(stream, name))
+
+
+def stream_failure() -> str:
+    """Why the command's output could not be written to stdout ('' if it was, or nothing was)."""
+    import sys
+
+    out = sys.stdout
+    return f"cannot write the command's output: {out.failure}" if isinstance(out, _GuardedStream) and \
+        out.failure and out.wrote else ""
+
+
 def console(stderr: bool = False):
     import sys
 

@@ -87,9 +87,13 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
             if rerun is not None:
                 record_run(err.results, m, rerun, magnify=magnify, fps=fps, open_viewer=view_,
                            signals=rerun_signals)
-        _console(stderr=True).print(f"simulation failed: {err.message}\n"
-                                    f"results up to t = {err.time:.6g} s kept in {out} (marked incomplete)",
-                                    markup=False)
+        if err.results is not None and err.results.attrs.get("status") == "not_physical":
+            _console(stderr=True).print(f"error: {err.message}\nthe results to t = {err.time:.6g} s are kept in "
+                                        f"{out}, marked incomplete (status not_physical)", markup=False)
+        else:
+            _console(stderr=True).print(f"simulation failed: {err.message}\n"
+                                        f"results up to t = {err.time:.6g} s kept in {out} (marked incomplete)",
+                                        markup=False)
         return int(ExitCode.SIMULATION_FAILED)
     except MbsError as err:
         return fail_code(err)

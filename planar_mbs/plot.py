@@ -333,7 +333,8 @@ def _title(results: "Results", width: float = 8.0) -> str:
         bits.append(f"t = {t0:.6g} … {t1:.6g} s")
     import textwrap
 
-    return "\n".join(textwrap.wrap(" · ".join(bits), int(width * 10)))  # ~10 characters per inch at 10 pt
+    text = " · ".join(bits).replace("$", r"\$")  # a `$` in a file name or value is text, not mathtext
+    return "\n".join(textwrap.wrap(text, int(width * 10)))  # ~10 characters per inch at 10 pt
 
 
 def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: str | None = None,

@@ -509,6 +509,10 @@ def simulate(
             }
             run_attrs["warnings"] = _physics_warnings(model, deepest)
             run_attrs["assembly_changes"] = changes
+            if complete and run_attrs["warnings"]:  # finished, but not physical: not a result to use
+                complete = False
+                message = "the results are not physical: " + run_attrs["warnings"][0]
+                run_attrs.update(complete=False, status="not_physical", message=message)
             if writer:
                 writer.close(run_attrs)
     units = {s.name: s.unit for s in table}
