@@ -13,7 +13,7 @@ import re
 import time
 from pathlib import Path
 
-from .common import (MAX_REVOLUTIONS, ExitCode, check_choice, check_number, check_output, check_rtol, fail_code,
+from .common import (MAX_REVOLUTIONS, ExitCode, check_choice, check_number, check_output, fail_code,
                      parse_sets, positive_time)
 from .common import console as _console
 
@@ -42,7 +42,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
             t_end=positive_time(t_end, "--t-end"),
             step=positive_time(step, "--step"),
             output_step=positive_time(output_step, "--output-step"),
-            rtol=check_rtol(rtol),
+            rtol=rtol,  # checked with the other settings (`_check_settings`), as `simulate` checks it
             atol=atol,
             integrator=integrator,
         )
@@ -67,9 +67,10 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         make_folder = output is None and not out.parent.exists()  # results/, made once every check passed
         if not make_folder:
             check_output(out, "--output", inputs)
-            refuse_replacing(out, overwrite=overwrite, inputs=m.source_files)
         if rerun is not None:
             check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
+        if not make_folder:
+            refuse_replacing(out, overwrite=overwrite, inputs=m.source_files)
         if not until_settled:
             _check_output_size(m, changes, out, model, force)
         if make_folder:

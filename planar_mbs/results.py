@@ -774,7 +774,10 @@ def check_results_file(path: str | Path) -> Path:
     try:
         info = os.stat(path)
     except FileNotFoundError:
-        raise ResultsFileError(f"no such results file: {path}", hint="check the path") from None
+        part = part_beside(path)
+        hint = (f"a run writing it stopped without finishing (killed?): its rows so far are in {part}"
+                if os.path.lexists(part) else "check the path")
+        raise ResultsFileError(f"no such results file: {path}", hint=hint) from None
     except OSError as exc:
         raise ResultsFileError(f"cannot read {path}: {exc.strerror or exc}",
                                hint="give a results file written by `mbs run` or `mbs sweep`") from None

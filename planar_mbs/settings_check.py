@@ -47,7 +47,7 @@ def label(name: str, style: str) -> str:
 
 def check_settings(settings, given=(), style: str = API, source: str = "") -> None:
     """Refuse (`ModelError`, exit 2) settings no run can use: times that are not positive and
-    finite, tolerances outside (0, 1), h_min above h_max, and a fixed-step run that cannot reach
+    finite, an adaptive method's rtol outside (0, 1), h_min above h_max, and a fixed-step run that cannot reach
     t_end within max_steps (known before it starts).  ``given``: the settings the caller set
     (named as ``style`` writes them); the others came from the model file ``source``."""
     def name(n):
@@ -65,9 +65,11 @@ def check_settings(settings, given=(), style: str = API, source: str = "") -> No
         high = MAX_T_END if n == "t_end" else None
         number(n, low=0.0, high=high, hint=f"give a positive time with units, e.g. {_example(n, style, given)}"
                + (f" (at most {high:g} s)" if high else ""))
-    number("rtol", low=0.0, high=1.0, high_ok=False,
-           hint=f"a relative tolerance lies between 0 and 1, e.g. {_example('rtol', style, given)}")
-    number("atol", low=0.0, hint="an absolute tolerance is positive, e.g. 1e-9")
+    from .model import Integrator
+
+    if settings.integrator != Integrator.RK4:  # RK4 uses neither tolerance; atol: `simulation.check_tolerances`
+        number("rtol", low=0.0, high=1.0, high_ok=False,
+               hint=f"a relative tolerance lies between 0 and 1, e.g. {_example('rtol', style, given)}")
     for n in ("h_min", "h_max", "alpha", "beta"):
         number(n, low=0.0, low_ok=True, hint="zero or a positive value")
     from .errors import ModelError

@@ -317,6 +317,24 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     return warnings
 
 
+ABSURD = 1e9  # m, m/s, rad/s: beyond it no planar mechanism is being simulated (light: 3e8 m/s)
+
+
+def _absurd_state(model: Model, y: np.ndarray, t: float) -> str:
+    """Why the state y = (q, q') is beyond every physical bound (`ABSURD`: a position or speed of a
+    billion metres, per second), or ''.  Angles are not bounded (a crank turns on and on).  A run
+    in such a state only crawls (its steps shrink to the round-off of huge numbers)."""
+    n = model.ncoord
+    size = np.abs(y).copy()
+    size[2:n:3] = 0.0  # the angles
+    if np.all(size < ABSURD):
+        return ""
+    i = int(np.argmax(np.where(np.isfinite(size), size, np.inf)))
+    what = "position" if i < n else "velocity"
+    return (f"the state left every physical bound at t = {t:.9g} s: {_state_name(model, i)} = {y[i]:.3g} "
+            f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units")
+
+
 def _deepest(table, rows: np.ndarray, deepest: dict[str, float]) -> None:
     """Update the largest penetration of each clearance joint with a chunk of rows."""
     for s in table:
@@ -450,9 +468,10 @@ def simulate(
     interrupted = 0
     last_flush = _time.perf_counter()
     room = rows_held  # rows to hold before the next write: ends it on a chunk boundary of the file
+    absurd = [_absurd_state(model, y, 0.0)]  # a state beyond every physical bound: not worth a step
     with _deferred_interrupts() as received:
         try:
-            while not received:
+            while not received and not absurd[0]:
                 start = _time.perf_counter()
                 rhs_before = int(stats[ST_RHS])
                 k = held[0]
@@ -478,6 +497,7 @@ def simulate(
                     progress(float(clock[0]), t_end)
                 if status != Status.BUFFER_FULL or disk_full:
                     break
+                absurd[0] = _absurd_state(model, y, float(clock[0]))
         finally:
             flush()
             finished = status == Status.DONE and clock[0] >= t_end and not disk_full
@@ -509,7 +529,10 @@ def simulate(
             }
             run_attrs["warnings"] = _physics_warnings(model, deepest)
             run_attrs["assembly_changes"] = changes
-            if complete and run_attrs["warnings"]:  # finished, but not physical: not a result to use
+            if absurd[0] and not interrupted and not disk_full:
+                complete, message = False, absurd[0]
+                run_attrs.update(complete=False, status="absurd_state", message=message)
+            elif complete and run_attrs["warnings"]:  # finished, but not physical: not a result to use
                 complete = False
                 message = "the results are not physical: " + run_attrs["warnings"][0]
                 run_attrs.update(complete=False, status="not_physical", message=message)
