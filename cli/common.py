@@ -150,10 +150,38 @@ def internal_error(exc: Exception) -> int:
 
     if os.environ.get("MBS_TRACEBACK"):
         raise exc
+    limit = resource_limit(exc)
+    if limit:
+        console(stderr=True).print(limit, markup=False)
+        return int(ExitCode.SIMULATION_FAILED)
     console(stderr=True).print(f"internal error: {type(exc).__name__}: {exc}\n"
                                "hint: this is a bug in planar_mbs; please report it with the command "
                                "(MBS_TRACEBACK=1 shows where it happened)", markup=False)
     return 1
+
+
+def resource_limit(exc: BaseException) -> str:
+    """The sentence for an error that is a limit of this machine or process, not a bug (too many
+    open files, no memory, a full disk, a file-size limit); '' for anything else.  Exit code 3."""
+    import errno
+
+    if isinstance(exc, MemoryError):
+        return ("error: not enough memory for this command\nhint: free memory, or ask for less (a shorter "
+                "t_end, a larger output step, fewer cases at once: -j)")
+    if not isinstance(exc, OSError):
+        return ""
+    hints = {
+        errno.EMFILE: "this process may open too few files (`ulimit -n`); raise the limit, e.g. `ulimit -n 1024`, "
+                      "or run fewer jobs at once (-j)",
+        errno.ENFILE: "the system has too many open files; close some programs and run again",
+        errno.ENOSPC: "the disk is full; free some space or write elsewhere (-o)",
+        errno.EDQUOT: "the disk quota is used up; free some space or write elsewhere (-o)",
+        errno.EFBIG: "a file reached the file-size limit of this process (`ulimit -f`); raise it or write less",
+        errno.ENOMEM: "free memory, or ask for less",
+    }
+    if exc.errno not in hints:
+        return ""
+    return f"error: {exc.strerror or exc}\nhint: {hints[exc.errno]}"
 
 
 def parse_sets(sets: list[str]) -> dict[str, str]:

@@ -653,7 +653,7 @@ class ResultsWriter:
             raise
 
     def _reserve(self, nbytes: int) -> None:
-        self.reserved = max(self.reserved, reserve_space(self.lock.fd, nbytes, self.path))
+        self.reserved = max(self.reserved, reserve_space(self.lock.fd, nbytes, self.target))
 
     def set_attrs(self, attrs: dict) -> None:
         set_attrs(self.group, attrs)
