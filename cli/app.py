@@ -5,7 +5,7 @@ Exit codes (one table, also in README and `mbs --help`):
 ====  ==========================================================
 0     success
 2     bad model file, bad `--set` value or bad command-line usage
-3     the simulation failed (results up to the failure are kept)
+3     the simulation failed or is not physical, or a limit was reached (results kept)
 130   interrupted by Ctrl-C (143: by SIGTERM); results so far kept
 ====  ==========================================================
 
@@ -23,7 +23,8 @@ from planar_mbs import catalog
 from .common import internal_error
 
 _INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
-EPILOG = ("Exit codes: 0 success · 2 bad model or usage · 3 the simulation failed (results kept) · "
+EPILOG = ("Exit codes: 0 success · 2 bad model or usage · 3 the simulation failed or is not physical, or a "
+          "limit was reached (results kept) · "
           "130/143 interrupted by Ctrl-C/SIGTERM (results kept).")
 
 

@@ -534,6 +534,9 @@ def refuse_replacing(path: Path, overwrite: bool = False, inputs=()) -> None:
         _refuse(f"cannot use {path}: {exc.strerror or exc}", "choose another output file")
     if stat.S_ISDIR(info.st_mode):
         _refuse(f"{path} is a folder", f"give a file name, e.g. {path / 'results.h5'}")
+    if info.st_uid != os.geteuid() and os.geteuid() != 0 and _sticky(path.parent):
+        _refuse(f"{path} belongs to another user in a shared folder (/tmp-like): it cannot be replaced",
+                "choose another output file")
     if overwrite:
         if not (stat.S_ISREG(info.st_mode) or stat.S_ISLNK(info.st_mode)):
             _refuse(f"{path} is not a regular file", "give the name of a file to write")
@@ -549,6 +552,13 @@ def refuse_replacing(path: Path, overwrite: bool = False, inputs=()) -> None:
                 "other": "not a results file"}[kind]
         _refuse(f"{path} exists and is {what}; it would be replaced",
                 "choose another output, or pass --overwrite (overwrite=True in Python) to replace it")
+
+
+def _sticky(folder: Path) -> bool:
+    try:
+        return bool(os.stat(folder).st_mode & stat.S_ISVTX)
+    except OSError:
+        return False
 
 
 def _refuse(message: str, hint: str):

@@ -47,7 +47,7 @@ def label(name: str, style: str) -> str:
 
 def check_settings(settings, given=(), style: str = API, source: str = "") -> None:
     """Refuse (`ModelError`, exit 2) settings no run can use: times that are not positive and
-    finite, an adaptive method's rtol outside (0, 1), h_min above h_max, and a fixed-step run that cannot reach
+    finite, an rtol outside (0, 1), h_min above h_max, and a fixed-step run that cannot reach
     t_end within max_steps (known before it starts).  ``given``: the settings the caller set
     (named as ``style`` writes them); the others came from the model file ``source``."""
     def name(n):
@@ -67,7 +67,9 @@ def check_settings(settings, given=(), style: str = API, source: str = "") -> No
                + (f" (at most {high:g} s)" if high else ""))
     from .model import Integrator
 
-    if settings.integrator != Integrator.RK4:  # RK4 uses neither tolerance; atol: `simulation.check_tolerances`
+    # an rtol outside (0, 1) is a mistake wherever it is given; one in the model file matters where it is used
+    # (RK4 uses no tolerance); the floor of double precision and atol: `simulation.check_tolerances`
+    if settings.integrator != Integrator.RK4 or "rtol" in given:
         number("rtol", low=0.0, high=1.0, high_ok=False,
                hint=f"a relative tolerance lies between 0 and 1, e.g. {_example('rtol', style, given)}")
     for n in ("h_min", "h_max", "alpha", "beta"):
