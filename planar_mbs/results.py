@@ -32,7 +32,6 @@ import math
 import os
 import re
 import stat
-import sys
 from collections.abc import Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -658,8 +657,10 @@ class ResultsWriter:
             self.set_attrs(dict(attrs, complete=False, status="running", format_version=FORMAT_VERSION))
             self.file.flush()
         except BaseException:
-            self.broken = not isinstance(sys.exc_info()[1], DiskFull)
+            self.broken = True  # nothing worth keeping: the earlier file at the name stays
             self.close()
+            if self.whole and self.path != self.target:
+                self.path.unlink(missing_ok=True)
             raise
 
     def _reserve(self, nbytes: int) -> None:
