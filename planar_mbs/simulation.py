@@ -724,9 +724,15 @@ class Simulation:
         """Everything so far as `Results` (marked complete once `t_end` is reached)."""
         rows = self._rows()
         done = self.t >= self.t_end and not self._failure
+        deepest: dict[str, float] = {}
+        _deepest(self._table, rows, deepest)
+        warnings = _physics_warnings(self.model, deepest)  # as `simulate`: not physical is not complete
+        status = "done" if done else ("failed" if self._failure else "running")
+        message = self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s")
+        if done and warnings:
+            done, status, message = False, "not_physical", "the results are not physical: " + warnings[0]
         attrs = {
-            **self._attrs, "complete": done, "status": "done" if done else ("failed" if self._failure else "running"),
-            "message": self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s"),
+            **self._attrs, "complete": done, "status": status, "message": message, "warnings": warnings,
             "t_reached": self.t, "wall_time": self._wall, "n_steps": int(self._stats[ST_STEPS]),
             "n_rejected": int(self._stats[ST_REJECTED]), "n_rhs": int(self._stats[ST_RHS]),
             "n_contact_events": int(self._stats[ST_CONTACT_EVENTS]), "n_outputs": int(self._stats[ST_OUTPUTS]),

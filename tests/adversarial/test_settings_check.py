@@ -119,3 +119,6 @@ def test_results_that_are_not_physical_end_with_exit_3(sandbox):
     model = mbs_api.load_model(MODELS / "slider_crank_clearance_a.mbs", clearance="1 um")
     with pytest.raises(SimulationError, match="not physical"):
         mbs_api.simulate(model, t_end="10 ms")
+    stepped = mbs_api.Simulation(model, t_end="10 ms", output=sandbox / "stepped.h5").run()  # step by step
+    assert not stepped.complete and stepped.attrs["status"] == "not_physical"
+    assert mbs_api.read_results(sandbox / "stepped.h5").attrs["status"] == "not_physical"
