@@ -135,6 +135,7 @@ def test_standard_streams(sandbox, case):
         out = _run(args, sandbox, env=how["env"])
         out.output.encode("ascii")  # every character ASCII
     assert_clean(out, code, *([words] if words else []), before=before, folder=sandbox, allowed=["x.h5"])
+    assert "internal error" not in out.output, out.output
     if "x.h5" in args:
         assert (sandbox / "x.h5").exists()
 
