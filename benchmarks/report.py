@@ -154,6 +154,7 @@ def write_process_section(data) -> None:
     path.write_text(text[:start] + "\n".join(process_section(data)) + "\n" + text[end:])
 
 
+EXPRESSIONS_HEADING = "## Expression loads against built-in elements (`benchmarks/expressions.py`)"
 ORDER_HEADING = "## Order of the model text and size (`benchmarks/order_scaling.py`)"
 
 
@@ -275,6 +276,7 @@ def write(data) -> None:
         out.append(order_scaling.markdown(data["order_scaling"]) + "\n")
     else:
         out.extend(_kept_section(ORDER_HEADING))
+    out.extend(_kept_section(EXPRESSIONS_HEADING))  # benchmarks/expressions.py --write measures it
     if "stress" in data:
         s = data["stress"]
         out.append("## Stress tests (`pytest -m slow tests/test_stress.py`)\n")

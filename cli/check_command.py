@@ -60,6 +60,10 @@ def _print_model(m, report: dict) -> None:
               f"{'' if report['rank'] == m.nconstraint else ' (rank ' + str(report['rank']) + ')'}, "
               f"{dof} degree{'s' if dof != 1 else ''} of freedom "
               f"({m.nclearance} clearance joint{'s' if m.nclearance != 1 else ''})")
+    if report.get("singular"):
+        con.print(f"the initial pose is a singular position: the constraints lose rank there (rank "
+                  f"{report['rank']}, {report['rank_nearby']} at the poses next to it; a parallelogram with its bars "
+                  "in line, a toggle); no joint is redundant, and the run passes it (projection = auto)")
     if report["redundant"]:
         names = ", ".join(f"`{escape(n)}`" for n in report["redundant"])
         con.print(f"redundant at the initial pose: {names} (rows that repeat what the other joints impose; "

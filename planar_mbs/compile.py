@@ -33,6 +33,7 @@ from .model import (
     INTEGRATOR_NAMES, DriverType, ForceType, Integrator, JointType, KernelModel, Model, MotionType, Settings,
     SourceRef,
 )
+from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
 from .ordering import reorder
 from .parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from .spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
@@ -108,24 +109,28 @@ JOINT_TYPES = {spec.name: JointType(spec.code) for spec in catalog.JOINTS}
 LAWS = {name: law for law, name in CONTACT_LAW_NAMES.items()}
 LAW_SETTINGS = frozenset(key for g in catalog.LAW_GROUPS for key in g.takes)  # a law's call arguments
 DRIVER_KINDS = ("rotation", "translation")
-DRIVER_FIELDS = {"speed": "constant speed", "motion": "ramp(...) | harmonic(...) | polynomial(...)",
+DRIVER_FIELDS = {"speed": "constant speed",
+                 "motion": "ramp(...) | harmonic(...) | polynomial(...) | an expression of t",
                  "relative_to": "reference body (default ground)", "axis": "axis (ux, uy) (translation)",
                  "initial": "value of the coordinate at t = 0 (default: from the initial pose)"}
 MOTIONS = ("ramp", "harmonic", "polynomial")
-FORCE_KINDS = ("constant", "torque", "spring_damper", "rotational_spring_damper")
+FORCE_KINDS = ("constant", "torque", "spring_damper", "rotational_spring_damper", "expression")
 FORCE_FIELDS = {
     "constant": {"force": "(fx, fy) in the global frame"},
     "torque": {"torque": "e.g. 2 N*m"},
     "spring_damper": {"stiffness": "N/m", "damping": "N*s/m", "length": "free length (default: initial)",
-                      "actuator": "constant actuator force (tension positive)"},
+                      "actuator": "actuator force (tension positive): a constant or an expression"},
     "rotational_spring_damper": {"stiffness": "N*m/rad", "damping": "N*m*s/rad",
-                                 "angle": "free angle (default: initial)", "actuator": "constant torque"},
+                                 "angle": "free angle (default: initial)",
+                                 "actuator": "actuator torque: a constant or an expression"},
+    "expression": {"fx": "force along global x: an expression of t, params and signals",
+                   "fy": "force along global y (the same)", "torque": "torque on the body (the same)"},
 }
 SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalog.INTEGRATORS)), "rtol": "relative tolerance",
               "atol": "absolute tolerance", "step": "RK4 step / first trial step", "h_min": "smallest step",
               "h_max": "largest step", "output_step": "time between outputs",
               "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
-              "projection": "on | off", "max_steps": "step limit"}
+              "projection": "auto | on | off", "max_steps": "step limit"}
 # every name that may be called in a model (the rest are unknown functions)
 _CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle"}
 RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
@@ -312,6 +317,7 @@ class _LayoutPasses:
             self._fill_joint(k, st)
         for k, st in enumerate(self.clearance):
             self._fill_clearance(k, st)
+        self.programs = Programs(self.ev, self._expression_context())
         for k, st in enumerate(self.drivers):
             self._fill_driver(k, st)
         for k, st in enumerate(self.forces):
@@ -320,6 +326,15 @@ class _LayoutPasses:
         if g is not None:
             self.a["gravity"][:] = vector_si(self.ev, g.value, U.ACCELERATION, "")
         self.settings = self._settings(self.elements.get("simulate"))
+
+    def _expression_context(self) -> Context:
+        """What the expressions of loads and motions may name (`expressions.Context`)."""
+        a = self.a
+        clearance = {st.name: (int(a["clearance_body"][k, 0]), tuple(a["clearance_point"][k, 0]),
+                               int(a["clearance_body"][k, 1]), tuple(a["clearance_point"][k, 1]),
+                               float(a["clearance_param"][k, CP_CLEARANCE]))
+                     for k, st in enumerate(self.clearance)}
+        return Context(self.body_id, self.q0, self.qd0, clearance, self.kind_of)
 
     def _fields(self, st: Statement, label: str, allowed: dict, call: Call | None = None) -> Fields:
         extra = tuple(Field(k.name, k.value, k.pos) for k in call.kwargs) if call else ()
@@ -721,11 +736,17 @@ class _DriverPass:
                     f"{label} needs one motion",
                     hint="`speed = ...`, `ramp(speed = ..., time = ...)`, `harmonic(amplitude = ..., "
                          "frequency = ...)` or `polynomial(c0, c1, ...)`")
-            mtype, mp = self._motion(motions[0], coord, rate, p0)
+            e = motions[0]
+            if isinstance(e, Call) and e.name not in EXPRESSION_FUNCTIONS or \
+                    isinstance(e, Name) and e.name in self.ev.params:
+                mtype, mp = self._motion(e, coord, rate, p0)
+            else:  # an expression of t: its program, derivatives by dual numbers
+                mtype, mp = MotionType.EXPRESSION, [self.programs.program(e, coord, label, state=False)]
         if f.has("initial"):
-            if mtype == MotionType.POLYNOMIAL:
-                raise f.expr("initial").pos.error("`initial` does not apply to a polynomial; its c0 is the start value",
-                                                  hint="remove `initial` and set c0")
+            if mtype in (MotionType.POLYNOMIAL, MotionType.EXPRESSION):
+                raise f.expr("initial").pos.error("`initial` does not apply to a polynomial or an expression; "
+                                                  "its value at t = 0 is the start value",
+                                                  hint="remove `initial`")
             mp[0] = f.scalar("initial", coord)
         a["driver_motion"][k] = int(mtype)
         a["driver_motion_param"][k, :len(mp)] = mp
@@ -735,7 +756,8 @@ class _DriverPass:
         if not isinstance(v, CallVal) or v.call.name not in MOTIONS:
             name = v.call.name if isinstance(v, CallVal) else e.pos.text
             raise e.pos.error(f"unknown motion `{name}`",
-                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial")
+                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial, or an "
+                                                                  "expression of t (`30 deg * sin(2 * pi * 1 Hz * t)`)")
         c = v.call
         if c.name == "polynomial":
             if c.kwargs or not 1 <= len(c.args) <= N_MOTION_PARAM:
@@ -785,22 +807,54 @@ class _ForcePass:
             a["force_point"][k, 0] = p
             a["force_param"][k, :len(value)] = value
             return
+        if c.name == "expression":
+            return self._fill_expression_force(k, st, c, f, label)
         rotational = c.name == "rotational_spring_damper"
         bi, pi, bj, pj = self._two_refs(st, label, point=not rotational)
         if rotational:
             free0 = self._angle0(bj) - self._angle0(bi)
             params = (f.scalar("stiffness", U.ROT_STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.ROT_DAMPING, 0.0, nonneg=True),
-                      f.scalar("angle", U.ANGLE, free0), f.scalar("actuator", U.TORQUE, 0.0))
+                      f.scalar("angle", U.ANGLE, free0), *self._actuator(f, U.TORQUE, label))
         else:
             free0 = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
             params = (f.scalar("stiffness", U.STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.DAMPING, 0.0, nonneg=True),
-                      f.scalar("length", U.LENGTH, free0, nonneg=True), f.scalar("actuator", U.FORCE, 0.0))
+                      f.scalar("length", U.LENGTH, free0, nonneg=True), *self._actuator(f, U.FORCE, label))
         a["force_type"][k] = int(ForceType.ROTATIONAL_SPRING_DAMPER if rotational else ForceType.SPRING_DAMPER)
         a["force_body"][k] = (bi, bj)
         a["force_point"][k] = (pi, pj)
         a["force_param"][k] = params
+
+    def _actuator(self, f: Fields, dim: U.Dim, label: str) -> tuple[float, float]:
+        """(constant actuator, 1 + result row of its expression or 0): a constant stays a number, an
+        expression of t or the state becomes a load's program (`expressions`)."""
+        e = f.expr("actuator")
+        if e is None:
+            return 0.0, 0.0
+        value, prog = self.programs.constant_or_program(e, dim, f"{label}'s `actuator`")
+        return (value, 0.0) if prog is None else (0.0, float(self.programs.result_row(prog) + 1))
+
+    def _fill_expression_force(self, k: int, st: Statement, c: Call, f: Fields, label: str):
+        """`expression(body (p), fx = ..., fy = ..., torque = ...)`: a program per component given."""
+        if len(c.args) != 1:
+            raise c.pos.error(f"`expression(body, fx = ..., fy = ..., torque = ...)` acts on one body",
+                              hint="e.g. `expression(slider, fx = if(slider.vx < 0 m/s, -800 N, 0 N))`")
+        b, p = self._ref(c.args[0], label, point=True)
+        if b < 0:
+            raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
+        dims = {"fx": U.FORCE, "fy": U.FORCE, "torque": U.TORQUE}
+        if not any(f.has(key) for key in dims):
+            raise c.pos.error(f"{label} needs `fx`, `fy` or `torque`",
+                              hint="e.g. `fx = -800 N * step(slider.vx, -0.01 m/s, 1, 0 m/s, 0)`")
+        progs = [self.programs.result_row(self.programs.program(f.expr(key), dim, f"{label}'s `{key}`"))
+                 if f.has(key) else -1 for key, dim in dims.items()]
+        a = self.a
+        a["force_type"][k] = int(ForceType.EXPRESSION)
+        a["force_body"][k] = (b, -1)
+        a["force_point"][k, 0] = p
+        a["force_param"][k, :3] = progs
+
 
 class _SettingsPass:
     """The `simulate` block."""
@@ -828,8 +882,8 @@ class _SettingsPass:
                                             "largest step)")
         s.alpha = f.scalar("alpha", U.RATE, s.alpha, nonneg=True)
         s.beta = f.scalar("beta", U.RATE, s.beta, nonneg=True)
-        s.projection = f.symbol("projection", ["on", "off", "true", "false", "yes", "no"],
-                                "on" if s.projection else "off") in ("on", "true", "yes")
+        p = f.symbol("projection", ["auto", "on", "off", "true", "false", "yes", "no"], s.projection)
+        s.projection = {"true": "on", "yes": "on", "false": "off", "no": "off"}.get(p, p)
         n = f.scalar("max_steps", U.NUMBER, float(s.max_steps), positive=True)
         if n != int(n) or n > 2**62:
             raise f.expr("max_steps").pos.error("`max_steps` must be a whole number", hint="e.g. `max_steps = 1e6`")
@@ -848,6 +902,7 @@ class _CheckPass:
         for name, arr in self.a.items():
             if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
                 raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
+        self.a.update(self.programs.arrays())
         kernel = reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()}))
 
         def refs(sts):

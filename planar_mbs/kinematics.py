@@ -230,6 +230,7 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
 
 def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Consistent (q, q') at time t from the user's pose ``model.q0`` and velocities ``model.qd0``."""
+    model.kernel.expr_mode[:] = -1.0e18  # expressions' switches live (a run froze them: kernel.expressions)
     isolated = _isolated_bodies(model)
     if isolated:
         names = ", ".join(f"`{n}`" for n in isolated)
@@ -314,15 +315,47 @@ def _change(d: np.ndarray, tol: np.ndarray, what: str) -> str:
 
 
 def constraint_report(model: Model, q: np.ndarray, t: float = 0.0) -> dict:
-    """Rank of the constraints at pose q, degrees of freedom (coordinates - rank) and the
-    joints whose rows add no rank (in declaration order: the later of two equal joints
-    is the redundant one; drivers are kept last).  For `mbs check`."""
-    km, owners = assembly_kernel(model)
+    """Rank of the ideal joints' and drivers' constraints at pose q, degrees of freedom
+    (coordinates - rank) and the joints whose rows add no rank (in declaration order: the later
+    of two equal joints is the redundant one; drivers are kept last).  Clearance joints are
+    force elements, not constraints: their rows are not counted.  A pose where the rank is lost
+    only there (a singular position: nearby poses on the constraints have full rank) is
+    reported as `singular` with the rank nearby, and no joint is called redundant.  For `mbs check`."""
+    km, owners = assembly_kernel(model, use=[])
     m = len(owners)
     if m == 0:
-        return dict(rank=0, dof=model.ncoord, redundant=[])
+        return dict(rank=0, dof=model.ncoord, redundant=[], singular=False)
+    rank, Cq, sv = _rank(km, q, t, m)
+    if rank == m:
+        return dict(rank=rank, dof=model.ncoord - rank, redundant=[], singular=False)
+    near = _rank_nearby(km, q, t, m, model.size)
+    if near is not None and near > rank:
+        return dict(rank=rank, dof=model.ncoord - near, redundant=[], singular=True, rank_nearby=near)
+    return dict(rank=rank, dof=model.ncoord - rank, redundant=_dependent_rows(Cq, owners, sv), singular=False)
+
+
+def _rank(km: KernelModel, q, t, m):
     _, Cq, _ = _evaluate(km, q, np.zeros_like(q), t, m)
     sv = np.linalg.svd(Cq, compute_uv=False)
     tol = RANK_TOL * max(sv[0] if len(sv) else 0.0, 1.0)
-    rank = int(np.count_nonzero(sv > tol))
-    return dict(rank=rank, dof=model.ncoord - rank, redundant=_dependent_rows(Cq, owners, sv))
+    return int(np.count_nonzero(sv > tol)), Cq, sv
+
+
+def _rank_nearby(km: KernelModel, q, t, m, size: float, tries: int = 3):
+    """The largest rank of the constraints at poses near q that satisfy them: q moved by 1e-3 of
+    the mechanism's size in a random direction, then back onto C = 0 by minimum-norm Newton steps.
+    None when no such pose is found."""
+    rng = np.random.default_rng(1)
+    best = None
+    for _ in range(tries):
+        x = np.asarray(q, dtype=float) + 1e-3 * size * rng.standard_normal(len(q))
+        for _ in range(50):
+            C, Cq, _ = _evaluate(km, x, np.zeros_like(x), t, m)
+            if not np.all(np.isfinite(C)):
+                break
+            if np.abs(C).max() <= 1e-13 * size:
+                r = _rank(km, x, t, m)[0]
+                best = r if best is None else max(best, r)
+                break
+            x = x - np.linalg.lstsq(Cq, C, rcond=None)[0]
+    return best
