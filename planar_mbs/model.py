@@ -83,7 +83,15 @@ CP_SIGMA_SUM = 7  # sigma_1 + sigma_2, sigma = (1 - nu^2)/E  [1/Pa]
 CP_FRICTION = 8  # Coulomb coefficient mu (0 = frictionless)
 CP_FRICTION_V0 = 9  # slip speed below which friction is off (Ambrosio's v0) [m/s]
 CP_FRICTION_V1 = 10  # slip speed from which full Coulomb friction acts (Ambrosio's v1) [m/s]
-N_CLEARANCE_PARAM = 12
+CP_KIND = 11  # contact geometry, a PairKind code (catalog.PAIRS)
+CP_NX = 12  # outward normal (nx, ny) of the first body's line, in its frame (CIRCLE_ON_LINE)
+CP_NY = 13
+CP_VISCOSITY = 14  # dynamic viscosity mu of the lubricant [Pa s] (LUBRICATED)
+CP_BREAKDOWN = 15  # eccentricity ratio where the film breaks down and dry contact begins (LUBRICATED)
+N_CLEARANCE_PARAM = 16
+# contact geometries of the clearance elements (catalog.PAIRS); R_i = CP_R_BEARING, R_j = CP_R_JOURNAL
+PairKind = IntEnum("PairKind", {s.enum: s.code for s in catalog.PAIRS}, module=__name__)
+PairKind.__doc__ = "Contact geometries of the clearance and contact elements (catalog.PAIRS)."
 
 # ContactLaw groups (catalog.LAW_GROUPS, contact.md): dissipative laws F = K d^n (1 + chi(ce) d'/d'(-))
 # need the impact velocity; the cylindrical laws are implicit in F and use sigma, L and the radii
@@ -207,8 +215,10 @@ JS_FX, JS_FY, JS_MOMENT = 0, 1, 2  # reaction on the joint's second body (moment
 N_JOINT_SIGNALS = 3
 CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
 CS_IN_CONTACT, CS_IMPACT_VELOCITY, CS_FRICTION, CS_SLIP = 7, 8, 9, 10
-# CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T
-N_CLEARANCE_SIGNALS = 11
+CS_POINT_X, CS_POINT_Y, CS_FILM_PRESSURE = 11, 12, 13
+# CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T;
+# CS_POINT_*: the contact point on the second body (global); CS_FILM_PRESSURE: peak film pressure (LUBRICATED)
+N_CLEARANCE_SIGNALS = 14
 SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 0, 1, 2, 3
 N_SYSTEM_SIGNALS = 4
 # indices into `observation_layout`'s tuple
@@ -366,6 +376,10 @@ class Model:
     # (nclearance, 4) initial state of each clearance joint as written: journal offset (x, y) and
     # relative velocity (x, y) in the bearing's frame; NaN where not given (kinematics.assemble)
     clearance_start: np.ndarray | None = None
+    # per clearance element: how the assembly of the initial pose treats it: ("revolute",) the journal
+    # centred (or at its offset) when it closes a loop; ("translational", bi, bj, pi, pj, axis, phi0) on the
+    # first pair of a translational clearance joint, the block centred in its guide; ("none",) no rows
+    clearance_assembly: list = field(default_factory=list)
 
     @property
     def nbody(self) -> int:

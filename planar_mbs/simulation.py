@@ -335,7 +335,7 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     for c, name in enumerate(model.clearance_names):
         clearance = float(model.kernel.clearance_param[c, CP_CLEARANCE])
         deepest_c = deepest.get(f"{name}.penetration", -np.inf)
-        if deepest_c > clearance:
+        if deepest_c > clearance > 0:  # (a contact between outlines has no clearance to compare with)
             warnings.append(
                 f"clearance joint `{name}`: the journal sank {deepest_c * 1e6:.3g} µm into the bearing, more than "
                 f"the clearance ({clearance * 1e6:.3g} µm); the contact is too soft for this clearance and "

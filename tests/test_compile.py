@@ -10,7 +10,7 @@ from planar_mbs.errors import ModelError
 from planar_mbs.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM,
     CP_STIFFNESS, JP_LENGTH, JP_PHI0, ContactLaw, DriverType, ForceType, Integrator, JointType,
-    MotionType,
+    MotionType, N_CLEARANCE_PARAM,
 )
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -71,7 +71,7 @@ def test_slider_crank_arrays():
     assert m.body_geometry[2] == {"kind": "box", "width": 0.03, "height": 0.015}
     line = next(i for i, t in enumerate(m.source_text.splitlines(), 1) if t.startswith("joint A"))
     assert m.joint_source[1].line == line and m.joint_source[1].file.endswith("slider_crank.mbs")
-    assert k.clearance_param.shape == (0, 12) and k.clearance_point.shape == (0, 2, 2)
+    assert k.clearance_param.shape == (0, N_CLEARANCE_PARAM) and k.clearance_point.shape == (0, 2, 2)
     assert k.force_param.shape == (0, 5) and k.force_body.shape == (0, 2)
 
 

@@ -239,7 +239,7 @@ def locate_event(km, ws, contact):
         if hi > 1.0 and g1 > 0.0:
             hi = 1.0
             fhi = g1
-        if hi > 1.0 or hi >= best:
+        if hi > 1.0 or lo >= best:  # (the crossing lies in [lo, hi]: it may precede `best` even when hi does not)
             continue
         if g0 > 0.0:  # already on the new side at the step start (roundoff at a switch)
             hi = 0.0

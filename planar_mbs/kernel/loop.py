@@ -58,6 +58,9 @@ from ..model import (
     CS_IMPACT_VELOCITY,
     CS_IN_CONTACT,
     CS_PENETRATION,
+    CS_FILM_PRESSURE,
+    CS_POINT_X,
+    CS_POINT_Y,
     CS_SLIP,
     JS_FX,
     JS_FY,
@@ -91,7 +94,9 @@ from ..model import (
     Status,
 )
 from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, driver_motion, point_cs
-from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
+from .contact import (
+    clearance_force, clearance_kinematics, contact_energy, contact_time_scale, film_peak, law_supported,
+)
 from .dynamics import (
     DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
 )
@@ -191,7 +196,7 @@ def observe(km, cfg, t, y, contact, ws, row):
     if (skip & OBS_SKIP_CLEARANCE) == 0:
         for k in range(nc):
             ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
-            F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, ws.cs, contact)
+            F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact)
             col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
             row[col + CS_EX] = ex
             row[col + CS_EY] = ey
@@ -204,6 +209,10 @@ def observe(km, cfg, t, y, contact, ws, row):
             row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
             row[col + CS_FRICTION] = Ft
             row[col + CS_SLIP] = vt
+            bj = km.clearance_body[k, 1]
+            row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
+            row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
+            row[col + CS_FILM_PRESSURE] = film_peak(km, k, q, qd, e, vn)
     else:
         for i in range(lay[OB_CLEARANCE], lay[OB_SYSTEM]):
             row[i] = math.nan
