@@ -291,9 +291,10 @@ class _cluster:
         names |= {n for n in logging.root.manager.loggerDict if n.split(".")[0] in ("distributed", "tornado")}
         for name in names:
             logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        _check_tls(self.address)
         try:
             self.client = Client(self.address, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as exc:
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
             raise ModelError(f"cannot reach the dask scheduler at {self.address}: {exc}", "--scheduler",
                              hint="start one with `dask scheduler` and workers with `dask worker ADDRESS`") from None
         return self.client.get_executor()
@@ -305,6 +306,27 @@ class _cluster:
             except Exception:  # a scheduler that died: nothing to close cleanly, and nothing to lose
                 pass
         return False
+
+
+TLS_SETTINGS = ("DASK_DISTRIBUTED__COMM__TLS__CA_FILE", "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT",
+                "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY")
+
+
+def _check_tls(address: str) -> None:
+    """A tls:// scheduler needs the client's certificates from dask's configuration (docs/sweeps.md,
+    "Trust"); without them dask fails with a TypeError about an ssl_context: say what to set."""
+    if not address.lower().startswith("tls://"):
+        return
+    from distributed.security import Security
+
+    sec = Security()  # reads distributed.comm.tls.* (files in ~/.config/dask or DASK_ variables)
+    if not (sec.tls_ca_file and sec.tls_client_cert):
+        from planar_mbs.errors import ModelError
+
+        raise ModelError(f"--scheduler {address}: a TLS scheduler needs this client's certificates, and dask's "
+                         "configuration names none", "--scheduler",
+                         hint="set " + ", ".join(TLS_SETTINGS) + " (files: the CA certificate, this client's "
+                         "certificate and key), as docs/sweeps.md shows")
 
 
 def _print_table(rows, params) -> None:
