@@ -222,7 +222,7 @@ def test_a_rerun_recording_is_never_left_half_written(tmp_path):
         first = _mbs("view", short, "-o", disk / "v.rrd")
         assert first.returncode == 0, first.stderr
         before = (disk / "v.rrd").read_bytes()
-        again = _mbs("view", long, "-o", disk / "v.rrd")  # about 4 MB
+        again = _mbs("view", long, "-o", disk / "v.rrd", "--force")  # about 4 MB; a recording of other results
         assert again.returncode == 2, again.stdout + again.stderr
         assert f"cannot write the rerun recording {disk / 'v.rrd'}" in again.stderr, again.stderr
         assert "Traceback" not in again.stdout + again.stderr and "rerun recording →" not in again.stdout
