@@ -156,6 +156,7 @@ def write_process_section(data) -> None:
 
 EXPRESSIONS_HEADING = "## Expression loads against built-in elements (`benchmarks/expressions.py`)"
 ORDER_HEADING = "## Order of the model text and size (`benchmarks/order_scaling.py`)"
+SCAN_HEADING = "## Scans at scale (`benchmarks/scan_scaling.py`)"  # written by hand from that script's output
 
 
 def _kept_section(heading: str) -> list[str]:
@@ -277,6 +278,7 @@ def write(data) -> None:
     else:
         out.extend(_kept_section(ORDER_HEADING))
     out.extend(_kept_section(EXPRESSIONS_HEADING))  # benchmarks/expressions.py --write measures it
+    out.extend(_kept_section(SCAN_HEADING))
     if "stress" in data:
         s = data["stress"]
         out.append("## Stress tests (`pytest -m slow tests/test_stress.py`)\n")
@@ -338,8 +340,8 @@ numba and the kernels (`planar_mbs.sweep_server`, `planar_mbs.sweep_worker`), so
 while the command line is read and the cases are checked; the pool's workers are forks of that server, and the
 sweep's own process never loads numba (from Python, `run_sweep` loads them itself and forks its workers from
 itself).  Each worker writes its case in a file of its own beside the sweep file, into disk
-space reserved first, and hands back only the table row; the parent copies the case in with HDF5's object copy
-(about 6 ms for a 19 MB case) instead of receiving it through a pipe.  Cases are stored uncompressed (gzip saved
+space reserved first (the sweep's journal), and hands back only the table row; the parent gathers the journal
+into the scan file with HDF5's object copy (about 6 ms for a 19 MB case) instead of receiving cases through a pipe.  Cases are stored uncompressed (gzip saved
 ~20 % of float64 outputs for ~20× the write time).  The model text of a sweep is parsed once per process
 (`parse.PARSED_CACHE`), not once for the parent's check of each case and again in each case.
 

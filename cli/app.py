@@ -6,7 +6,7 @@ Exit codes (one table, also in README and `mbs --help`):
 0     success
 1     an internal error (a bug), or the reader of the output went away (`| head`)
 2     bad model file, bad `--set` value or bad command-line usage
-3     the simulation failed (results up to the failure are kept)
+3     the simulation failed or is not physical, or a limit was reached (results kept)
 130   interrupted by Ctrl-C (143: by SIGTERM); results so far kept
 ====  ==========================================================
 
@@ -26,7 +26,8 @@ from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
 
 _INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
 EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
-          "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed (results kept) · "
+          "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed or is not physical, or a "
+          "limit was reached (results kept) · "
           "130/143 interrupted by Ctrl-C/SIGTERM (results kept).")
 
 
@@ -143,6 +144,9 @@ def run(
     keep: Annotated[Optional[str], typer.Option("--keep", help="Comma-separated signals to store (slider.vx); an "
                     "entity name (slider) keeps all its signals.  Fewer signals make smaller files and cheaper "
                     "output rows (no accelerations computed unless kept).", show_default="all")] = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace the output even when it is not the "
+                         "results of a run (a sweep file, any other file); never the model or its includes.")]
+    = False,
 ) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
@@ -153,16 +157,19 @@ def run(
     code = run_model(model, output=output, set_=set_, t_end=t_end, revolutions=revolutions, output_step=output_step,
                      per_rev=per_rev, integrator=integrator, rtol=rtol, atol=atol, step=step, quiet=quiet,
                      rerun=rerun, magnify=magnify, fps=fps, view_=open_ or view_, rerun_signals=rerun_signals,
-                     force=force, until_settled=until_settled, max_revolutions=max_revolutions, keep=keep)
+                     force=force, until_settled=until_settled, max_revolutions=max_revolutions, keep=keep,
+                     overwrite=overwrite)
     if code:
         raise typer.Exit(code)
 
 
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
-from .sweep_commands import analyze, sweep  # noqa: E402  (light: imports only typer)
+from .sweep_commands import analyze, route, sweep, sweep_merge, sweep_replay  # noqa: E402  (light: typer)
 
 for _command in (plot, view, sweep, analyze):
     app.command(cls=ReadableCommand)(_command)
+app.command("sweep-replay", hidden=True, cls=ReadableCommand)(sweep_replay)
+app.command("sweep-merge", hidden=True, cls=ReadableCommand)(sweep_merge)
 
 
 def main() -> None:
@@ -171,6 +178,7 @@ def main() -> None:
     MBS_TRACEBACK=1 asks for it."""
     import sys
 
+    route(sys.argv)
     try:
         app()
     except Exception as exc:  # noqa: BLE001  (the last line of defence: never a traceback)

@@ -13,6 +13,111 @@ class ExitCode(IntEnum):
     INTERRUPTED = 130  # 128 + SIGINT; SIGTERM gives 143
 
 
+# ---------------------------------------------------------------- standard streams
+_ASCII = {"→": "->", "←": "<-", "λ": "lambda", "µ": "u", "μ": "u", "²": "^2", "³": "^3", "×": "x", "≈": "~",
+          "…": "...", "—": "--", "–": "-", "°": " deg", "φ": "phi", "≤": "<=", "≥": ">=", "±": "+/-", "·": "*",
+          "─": "-", "│": "|", "━": "-", "┃": "|", "•": "*", "✓": "ok", "✗": "x", "Δ": "d", "π": "pi", "ω": "w",
+          "\ufffd": "?"}
+
+
+def _to_ascii(err):
+    """Codec error handler "mbs-ascii": a character the stream's encoding lacks is written in ASCII
+    (→ as ->, µ as u, λ as lambda, accents dropped, anything else as ?)."""
+    import unicodedata
+
+    bad = err.object[err.start:err.end]
+    out = []
+    for ch in bad:
+        plain = _ASCII.get(ch)
+        if plain is None:
+            plain = unicodedata.normalize("NFKD", ch).encode("ascii", "ignore").decode() or "?"
+        out.append(plain)
+    return "".join(out), err.end
+
+
+class _GuardedStream:
+    """stdout or stderr, whose failed writes (a closed stream, /dev/full, an I/O error) are noted
+    instead of raised: the command finishes its work (its files are whole) and `stream_failure`
+    says afterwards why the output was lost.  A broken pipe (the reader went away) is raised as
+    before: the command stops at its next line of output."""
+
+    def __init__(self, wrapped, name: str):
+        self.wrapped, self.name, self.wrote = wrapped, name, False
+        self.failure = "" if wrapped is not None else "it is closed"
+
+    def _guard(self, call, *args):
+        import errno
+
+        if self.wrapped is None:
+            return None
+        try:
+            return call(*args)
+        except OSError as exc:
+            if exc.errno == errno.EPIPE:
+                raise
+            self.failure = self.failure or (exc.strerror or str(exc))
+            return None
+        except ValueError:  # closed
+            self.failure = self.failure or "it is closed"
+            return None
+
+    def write(self, text):
+        self.wrote = self.wrote or bool(text)
+        if self.wrapped is None:
+            return len(text)
+        self._guard(self.wrapped.write, text)
+        return len(text)
+
+    def flush(self):
+        if self.wrapped is not None:
+            self._guard(self.wrapped.flush)
+
+    def isatty(self) -> bool:
+        return bool(self.wrapped is not None and self._guard(self.wrapped.isatty))
+
+    def fileno(self):
+        if self.wrapped is None:
+            raise OSError(9, "stream closed")
+        return self.wrapped.fileno()
+
+    @property
+    def encoding(self):
+        return getattr(self.wrapped, "encoding", None) or "utf-8"
+
+    def __getattr__(self, attr):
+        return getattr(self.wrapped, attr)
+
+
+def guard_streams() -> None:
+    """Make stdout and stderr safe to write whatever happens to them: characters their encoding
+    lacks degrade to ASCII (PYTHONIOENCODING=ascii, a C locale), and a closed stream or a full
+    device (`>&-`, `>/dev/full`) is noted, not a traceback (`stream_failure`).  Called once by
+    `entry.main`."""
+    import codecs
+    import sys
+
+    codecs.register_error("mbs-ascii", _to_ascii)
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if isinstance(stream, _GuardedStream):
+            continue
+        try:
+            if stream is not None and hasattr(stream, "reconfigure"):
+                "→µλ".encode(stream.encoding or "utf-8")
+        except (UnicodeError, LookupError):
+            stream.reconfigure(errors="mbs-ascii")
+        setattr(sys, name, _GuardedStream(stream, name))
+
+
+def stream_failure() -> str:
+    """Why the command's output could not be written to stdout ('' if it was, or nothing was)."""
+    import sys
+
+    out = sys.stdout
+    return f"cannot write the command's output: {out.failure}" if isinstance(out, _GuardedStream) and \
+        out.failure and out.wrote else ""
+
+
 def console(stderr: bool = False):
     import sys
 
@@ -45,10 +150,38 @@ def internal_error(exc: Exception) -> int:
 
     if os.environ.get("MBS_TRACEBACK"):
         raise exc
+    limit = resource_limit(exc)
+    if limit:
+        console(stderr=True).print(limit, markup=False)
+        return int(ExitCode.SIMULATION_FAILED)
     console(stderr=True).print(f"internal error: {type(exc).__name__}: {exc}\n"
                                "hint: this is a bug in planar_mbs; please report it with the command "
                                "(MBS_TRACEBACK=1 shows where it happened)", markup=False)
     return 1
+
+
+def resource_limit(exc: BaseException) -> str:
+    """The sentence for an error that is a limit of this machine or process, not a bug (too many
+    open files, no memory, a full disk, a file-size limit); '' for anything else.  Exit code 3."""
+    import errno
+
+    if isinstance(exc, MemoryError):
+        return ("error: not enough memory for this command\nhint: free memory, or ask for less (a shorter "
+                "t_end, a larger output step, fewer cases at once: -j)")
+    if not isinstance(exc, OSError):
+        return ""
+    hints = {
+        errno.EMFILE: "this process may open too few files (`ulimit -n`); raise the limit, e.g. `ulimit -n 1024`, "
+                      "or run fewer jobs at once (-j)",
+        errno.ENFILE: "the system has too many open files; close some programs and run again",
+        errno.ENOSPC: "the disk is full; free some space or write elsewhere (-o)",
+        errno.EDQUOT: "the disk quota is used up; free some space or write elsewhere (-o)",
+        errno.EFBIG: "a file reached the file-size limit of this process (`ulimit -f`); raise it or write less",
+        errno.ENOMEM: "free memory, or ask for less",
+    }
+    if exc.errno not in hints:
+        return ""
+    return f"error: {exc.strerror or exc}\nhint: {hints[exc.errno]}"
 
 
 def parse_sets(sets: list[str]) -> dict[str, str]:
@@ -76,7 +209,7 @@ def quantity(text: Optional[str], dimension: str, option: str) -> Optional[float
 
 
 # ---------------------------------------------------------------- option values, checked before anything runs
-MAX_T_END = 1e6  # s of simulated time (11.6 days): beyond it a typo is far likelier than a wish
+from planar_mbs.settings_check import MAX_T_END  # noqa: E402  (one bound for the CLI and the API)
 MAX_JOBS = 1024
 MAX_REVOLUTIONS = 1e7  # driver periods of one run
 
@@ -90,21 +223,11 @@ def _option_error(option: str, message: str, hint: str):
 def check_number(value: Optional[float], option: str, *, low: Optional[float] = None, high: Optional[float] = None,
                  low_ok: bool = False, high_ok: bool = True, hint: str = "") -> Optional[float]:
     """`value` if it is a finite number in the interval (low, high] (``low_ok``/``high_ok``
-    close or open either end); None passes.  Raises `ModelError` naming the option otherwise."""
-    import math
+    close or open either end); None passes.  Raises `ModelError` naming the option otherwise
+    (worded as the Python API words its settings: `planar_mbs.settings_check`)."""
+    from planar_mbs.settings_check import check_number as checked
 
-    if value is None:
-        return None
-    text = f"{value:g}" if isinstance(value, float) else str(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        raise _option_error(option, f"`{option} {text}` is not a finite number", hint)
-    if low is not None and (value < low or (value == low and not low_ok)):
-        raise _option_error(option, f"`{option} {text}` must be {'at least' if low_ok else 'greater than'} {low:g}",
-                            hint)
-    if high is not None and (value > high or (value == high and not high_ok)):
-        raise _option_error(option, f"`{option} {text}` must be {'at most' if high_ok else 'less than'} {high:g}",
-                            hint)
-    return value
+    return checked(value, option, low=low, high=high, low_ok=low_ok, high_ok=high_ok, hint=hint)
 
 
 def positive_time(text: Optional[str], option: str, high: float = MAX_T_END) -> Optional[float]:

@@ -60,6 +60,12 @@ def leave(code, printed_only: bool = False) -> None:
     elif not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
+    from .common import stream_failure
+
+    lost = stream_failure()
+    if lost and code == 0:  # the work is done and its files are whole; what it printed is not
+        print(f"error: {lost}", file=sys.stderr)
+        code = 1
     pool = "planar_mbs.sweep_server" in sys.modules and sys.modules["planar_mbs.sweep_server"].started()
     if not (printed_only or pool or "numba" in sys.modules) or any(m in sys.modules for m in NEEDS_TEARDOWN):
         sys.exit(code)
@@ -108,7 +114,35 @@ def stop_cleanly_on_sigterm() -> None:
         sys.unraisablehook = _terminate_again
 
 
+def _working_folder() -> None:
+    """A command started in a folder that was deleted meanwhile: exit 2 with a sentence (every
+    relative path, the default output among them, would fail later in its own way)."""
+    try:
+        os.getcwd()
+    except OSError as exc:
+        print(f"error: the working folder is gone ({exc.strerror}): it was deleted or is no longer reachable\n"
+              "hint: cd into an existing folder and run the command again", file=sys.stderr)
+        leave(2, printed_only=True)
+
+
+def _numba_enabled() -> None:
+    """NUMBA_DISABLE_JIT=1 (a debugging switch of numba) leaves the time loop's kernels as plain Python
+    functions, which the kernels' own dispatch cannot call: exit 2 with a sentence, before any work."""
+    if sys.argv[1:2] in (["run"], ["sweep"]) and os.environ.get("NUMBA_DISABLE_JIT", "0").strip() not in ("", "0"):
+        print("error: NUMBA_DISABLE_JIT is set: the time loop runs only as numba-compiled code\n"
+              "hint: unset NUMBA_DISABLE_JIT (`env -u NUMBA_DISABLE_JIT mbs ...`)", file=sys.stderr)
+        leave(2, printed_only=True)
+
+
 def main() -> None:
+    from .common import guard_streams
+
+    guard_streams()
+    _working_folder()
+    _numba_enabled()
+    # figures are drawn on matplotlib's Agg canvas, never in a window: a backend named in the
+    # environment is not used, and an unknown one (MPLBACKEND=nonsense) would stop matplotlib's import
+    os.environ.pop("MPLBACKEND", None)
     stop_cleanly_on_sigterm()
     if sys.argv[1:2] == ["sweep"]:
         from planar_mbs import sweep_server

@@ -13,7 +13,7 @@ import re
 import time
 from pathlib import Path
 
-from .common import (MAX_REVOLUTIONS, ExitCode, check_choice, check_number, check_output, check_rtol, fail_code,
+from .common import (MAX_REVOLUTIONS, ExitCode, check_choice, check_number, check_output, fail_code,
                      parse_sets, positive_time)
 from .common import console as _console
 
@@ -23,7 +23,8 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
               step: str | None = None, quiet: bool = False, rerun: Path | None = None, magnify: float = 10.0,
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
-              until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None) -> int:
+              until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None,
+              overwrite: bool = False) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as `app.run`'s); the exit code."""
     from planar_mbs.first_compile import announce_if_cold
 
@@ -31,6 +32,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     from planar_mbs import simulate
     from planar_mbs.compile import load_model
     from planar_mbs.errors import MbsError, ModelError, SimulationError
+    from planar_mbs.results import refuse_replacing
     from planar_mbs.simulation import integrator_of
 
     sets = {}
@@ -44,7 +46,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
             t_end=positive_time(t_end, "--t-end"),
             step=positive_time(step, "--step"),
             output_step=positive_time(output_step, "--output-step"),
-            rtol=check_rtol(rtol),
+            rtol=rtol,  # checked with the other settings (`_check_settings`), as `simulate` checks it
             atol=atol,
             integrator=integrator,
         )
@@ -65,6 +67,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
         inputs = [("the model file" if i == 0 else "a file the model includes", f)
                   for i, f in enumerate(m.source_files or [model])]
+        _check_settings(m, changes, model, until_settled)
         if output is None:
             out = _beside_another_run(out, m, changes, {
                 "n": revolutions, "t-end": t_end, "per-rev": per_rev, "output-step": output_step,
@@ -74,18 +77,19 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
             check_output(out, "--output", inputs)
         if rerun is not None:
             _check_rerun(rerun, out, inputs, force)
+        if not make_folder:
+            refuse_replacing(out, overwrite=overwrite, inputs=m.source_files)
         if not until_settled:
             _check_output_size(m, changes, out, model, force)
         if make_folder:
-            out.parent.mkdir(parents=True)
-            (out.parent / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
+            _make_results_folder(out.parent)
             check_output(out, "--output", inputs)
         if until_settled:
-            res = _run_until_settled(m, out, max_revolutions, quiet, changes)
+            res = _run_until_settled(m, out, max_revolutions, quiet, changes, overwrite)
         else:
             with _Progress(quiet) as progress:
                 res = simulate(m, output=out, progress=progress.update, max_rows=math.inf, signals=signals,
-                               **changes)
+                               overwrite=overwrite, **changes)
     except SimulationError as err:
         if err.results is not None:
             _print_summary(err.results, out)
@@ -95,9 +99,13 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
                                signals=rerun_signals, recording_id=_recording_key(out))
                 except (MbsError, OSError) as rec_err:  # the viewer could not start: said, then the failure
                     fail_code(rec_err if isinstance(rec_err, MbsError) else f"error: {rec_err}")
-        _console(stderr=True).print(f"simulation failed: {err.message}\n"
-                                    f"results up to t = {err.time:.6g} s kept in {out} (marked incomplete)",
-                                    markup=False)
+        if err.results is not None and err.results.attrs.get("status") == "not_physical":
+            _console(stderr=True).print(f"error: {err.message}\nthe results to t = {err.time:.6g} s are kept in "
+                                        f"{out}, marked incomplete (status not_physical)", markup=False)
+        else:
+            _console(stderr=True).print(f"simulation failed: {err.message}\n"
+                                        f"results up to t = {err.time:.6g} s kept in {out} (marked incomplete)",
+                                        markup=False)
         return int(ExitCode.SIMULATION_FAILED)
     except MbsError as err:
         return fail_code(err)
@@ -219,10 +227,33 @@ def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) ->
     check_output(estimate(m, run_settings(m, **changes)), out, str(model), force=force)
 
 
-def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes: dict):
+def _make_results_folder(folder: Path) -> None:
+    """The default output's folder (results/), ignored by git; a folder that cannot be made is exit 2."""
+    from planar_mbs.errors import ModelError
+
+    try:
+        folder.mkdir(parents=True)
+        (folder / ".gitignore").write_text("# made by `mbs run`: outputs are not sources\n*\n")
+    except OSError as exc:
+        raise ModelError(f"cannot create the folder `{folder}` for the results: {exc.strerror or exc}",
+                         "--output", hint="run from a folder you can write, or give an output with -o") from None
+
+
+def _check_settings(m, changes: dict, model: Path, until_settled: bool) -> None:
+    """The run's settings through the validation `simulate` applies (`planar_mbs.settings_check`),
+    worded for the command line."""
+    from planar_mbs.settings_check import CLI, check_settings, given_settings
+    from planar_mbs.simulation import run_settings
+
+    given = {k: v for k, v in changes.items() if not (until_settled and k == "t_end")}
+    settings = run_settings(m, **given)
+    check_settings(settings, given=given_settings(given), style=CLI, source=str(model))
+
+
+def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes: dict, overwrite: bool = False):
     """`planar_mbs.study.long_run` until the section settles; the results written to ``out``."""
     from planar_mbs.model import ST_CONTACT_EVENTS, ST_REJECTED, ST_RHS, ST_STEPS
-    from planar_mbs.results import write_results
+    from planar_mbs.results import write_beside
     from planar_mbs.study import long_run
 
     changes = {k: v for k, v in changes.items() if k != "t_end" and v is not None}
@@ -235,8 +266,7 @@ def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes:
                      settled_at=run.settled_at if run.settled_at is not None else -1,
                      n_steps=int(stats[ST_STEPS]), n_rejected=int(stats[ST_REJECTED]), n_rhs=int(stats[ST_RHS]),
                      n_contact_events=int(stats[ST_CONTACT_EVENTS]))
-    out.unlink(missing_ok=True)
-    write_results(str(out), res)
+    write_beside(out, res, overwrite=overwrite, inputs=m.source_files)
     from planar_mbs.analysis import analyze, report
 
     stop = ("stopped: the section settled on a periodic orbit" if run.settled_at is not None
@@ -351,6 +381,7 @@ _OPTIONS = {
     "--until-settled": ("until_settled", "flag", None),
     "--max-revolutions": ("max_revolutions", "int", 1),
     "--keep": ("keep", "str", None),
+    "--overwrite": ("overwrite", "flag", None),
 }
 
 

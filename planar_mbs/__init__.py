@@ -60,6 +60,13 @@ def compile_text(text, path="<string>", **overrides):
     from .errors import ModelError
 
     overrides = {k: str(v) for k, v in overrides.items()}
+    if isinstance(text, (bytes, bytearray)):  # the bytes of a file: decoded as a model file is
+        from .parse import decode_model
+
+        text = decode_model(bytes(text), str(path))
+    elif not isinstance(text, str):
+        raise ModelError(f"compile_text takes the model's text (a str), not {type(text).__name__}",
+                         "compile_text(...)", hint="load a file with load_model(path)")
     try:
         return _compile(text, str(path), overrides)
     except ModelError as err:

@@ -83,6 +83,7 @@ def compile_text(text: str, path: str = "<string>", overrides: dict[str, str] | 
 
 
 # ------------------------------------------------------------------ element kinds
+MIN_INERTIA = 1e-200  # SI: a mass or inertia below it is a typo; its inverse (and its square) overflow
 BODY_FIELDS = {"mass": "kg", "inertia": "kg*m^2", "position": "(x, y) of the centre of mass",
                "angle": "deg or rad", "velocity": "(vx, vy)", "omega": "angular velocity",
                "shape": "bar(length, width) | box(width, height) | circle(radius)"}
@@ -369,6 +370,11 @@ class _BodyPass:
         f = self._fields(st, f"body `{st.name}`", BODY_FIELDS)
         m = f.scalar("mass", U.MASS, positive=True)
         inertia = f.scalar("inertia", U.INERTIA, positive=True)
+        for key, value, unit in (("mass", m, "kg"), ("inertia", inertia, "kg*m^2")):
+            if value < MIN_INERTIA:  # 1/value overflows or loses every digit (subnormal): no dynamics left
+                raise f.expr(key).pos.error(f"`{key}` of body `{st.name}` is {value:.3g} {unit}, too small to "
+                                            f"compute with (below {MIN_INERTIA:g} {unit}, its inverse overflows)",
+                                            hint=f"a unit typo? e.g. `{key} = 0.3 {unit}`")
         self.a["body_mass"][k], self.a["body_inertia"][k] = m, inertia
         self.a["minv"][3 * k:3 * k + 3] = (1.0 / m, 1.0 / m, 1.0 / inertia)
         self.q0[3 * k:3 * k + 2] = f.vector("position", U.LENGTH, (0.0, 0.0))
@@ -1006,6 +1012,13 @@ class _SettingsPass:
         s.h_min = f.scalar("h_min", U.TIME, s.h_min, nonneg=True)
         s.h_max = f.scalar("h_max", U.TIME, s.h_max, nonneg=True)
         s.output_step = f.scalar("output_step", U.TIME, s.output_step, positive=True)
+        if s.rtol >= 1.0:  # as `--rtol` and simulate(rtol=...): planar_mbs.settings_check
+            raise f.expr("rtol").pos.error(f"`rtol = {s.rtol:g}` must be less than 1",
+                                           hint="a relative tolerance lies between 0 and 1, e.g. `rtol = 1e-8`")
+        if 0.0 < s.h_max < s.h_min:
+            raise f.expr("h_min").pos.error(f"`h_min = {s.h_min:g} s` is larger than `h_max = {s.h_max:g} s`: no "
+                                            "step can be taken", hint="give h_min below h_max (h_max = 0: no "
+                                            "largest step)")
         s.alpha = f.scalar("alpha", U.RATE, s.alpha, nonneg=True)
         s.beta = f.scalar("beta", U.RATE, s.beta, nonneg=True)
         p = f.symbol("projection", ["auto", "on", "off", "true", "false", "yes", "no"], s.projection)

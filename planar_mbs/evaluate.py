@@ -43,6 +43,8 @@ class CallVal:
     call: Call
 
 
+# functions only an expression of a load or a motion may call (`expressions.py` compiles them)
+EXPRESSION_FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "abs", "atan2", "min", "max", "if", "step", "table")
 FUNCTIONS = {"sqrt": 1, "sin": 1, "cos": 1, "tan": 1, "atan2": 2, "abs": 1}
 
 
@@ -158,8 +160,6 @@ class Evaluator:
                                 "or a driver's `motion = ...`; params are constants")
 
     def unknown_function(self, c: Call) -> ModelError:
-        from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS
-
         if c.name in EXPRESSION_FUNCTIONS:
             return c.name_pos.error(f"unknown function `{c.name}` here: it is a function of expressions",
                                     hint="write it in an expression of a load or a motion (docs/language.md, "

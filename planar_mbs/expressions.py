@@ -18,12 +18,12 @@ import numpy as np
 
 from . import units as U
 from .errors import did_you_mean
-from .evaluate import Evaluator, Scalar, Symbol
+from .evaluate import EXPRESSION_FUNCTIONS, Evaluator, Scalar, Symbol
 from .model import BQ_OMEGA, BQ_PHI, BQ_VX, BQ_VY, BQ_X, BQ_Y, ExprOp
 from .spec import BinOp, Call, Compare, Expr, Name, Neg, Number, Pos, SignalRef, String, Vector
 
 ONE = U.Dimensionality((0.0,) * 7)
-FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "abs", "atan2", "min", "max", "if", "step", "table")
+FUNCTIONS = EXPRESSION_FUNCTIONS
 BODY_SIGNALS = {"x": (BQ_X, U.LENGTH), "y": (BQ_Y, U.LENGTH), "phi": (BQ_PHI, U.ANGLE),
                 "vx": (BQ_VX, U.VELOCITY), "vy": (BQ_VY, U.VELOCITY), "omega": (BQ_OMEGA, U.ANGULAR_VELOCITY)}
 CLEARANCE_SIGNALS = ("ex", "ey", "e", "penetration")

@@ -58,10 +58,11 @@ def estimate(model, settings, columns: int | None = None) -> OutputEstimate:
 
 
 def free_bytes(path: str | Path) -> float:
-    """Free space where `path` would be written (its first existing parent folder); counts the
-    space of the file it would replace.  Infinite when the disk cannot be asked."""
+    """Free space where `path` would be written (its first existing parent folder).  The file it
+    replaces is not counted: it stays until the new one, written beside it, is moved into place.
+    Infinite when the disk cannot be asked."""
     p = Path(path).absolute()
-    replaced = p.stat().st_size if p.is_file() else 0
+    replaced = 0
     folder = p.parent
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent

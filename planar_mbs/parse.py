@@ -669,7 +669,11 @@ def _expand(text: str, path: str, stack: tuple[Path, ...], key: str | None, spec
             continue
         base = here.parent if here is not None else Path(os.path.dirname(key)) if key else Path.cwd()
         sub_key = os.path.normpath(os.path.join(str(base) if key is None else os.path.dirname(key), st.value))
-        target = Path(sub_key) if sources is not None else (base / st.value).resolve()
+        try:
+            target = Path(sub_key) if sources is not None else (base / st.value).resolve()
+        except (RuntimeError, OSError) as exc:  # a symbolic link loop (RuntimeError before Python 3.13)
+            raise st.pos.error(f"cannot follow the included file `{st.value}`: {getattr(exc, 'strerror', None) or exc}",
+                               hint="is it a symbolic link that points (through others) back to itself?") from None
         chain = [*stack, *([here] if here else [Path(key)] if key and sources is not None else [])]
         if target in chain:
             names = " → ".join(p.name for p in chain[chain.index(target):]) + f" → {target.name}"

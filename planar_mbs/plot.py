@@ -366,6 +366,7 @@ def _title(results: "Results", width: float = 8.0) -> str:
     if results.attrs.get("window"):
         t0, t1 = results.attrs["window"]
         bits.append(f"t = {t0:.6g} … {t1:.6g} s")
+    bits = [b.replace("$", r"\$") for b in bits]  # a `$` in a file name or value is text, not mathtext
     return wrap_pairs(bits, int(width * 10))  # ~10 characters per inch at 10 pt
 
 

@@ -32,7 +32,6 @@ import math
 import os
 import re
 import stat
-import sys
 from collections.abc import Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -119,10 +118,14 @@ class Results:
     def to_dataframe(self, signals=None):
         """A pandas DataFrame: one column per signal (all, or those named in ``signals``), indexed
         by time in seconds; the units are in ``df.attrs["units"]``.  Needs pandas (not a
-        dependency of planar_mbs: ``pip install pandas``)."""
-        import pandas as pd
+        dependency of planar_mbs: ``pip install 'planar_mbs[pandas]'``)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("to_dataframe needs pandas, which planar_mbs does not install by itself: "
+                              "pip install 'planar_mbs[pandas]' (or pip install pandas)") from None
 
-        names = list(self.signals) if signals is None else list(signals)
+        names = list(self.signals) if signals is None else [signals] if isinstance(signals, str) else list(signals)
         df = pd.DataFrame({name: self[name] for name in names},
                           index=pd.Index(np.asarray(self.time), name="time"))
         df.attrs["units"] = {name: self.units.get(name, "") for name in names}
@@ -251,6 +254,11 @@ def reserve_space(fd: int, nbytes: int, path: str | Path = "") -> int:
     import ctypes
 
     end = os.fstat(fd).st_size
+    limit = file_size_limit()
+    if end + int(nbytes) > limit:  # past it a write fails halfway (EFBIG): stop before, as on a full disk
+        raise DiskFull(f"{path or 'the results file'} reached the file-size limit of this process "
+                       f"({_mb(limit)}, `ulimit -f`): the next {_mb(nbytes)} of results do not fit; raise the "
+                       "limit or keep fewer rows (--keep, --output-step)")
     fn = _libc_fallocate()
     if fn is not None and fn(fd, _FALLOC_FL_KEEP_SIZE, end, int(nbytes)) == 0:
         return end + int(nbytes)
@@ -267,6 +275,17 @@ def reserve_space(fd: int, nbytes: int, path: str | Path = "") -> int:
     need = _mb(nbytes)
     raise DiskFull(f"the disk holding {path or 'the results file'} is full: the next {need} of results do not "
                    "fit (No space left on device); free some space or write elsewhere (-o)")
+
+
+def file_size_limit() -> float:
+    """The largest file this process may write (RLIMIT_FSIZE, `ulimit -f`), in bytes; inf if none."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        return math.inf
+    return math.inf if soft == resource.RLIM_INFINITY or soft < 0 else float(soft)
 
 
 def release_reserve(fd: int, end: int) -> None:
@@ -373,6 +392,27 @@ def write_results(target, results: Results, group: str = "/", compression: str |
     set_attrs(g, dict(results.attrs, format_version=FORMAT_VERSION))
 
 
+def write_beside(path, results: Results, overwrite: bool = False, inputs=()) -> None:
+    """Write a finished `Results` as the file `path`: beside it first (`part_beside`, locked, not
+    through a symbolic link), then moved into place, so a kill leaves the earlier file or this one."""
+    path = Path(path)
+    refuse_replacing(path, overwrite=overwrite, inputs=inputs)
+    part = part_beside(path)
+    f, lock = open_for_writing(part, "w", shown=path)
+    moved = False
+    try:
+        try:
+            write_results(f, results)
+        finally:
+            f.close()
+        os.replace(part, path)
+        moved = True
+    finally:
+        if not moved:
+            part.unlink(missing_ok=True)
+        lock.release()
+
+
 class ResultsBusy(Exception):
     """Another process is writing this results file."""
 
@@ -392,7 +432,10 @@ class WriteLock:
         import fcntl
         import os
 
-        self.fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        self.fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o644)
+        if not stat.S_ISREG(os.fstat(self.fd).st_mode):  # a FIFO or device planted at the name
+            os.close(self.fd)
+            raise OSError(0, "not a regular file")
         try:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -410,24 +453,124 @@ class WriteLock:
 WRITE_CHUNK_CACHE = 1 << 17  # bytes of HDF5 chunk cache per dataset when writing (4 chunks of 4096 rows)
 
 
-def open_for_writing(path: Path, mode: str):
-    """(h5py.File, WriteLock) for a writer; a file another process writes (`ResultsBusy`) or that
-    cannot be opened is an `MbsError` (exit code 2) saying so."""
+def part_beside(path: Path) -> Path:
+    """The hidden file a whole results file is written to before it replaces `path`."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.part")
+
+
+def open_for_writing(path: Path, mode: str, shown: Path | None = None):
+    """(h5py.File, WriteLock) for a writer; a file another process writes (`ResultsBusy`), a file size
+    limit, or a file that cannot be opened is an `MbsError` (exit code 2) saying so (named as
+    `shown`, the file the user named)."""
     import h5py
 
+    shown = path if shown is None else shown
     try:
         lock = WriteLock(path)
         try:
+            if mode == "w":
+                os.ftruncate(lock.fd, 0)  # a part file left by a killed run: ours now
             # a small chunk cache: HDF5's default (1 MiB per dataset) keeps growing with the rows
             # written (measured: all of them), which would make memory grow with t_end
             return h5py.File(path, mode, locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE), lock
         except BaseException:
             lock.release()
             raise
-    except (OSError, ResultsBusy) as exc:
-        err = MbsError(f"cannot write {path}: {exc}")
+    except ResultsBusy:
+        err = MbsError(f"cannot write {shown}: {shown} is being written by another process")
         err.exit_code = 2
         raise err from None
+    except OSError as exc:
+        err = MbsError(f"cannot write {shown}: {_os_reason(exc)}")
+        err.exit_code = 2
+        raise err from None
+
+
+def _os_reason(exc: OSError) -> str:
+    import errno
+
+    if exc.errno == errno.ELOOP:
+        return "it is a symbolic link (results are never written through one)"
+    return exc.strerror or str(exc)
+
+
+def results_kind(path: Path) -> str:
+    """What the file at `path` is: "run" (the results of one run), "sweep", "hdf5" (another HDF5
+    file), "other" (any other file) -- read with h5py only after the signature matched."""
+    try:
+        with open(path, "rb") as f:
+            if f.read(len(HDF5_SIGNATURE)) != HDF5_SIGNATURE:
+                return "other"
+    except OSError:
+        return "other"
+    try:
+        import h5py
+
+        with h5py.File(path, "r", locking=False) as f:
+            if f.attrs.get("kind") == "sweep":
+                return "sweep"
+            return "run" if TIME in f and SIGNALS in f else "hdf5"
+    except Exception:  # noqa: BLE001  (damaged: not ours to replace without being told)
+        return "hdf5"
+
+
+def refuse_replacing(path: Path, overwrite: bool = False, inputs=()) -> None:
+    """Refuse (`MbsError`, exit code 2), before anything runs, an output that would destroy a file
+    it should not: one of ``inputs`` (the model and its includes: never), a folder, FIFO or device
+    (never), a symbolic link, or a file that is not the results of one run (a sweep file, a
+    `.py`, a `.csv`, ...) unless ``overwrite``."""
+    path = Path(path)
+    for other in inputs:
+        if other is not None and _same_file(path, other):
+            _refuse(f"{path} is the model or a file it includes: writing results there would destroy it",
+                    "choose another output file")
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        _refuse(f"cannot use {path}: {exc.strerror or exc}", "choose another output file")
+    if stat.S_ISDIR(info.st_mode):
+        _refuse(f"{path} is a folder", f"give a file name, e.g. {path / 'results.h5'}")
+    if info.st_uid != os.geteuid() and os.geteuid() != 0 and _sticky(path.parent):
+        _refuse(f"{path} belongs to another user in a shared folder (/tmp-like): it cannot be replaced",
+                "choose another output file")
+    if overwrite:
+        if not (stat.S_ISREG(info.st_mode) or stat.S_ISLNK(info.st_mode)):
+            _refuse(f"{path} is not a regular file", "give the name of a file to write")
+        return
+    if stat.S_ISLNK(info.st_mode):
+        _refuse(f"{path} is a symbolic link: the results would replace the link (never its target)",
+                "give the file itself, or pass --overwrite (overwrite=True) to replace the link")
+    if not stat.S_ISREG(info.st_mode):
+        _refuse(f"{path} is not a regular file", "give the name of a file to write")
+    kind = results_kind(path)
+    if kind != "run":
+        what = {"sweep": "a sweep file", "hdf5": "an HDF5 file that is not the results of a run",
+                "other": "not a results file"}[kind]
+        _refuse(f"{path} exists and is {what}; it would be replaced",
+                "choose another output, or pass --overwrite (overwrite=True in Python) to replace it")
+
+
+def _sticky(folder: Path) -> bool:
+    try:
+        return bool(os.stat(folder).st_mode & stat.S_ISVTX)
+    except OSError:
+        return False
+
+
+def _refuse(message: str, hint: str):
+    from .errors import ModelError
+
+    raise ModelError(message, hint=hint)
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
 
 
 class _RowPacker:
@@ -471,20 +614,34 @@ class _RowPacker:
 
 
 class ResultsWriter:
-    """Appends observation chunks to an HDF5 file as the run goes."""
+    """Appends observation chunks to an HDF5 file as the run goes.
+
+    A whole file (``group`` "/", ``mode`` "w") is written beside its name, in the hidden file
+    `part_beside` (opened without following a symbolic link), and moved over the name by `close`
+    (a rename: a symbolic link planted at the name is replaced, never followed).  So a kill at any
+    moment leaves the earlier file whole, or the new one; what a killed run computed stays in the
+    part file.  The part file's name is fixed, and its `WriteLock` keeps a second writer of the
+    same name out.  An existing file at the name is replaced only if it is the results of one run
+    (`refuse_replacing`), unless ``overwrite``."""
 
     CHUNK = 4096
 
-    def __init__(self, path: str | Path, table: list[Signal], attrs: dict, group: str = "/", mode: str = "w"):
+    def __init__(self, path: str | Path, table: list[Signal], attrs: dict, group: str = "/", mode: str = "w",
+                 overwrite: bool = False, inputs=()):
         """``group`` places the run inside a file (``"/cases/3"`` of a sweep); ``mode`` is the
-        h5py mode (``"w"`` truncates the file, ``"a"`` adds the group to an existing file; an
-        existing group of that name is replaced)."""
-        import h5py
-
+        h5py mode (``"w"`` writes a new file, ``"a"`` adds the group to an existing file in place;
+        an existing group of that name is replaced).  ``inputs``: files never written over (the
+        model and its includes)."""
         self.path = Path(path)
+        self.target = self.path
+        self.whole = mode == "w" and not group.strip("/")
+        if self.whole:
+            refuse_replacing(self.path, overwrite=overwrite, inputs=inputs)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.table = table
-        self.file, self.lock = open_for_writing(self.path, mode)
+        write_to = part_beside(self.path) if self.whole else self.path
+        self.file, self.lock = open_for_writing(write_to, mode, shown=self.path)
+        self.path = write_to
         self.reserved = 0
         self.broken = False
         self.t_last = 0.0  # time of the last row written
@@ -500,12 +657,14 @@ class ResultsWriter:
             self.set_attrs(dict(attrs, complete=False, status="running", format_version=FORMAT_VERSION))
             self.file.flush()
         except BaseException:
-            self.broken = not isinstance(sys.exc_info()[1], DiskFull)
+            self.broken = True  # nothing worth keeping: the earlier file at the name stays
             self.close()
+            if self.whole and self.path != self.target:
+                self.path.unlink(missing_ok=True)
             raise
 
     def _reserve(self, nbytes: int) -> None:
-        self.reserved = max(self.reserved, reserve_space(self.lock.fd, nbytes, self.path))
+        self.reserved = max(self.reserved, reserve_space(self.lock.fd, nbytes, self.target))
 
     def set_attrs(self, attrs: dict) -> None:
         set_attrs(self.group, attrs)
@@ -561,7 +720,8 @@ class ResultsWriter:
             ds.id.write_direct_chunk((i,), piece)
 
     def close(self, attrs: dict | None = None) -> None:
-        """Store the final attributes (when there is room) and close the file."""
+        """Store the final attributes (when there is room), close the file and move it into place
+        (a whole file); a file that could not be written readably stays in its part file."""
         if self.lock.fd < 0:
             return
         try:
@@ -574,9 +734,15 @@ class ResultsWriter:
             try:
                 self.file.close()
             except (OSError, RuntimeError):
-                pass
+                self.broken = True
         finally:
             release_reserve(self.lock.fd, self.reserved)
+            if self.whole and self.path != self.target and not self.broken:
+                try:
+                    os.replace(self.path, self.target)
+                    self.path = self.target
+                except OSError:
+                    pass  # (a sticky folder, a vanished folder) the results stay in the part file
             self.lock.release()
 
 
@@ -619,7 +785,10 @@ def check_results_file(path: str | Path) -> Path:
     try:
         info = os.stat(path)
     except FileNotFoundError:
-        raise ResultsFileError(f"no such results file: {path}", hint="check the path") from None
+        part = part_beside(path)
+        hint = (f"a run writing it stopped without finishing (killed?): its rows so far are in {part}"
+                if os.path.lexists(part) else "check the path")
+        raise ResultsFileError(f"no such results file: {path}", hint=hint) from None
     except OSError as exc:
         raise ResultsFileError(f"cannot read {path}: {exc.strerror or exc}",
                                hint="give a results file written by `mbs run` or `mbs sweep`") from None

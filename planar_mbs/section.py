@@ -243,12 +243,19 @@ def poincare_section(results, signals: Sequence[str] | None = None, *, period: f
     """Sample ``signals`` (default: `default_signals`) of a run at the section (module
     docstring): once per revolution of the clock body, at its ``angle``, or every
     ``period`` seconds when a period is given; the first ``transient`` crossings dropped."""
-    signals = tuple(signals) if signals else default_signals(results, model)
+    t = results.time
+    if len(t) < 2:  # before choosing signals: an empty run has no motion to choose by
+        raise AnalysisError(f"the run holds {len(t)} output time{'s' if len(t) != 1 else ''}: a section needs "
+                            "at least two (it stopped at once, or was written empty)")
+    signals = (signals,) if isinstance(signals, str) else tuple(signals) if signals else \
+        default_signals(results, model)
     for name in signals:
         results[name]  # KeyError with a suggestion
-    t = results.time
-    if len(t) < 2:
-        raise AnalysisError("the run holds fewer than two output times")
+    if period is not None and angle is None and period < (t[-1] - t[0]) / (len(t) - 1) * (1 - 1e-9):
+        raise AnalysisError(f"the period {period:.6g} s is shorter than the output step "
+                            f"{(t[-1] - t[0]) / (len(t) - 1):.6g} s: the section would only interpolate between "
+                            "samples (and hold more points than the run has rows)",
+                            )
     if period is not None and angle is None:
         ts, kind = section_times(t, period, transient), "stroboscopic"
         first = math.ceil(transient - 1e-9) + 1

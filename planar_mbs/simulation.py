@@ -46,6 +46,7 @@ from .model import (
     observation_size,
 )
 from .output_size import MAX_ROWS, estimate
+from .settings_check import check_memory, check_settings, check_stop, given_settings as _given
 from .results import DiskFull, FileResults, Results, ResultsWriter
 from .signals import signal_table, skip_bits
 
@@ -355,13 +356,34 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     return warnings
 
 
+ABSURD = 1e9  # m, m/s, rad/s: beyond it no planar mechanism is being simulated (light: 3e8 m/s)
+
+
+def _absurd_state(model: Model, y: np.ndarray, t: float) -> str:
+    """Why the state y = (q, q') is beyond every physical bound (`ABSURD`: a position or speed of a
+    billion metres, per second), or ''.  Angles are not bounded (a crank turns on and on).  A run
+    in such a state only crawls (its steps shrink to the round-off of huge numbers)."""
+    n = model.ncoord
+    size = np.abs(y).copy()
+    size[2:n:3] = 0.0  # the angles
+    if np.all(size < ABSURD):
+        return ""
+    i = int(np.argmax(np.where(np.isfinite(size), size, np.inf)))
+    what = "position" if i < n else "velocity"
+    return (f"the state left every physical bound at t = {t:.9g} s: {_state_name(model, i)} = {y[i]:.3g} "
+            f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units")
+
+
 def _projection_note(settings: Settings, ws) -> list[str]:
     """`projection = auto` turned the projection on: say when (a singular position or redundant joints)."""
-    from .kernel.workspace import DN_PROJECT_FROM
+    from .kernel.workspace import DN_PROJECT_FROM, FL_PROJECTING
 
     t = float(ws.dense[DN_PROJECT_FROM])
     if settings.projection != "auto" or np.isnan(t):
         return []
+    if ws.flags[FL_PROJECTING] == 2:
+        return [f"the constraint residuals drifted past their bound at t = {t:.9g} s: the positions and "
+                "velocities are projected onto the constraints from then on (projection = auto)"]
     return [f"the constraints lost rank at t = {t:.9g} s (a singular position or redundant joints): the "
             "positions and velocities are projected onto the constraints from then on (projection = auto)"]
 
@@ -432,7 +454,7 @@ def signal_selection(model: Model, signals, cfg: np.ndarray):
     cfg[CFG_SKIP] set so that the time loop computes only the groups of the row they read."""
     table, cols = signal_table(model), None
     if signals is not None:
-        table, cols = select_signals(table, list(signals))
+        table, cols = select_signals(table, [signals] if isinstance(signals, str) else list(signals))
     cfg[CFG_SKIP] = skip_bits(model, cols)
     return table, cols
 
@@ -462,6 +484,7 @@ def simulate(
     progress: Callable[[float, float], None] | None = None,
     signals: list[str] | None = None,
     max_rows: float = MAX_ROWS,
+    overwrite: bool = False,
     **settings_changes,
 ) -> Results:
     """Integrate `model` from its assembled initial state to ``t_end``.
@@ -474,12 +497,15 @@ def simulate(
     computes only the groups of the observation row they read (`signals.skip_bits`).
     A run asking for more than ``max_rows`` output rows (``math.inf``: no limit) is refused
     with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
-    Raises `SimulationError` (with ``.results``) on failure.
+    Raises `SimulationError` (with ``.results``) on failure.  ``output`` replaces an existing file
+    only if it holds the results of a run (``overwrite=True``: any file), and never the model
+    file or a file it includes.
     """
     from .first_compile import first_call
     from .kernel import advance, make_workspace
 
     settings = run_settings(model, **settings_changes)
+    check_settings(settings, given=_given(settings_changes), source=model.source_path)
     check_tolerances(settings)
     _check_rows(model, settings, max_rows)
     q, qd = assemble(model)
@@ -511,7 +537,8 @@ def simulate(
         "version": __version__,
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},
     }
-    writer = ResultsWriter(output, table, attrs) if output is not None else None
+    writer = ResultsWriter(output, table, attrs, overwrite=overwrite, inputs=model.source_files) \
+        if output is not None else None
     times, blocks = [], []  # all rows, kept only without an output file
     held = [0]  # rows of out_t/out not yet written to the file
     deepest: dict[str, float] = {}
@@ -539,9 +566,10 @@ def simulate(
     interrupted = 0
     last_flush = _time.perf_counter()
     room = rows_held  # rows to hold before the next write: ends it on a chunk boundary of the file
+    absurd = [_absurd_state(model, y, 0.0)]  # a state beyond every physical bound: not worth a step
     with _deferred_interrupts() as received:
         try:
-            while not received:
+            while not received and not absurd[0]:
                 start = _time.perf_counter()
                 rhs_before = int(stats[ST_RHS])
                 k = held[0]
@@ -568,6 +596,7 @@ def simulate(
                     progress(float(clock[0]), t_end)
                 if status != Status.BUFFER_FULL or disk_full:
                     break
+                absurd[0] = _absurd_state(model, y, float(clock[0]))
         finally:
             flush()
             finished = status == Status.DONE and clock[0] >= t_end and not disk_full
@@ -597,9 +626,17 @@ def simulate(
                 "n_contact_events": int(stats[ST_CONTACT_EVENTS]),
                 "n_outputs": int(stats[ST_OUTPUTS]),
             }
-            run_attrs["warnings"] = (_physics_warnings(model, deepest) + _projection_note(settings, ws)
+            unphysical = _physics_warnings(model, deepest)
+            run_attrs["warnings"] = (unphysical + _projection_note(settings, ws)
                                      + _energy_warning(model, settings, deepest))
             run_attrs["assembly_changes"] = changes
+            if absurd[0] and not interrupted and not disk_full:
+                complete, message = False, absurd[0]
+                run_attrs.update(complete=False, status="absurd_state", message=message)
+            elif complete and unphysical:  # finished, but not physical: not a result to use
+                complete = False
+                message = "the results are not physical: " + unphysical[0]
+                run_attrs.update(complete=False, status="not_physical", message=message)
             if writer:
                 writer.close(run_attrs)
     units = {s.name: s.unit for s in table}
@@ -636,12 +673,15 @@ class Simulation:
     """
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
-                 **settings_changes):
+                 overwrite: bool = False, **settings_changes):
         from .first_compile import first_call
         from .kernel import advance, make_workspace
 
         self.model = model
         self.settings = run_settings(model, **settings_changes)
+        check_settings(self.settings, given=_given(settings_changes), source=model.source_path)
+        check_tolerances(self.settings)
+        check_memory(model, self.settings)
         self.t_end = self.settings.t_end
         q, qd = assemble(model)
         self._y0 = np.concatenate([q, qd])
@@ -669,7 +709,8 @@ class Simulation:
             "version": __version__,
             "settings": {f.name: getattr(self.settings, f.name) for f in dataclasses.fields(self.settings)},
         }
-        self._writer = ResultsWriter(output, self._table, self._attrs) if output is not None else None
+        self._writer = ResultsWriter(output, self._table, self._attrs, overwrite=overwrite,
+                                     inputs=model.source_files) if output is not None else None
         self.output = output
 
     # ---------------------------------------------------------------- driving
@@ -690,6 +731,7 @@ class Simulation:
         from .kernel import advance
 
         t_stop = _seconds(t, "t")
+        check_stop(t_stop, self.t_end)
         if self._failure:
             raise SimulationError(self._failure, time=self.t, results=self.results())
         dto = self.settings.output_step
@@ -774,10 +816,10 @@ class Simulation:
 
     def latest(self, name: str) -> float:
         """A signal's last sample (at `t` after a step)."""
-        if not self._blocks:
-            raise KeyError("no samples yet: step first")
         if name not in self._where:
             self[name]  # raises the KeyError with a hint
+        if not self._blocks:
+            raise KeyError("no samples yet: step first")
         return float(self._where[name].extract(self._blocks[-1][-1:])[0])
 
     @property
@@ -790,9 +832,15 @@ class Simulation:
         """Everything so far as `Results` (marked complete once `t_end` is reached)."""
         rows = self._rows()
         done = self.t >= self.t_end and not self._failure
+        deepest: dict[str, float] = {}
+        _deepest(self._table, rows, deepest)
+        warnings = _physics_warnings(self.model, deepest)  # as `simulate`: not physical is not complete
+        status = "done" if done else ("failed" if self._failure else "running")
+        message = self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s")
+        if done and warnings:
+            done, status, message = False, "not_physical", "the results are not physical: " + warnings[0]
         attrs = {
-            **self._attrs, "complete": done, "status": "done" if done else ("failed" if self._failure else "running"),
-            "message": self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s"),
+            **self._attrs, "complete": done, "status": status, "message": message, "warnings": warnings,
             "t_reached": self.t, "wall_time": self._wall, "n_steps": int(self._stats[ST_STEPS]),
             "n_rejected": int(self._stats[ST_REJECTED]), "n_rhs": int(self._stats[ST_RHS]),
             "n_contact_events": int(self._stats[ST_CONTACT_EVENTS]), "n_outputs": int(self._stats[ST_OUTPUTS]),

@@ -86,16 +86,19 @@ def test_failed_simulation_exit_3_keeps_results(tmp_path):
 
 
 def _wait_for_samples(path, proc, timeout=120.0):
-    """Wait until the running `mbs run` has flushed at least one chunk to `path`."""
+    """Wait until the running `mbs run` has flushed at least one chunk to `path` (to the part file
+    beside it, which the run moves over `path` when it ends)."""
     import time
 
     import h5py
+
+    from planar_mbs.results import part_beside
 
     start = time.monotonic()
     while time.monotonic() - start < timeout:
         assert proc.poll() is None, proc.stderr.read()
         try:
-            with h5py.File(path, "r", locking=False) as f:
+            with h5py.File(part_beside(path), "r", locking=False) as f:
                 if f["time"].shape[0] > 0:
                     return
         except (OSError, KeyError):

@@ -75,14 +75,21 @@ def test_files_of_the_earlier_layout_are_still_read(tmp_path):
 
 
 def test_file_readable_while_unfinished(tmp_path):
-    """A run that dies mid-way leaves a readable file marked incomplete."""
+    """A run that dies mid-way leaves the earlier file at its name untouched, and what it computed
+    in a readable part file beside it, marked incomplete."""
+    from planar_mbs.results import ResultsFileError, part_beside
+
     path = tmp_path / "partial.h5"
     w = ResultsWriter(path, TABLE, {})
     w.append(np.array([0.0, 0.1]), np.ones((2, 3)))
     w.file.close()  # as if the process stopped without `close(...)`:
     w.lock.release()  # its lock dies with it
-    res = read_results(path)
+    res = read_results(part_beside(path))
     assert len(res.time) == 2 and not res.complete
+    import pytest
+
+    with pytest.raises(ResultsFileError, match=r"\.partial\.h5\.part"):  # the name says where the rows are
+        read_results(path)
 
 
 def test_a_file_another_process_writes_is_refused_by_name(tmp_path, monkeypatch):
@@ -167,7 +174,7 @@ def test_appends_across_chunk_boundaries_read_back_bit_for_bit(tmp_path):
     for n in sizes:
         w.append(t[end:end + n], rows[end:end + n])
         end += n
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(w.path, "r", locking=False) as f:  # the part file, moved into place by close
             assert f["time"].shape == (end,) and f["time"][()].tobytes() == t[:end].tobytes()
             assert f["signals/slider"]["x"].tobytes() == rows[:end, 0].tobytes()
     w.close({"complete": True})

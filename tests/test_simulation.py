@@ -177,11 +177,15 @@ def test_journal_sinking_deeper_than_the_clearance_is_flagged(tmp_path):
     ~0.1-1 J impacts), more than the clearance, so the run warns that it is not physical; the
     shipped 0.3 mm case does not warn."""
     soft = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs", clearance="1 um")
-    res = mbs.simulate(soft, output=tmp_path / "soft.h5", t_end=0.01)
+    with pytest.raises(SimulationError) as info:  # finished, but not physical: not complete
+        mbs.simulate(soft, output=tmp_path / "soft.h5", t_end=0.01)
+    res = info.value.results
     assert np.max(res["A.penetration"]) > 1e-6
     (warning,) = res.attrs["warnings"]
     assert "`A`" in warning and "not physical" in warning
-    assert mbs.read_results(tmp_path / "soft.h5").attrs["warnings"] == [warning]
+    kept = mbs.read_results(tmp_path / "soft.h5")
+    assert kept.attrs["warnings"] == [warning] and kept.attrs["status"] == "not_physical" and not kept.complete
+    assert kept.attrs["t_reached"] == pytest.approx(0.01) and "not physical" in kept.attrs["message"]
     fine = mbs.simulate(mbs.load_model(MODELS / "slider_crank_clearance_a.mbs"), t_end=0.01)
     assert fine.attrs["warnings"] == []
 

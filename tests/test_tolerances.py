@@ -38,7 +38,9 @@ def test_undeliverable_tolerances_are_refused(tmp_path, args, says):
 
 def test_rk4_ignores_the_tolerances():
     model = mbs.load_model(MODELS / "slider_crank.mbs")
-    mbs.simulate(model, t_end=1e-5, integrator="rk4", rtol=0.0)
+    mbs.simulate(model, t_end=1e-5, integrator="rk4", rtol=1e-20)  # below the floor: RK4 does not use it
+    with pytest.raises(ModelError, match="`rtol = 0` must be greater than 0"):  # a mistake wherever given
+        mbs.simulate(model, t_end=1e-5, integrator="rk4", rtol=0.0)
     with pytest.raises(ModelError, match="below what double precision can deliver"):
         mbs.simulate(model, t_end=1e-5, rtol=1e-16)
 

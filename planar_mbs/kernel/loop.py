@@ -363,7 +363,7 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:
         ws.flags[FL_PROJECTING] = 1  # `projection = auto`: a singular position or redundant joints
         ws.dense[DN_PROJECT_FROM] = t
-    if cfg[CFG_PROJECT] == 1.0 or (cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 1):
+    if cfg[CFG_PROJECT] == 1.0 or (cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] != 0):
         st = project(km, t, y, ws, stats)
         if st != 0:
             return st, True, hcap
@@ -626,8 +626,14 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 h = hh * min(fac, 1.0)
             ws.flags[FL_PASSAGE] = ws.flags[FL_STEP_REG]
             if lost_check(cfg, ws, ws.yb[n:], stats) != 0:
-                clock[0] = t  # the constraints gave way: a driver past a limit position
-                return CONSTRAINTS_LOST, nw
+                if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
+                    # `projection = auto`: the residuals drifted past the bound without a loss of
+                    # rank (long runs, hard impacts); projected from the next step on
+                    ws.flags[FL_PROJECTING] = 2
+                    ws.dense[DN_PROJECT_FROM] = t + hh
+                else:
+                    clock[0] = t  # the constraints gave way: a driver past a limit position
+                    return CONSTRAINTS_LOST, nw
         ws.flags[FL_DENSE_METHOD] = method
         ws.flags[FL_DENSE_READY] = 0  # the dense output of this step is not prepared yet
         stats[ST_STEPS] += 1

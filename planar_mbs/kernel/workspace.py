@@ -21,7 +21,7 @@ FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: the dense-output rows ws.F of the last step are prepared
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
 FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
-FL_PROJECTING = 6  # 1: `projection = auto` has turned the projection on (at the first regularised factor)
+FL_PROJECTING = 6  # `projection = auto` has turned the projection on: 1 at a regularised factor, 2 at drift past the bound
 FL_STEP_REG = 7  # 1: a factor of the current step was regularised (a singular position or redundant rows)
 FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its successor lands on the next output)
 FL_SWITCH_EXPR = 9  # comparison of an expression that switches at the end of the last step (-1: none)
