@@ -46,10 +46,10 @@ def run(outdir: Path) -> None:
 
 
 TIMED = {  # name: (model, settings)
-    "dopri5_clearance_a": ("slider_crank_clearance_a", {"t_end": "24 ms"}),
-    "dop853_clearance_a": ("slider_crank_clearance_a", {"integrator": "dop853", "t_end": "24 ms"}),
-    "dopri5_slider_crank": ("slider_crank", {"t_end": "0.1 s", "output_step": "10 us"}),
-    "dop853_four_bar": ("four_bar", {"t_end": "4 s"}),
+    "dopri5_clearance_a": ("slider_crank_clearance_a", {"t_end": "120 ms"}),
+    "dop853_clearance_a": ("slider_crank_clearance_a", {"integrator": "dop853", "t_end": "120 ms"}),
+    "dopri5_slider_crank": ("slider_crank", {"t_end": "1 s", "output_step": "10 us"}),
+    "dop853_four_bar": ("four_bar", {"t_end": "20 s"}),
 }
 
 

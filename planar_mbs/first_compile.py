@@ -134,7 +134,7 @@ def first_call(dispatcher, *args):
 # on a cold cache): a helper process compiles them, the first one first, while this process compiles the
 # time loop from its start; when the typing reaches one of them it loads it from the cache instead.
 HELPER_KERNELS = (("loop", "_finish_step"), ("events", "locate_event"), ("events", "event_possible"),
-                  ("integrators", "end_stage"), ("integrators", "_stages"), ("integrators", "fixed_step"),
+                  ("integrators", "rk_stages"), ("integrators", "fixed_step"),
                   ("integrators", "initial_step"))
 # any model gives the kernels the same argument types (arrays of fixed dtype and rank)
 _TINY = ("body crank { mass = 1 kg  inertia = 1 kg*m^2  position = (0.5, 0)  angle = 0 deg }\n"

@@ -101,22 +101,32 @@ def method_ok(method):
 
 
 @kernel
-def _stages(method, km, cfg, t, h, contact, ws, stats, first, last, y0):
-    """Stages first..last-1 of the step from (t, y0) into ws.K (stage arguments in ws.ys).
-    Returns a Status code.  The one place that evaluates stages, with the right-hand side inlined
-    (one copy to compile; kernel/jit.py says what was measured)."""
+def rk_stages(method, km, cfg, t, h, contact, ws, stats, first, last, y0):
+    """Stages first..last-1 of a step from (t, y0) into ws.K (stage arguments in ws.ys); for a trial
+    step (first = 1) also k1 = ws.f before them and, after them, the new state ws.yb and the error
+    norm (`solution_and_error`).  Returns (status, err).  The one place that evaluates stages, with
+    the right-hand side inlined (`dynamics.rhs_inlined`: one copy to compile, no call per stage).  The
+    trial step's work stays in one function: with the error norm outside it a DOPRI5 trial step on
+    the double pendulum took 2.25 us instead of 1.91 us."""
     N = y0.shape[0]
     K = ws.K
+    A = RK_A[method]
+    C = RK_C[method]
+    if first == 1:
+        for i in range(N):
+            K[0, i] = ws.f[i]
     for s in range(first, last):
         for i in range(N):
             acc = 0.0
             for j in range(s):
-                acc += RK_A[method, s, j] * K[j, i]
+                acc += A[s, j] * K[j, i]
             ws.ys[i] = y0[i] + h * acc
-        st = rhs_inlined(km, cfg, t + RK_C[method, s] * h, ws.ys, contact, ws, stats, K[s])
+        st = rhs_inlined(km, cfg, t + C[s] * h, ws.ys, contact, ws, stats, K[s])
         if st != 0:
-            return st
-    return 0
+            return st, math.inf
+    if first != 1:
+        return 0, 0.0
+    return 0, solution_and_error(method, cfg, y0, h, ws)
 
 
 @kernel(inline=True)
@@ -124,14 +134,8 @@ def rk_trial(method, km, cfg, t, y, h, contact, ws, stats):
     """One trial step of `method` from (t, y) with k1 = ws.f: its stages in ws.K, the new state in
     ws.yb.  Returns (status, err): err is the error norm of an adaptive method (inf when the trial
     produced NaN or infinity), 0 for a fixed-step one."""
-    K = ws.K
-    for i in range(y.shape[0]):
-        K[0, i] = ws.f[i]
     # `1 + 0 * method`, not a literal 1: numba compiles a function once more for each literal argument
-    st = _stages(method, km, cfg, t, h, contact, ws, stats, 1 + 0 * method, TRIAL_STAGES[method], y)
-    if st != 0:
-        return st, math.inf
-    return 0, solution_and_error(method, cfg, y, h, ws)
+    return rk_stages(method, km, cfg, t, h, contact, ws, stats, 1 + 0 * method, TRIAL_STAGES[method], y)
 
 
 @kernel(inline=True)
@@ -143,32 +147,40 @@ def solution_and_error(method, cfg, y, h, ws):
     ns = TRIAL_STAGES[method]
     rule = ERROR_RULE[method]
     fsal = END_STAGE[method] < ns
+    B = RK_B[method]
+    E1 = RK_E[method, 0]
+    E2 = RK_E[method, 1]
     rtol = cfg[CFG_RTOL]
     atol = cfg[CFG_ATOL]
     e1 = 0.0
     e2 = 0.0
     for i in range(N):
-        if fsal:
-            yb = ws.ys[i]
-        else:
-            acc = 0.0
+        acc = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        if rule == ERR_DOP853:  # one pass over the stages, a loop per case (no branch inside)
             for j in range(ns):
-                acc += RK_B[method, j] * K[j, i]
-            yb = y[i] + h * acc
+                k = K[j, i]
+                acc += B[j] * k
+                a1 += E1[j] * k
+                a2 += E2[j] * k
+        elif fsal:
+            for j in range(ns):
+                a1 += E1[j] * K[j, i]
+        else:
+            for j in range(ns):
+                k = K[j, i]
+                acc += B[j] * k
+                a1 += E1[j] * k
+        yb = ws.ys[i] if fsal else y[i] + h * acc
         ws.yb[i] = yb
         if rule == ERR_NONE:
             continue
-        a1 = 0.0
-        for j in range(ns):
-            a1 += RK_E[method, 0, j] * K[j, i]
         sc = atol + rtol * max(abs(y[i]), abs(yb))
         if rule == ERR_RMS:
             r = h * a1 / sc
             e1 += r * r
         else:
-            a2 = 0.0
-            for j in range(ns):
-                a2 += RK_E[method, 1, j] * K[j, i]
             e1 += (a1 / sc) ** 2
             e2 += (a2 / sc) ** 2
     if rule == ERR_NONE:
@@ -193,7 +205,7 @@ def scaled_error(method, cfg, y, h, ws, i):
     return abs(h * e) / (cfg[CFG_ATOL] + cfg[CFG_RTOL] * max(abs(y[i]), abs(ws.yb[i])))
 
 
-@kernel
+@kernel(inline=True)
 def end_stage(method, km, cfg, t, h, contact, ws, stats):
     """The FSAL stage f(t + h, yb) of an accepted step when the trial step did not evaluate it."""
     ke = END_STAGE[method]
@@ -219,7 +231,7 @@ def fixed_step(method, km, cfg, t, y, h, contact, ws, stats):
     return 0
 
 
-@kernel
+@kernel(inline=True)
 def dense_prepare(km, cfg, contact, ws, stats):
     """The stages that only the dense output of the last accepted step reads (DOP853's three), and its
     rows ws.F; once per step (ws.flags[FL_DENSE_READY] = 1).  Methods without such stages leave their
@@ -228,14 +240,15 @@ def dense_prepare(km, cfg, contact, ws, stats):
     if ws.flags[FL_DENSE_READY] == 1 or not method_ok(method) or EXTRA_STAGES[method] == 0:
         return 0
     first = STAGES[method] - EXTRA_STAGES[method]
-    st = _stages(method, km, cfg, ws.dense[DN_TA], ws.dense[DN_H], contact, ws, stats, first, STAGES[method], ws.ya)
+    st, err = rk_stages(method, km, cfg, ws.dense[DN_TA], ws.dense[DN_H], contact, ws, stats, first, STAGES[method],
+                        ws.ya)
     if st != 0:
         return st
     dense_rows(method, ws)
     return 0
 
 
-@kernel
+@kernel(inline=True)
 def dense_rows(method, ws):
     """Rows F_r = dy_r (yb - ya) + h sum_j D_rj k_j - prev_r F_(r-1) of the dense output (module
     docstring) into ws.F; ws.flags[FL_DENSE_READY] = 1."""
@@ -325,12 +338,15 @@ def dense_eval(ws, theta, out):
         for i in range(out.shape[0]):
             out[i] = math.nan
         return
-    x = theta
-    x1 = 1.0 - theta
     F = ws.F
-    nr = DENSE_ROWS_OF[method]
-    for i in range(out.shape[0]):
-        acc = 0.0
-        for r in range(nr - 1, -1, -1):  # alternating x / (1 - x) factors, innermost row first
-            acc = (F[r, i] + acc) * (x if r % 2 == 0 else x1)
-        out[i] = ws.ya[i] + acc
+    N = out.shape[0]
+    r = DENSE_ROWS_OF[method] - 1
+    fr = theta if r % 2 == 0 else 1.0 - theta  # alternating x / (1 - x) factors, innermost row first
+    for i in range(N):
+        out[i] = (F[r, i] + 0.0) * fr
+    for r in range(DENSE_ROWS_OF[method] - 2, -1, -1):
+        fr = theta if r % 2 == 0 else 1.0 - theta
+        for i in range(N):
+            out[i] = (F[r, i] + out[i]) * fr
+    for i in range(N):
+        out[i] = ws.ya[i] + out[i]
