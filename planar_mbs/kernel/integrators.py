@@ -115,12 +115,17 @@ def rk_stages(method, km, cfg, t, h, contact, ws, stats, first, last, y0):
     if first == 1:
         for i in range(N):
             K[0, i] = ws.f[i]
+    ys = ws.ys
     for s in range(first, last):
+        # sum_j A_sj k_j summed in ys, stage by stage over the whole state (contiguous, the same sums)
         for i in range(N):
-            acc = 0.0
-            for j in range(s):
-                acc += A[s, j] * K[j, i]
-            ws.ys[i] = y0[i] + h * acc
+            ys[i] = 0.0
+        for j in range(s):
+            a = A[s, j]
+            for i in range(N):
+                ys[i] += a * K[j, i]
+        for i in range(N):
+            ys[i] = y0[i] + h * ys[i]
         st = rhs_inlined(km, cfg, t + C[s] * h, ws.ys, contact, ws, stats, K[s])
         if st != 0:
             return st, math.inf
