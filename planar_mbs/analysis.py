@@ -206,7 +206,8 @@ class Verdict:
                 f"recurrence = {self.recurrence:.1e}, N = {self.n_points}" + (f" ({self.note})" if self.note else ""))
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """Plain Python values (numpy scalars as their items), ready for JSON."""
+        return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in asdict(self).items()}
 
 
 def classify(points, scale: Sequence[float] | None = None, *, tol_periodic: float = TOL_PERIODIC,
@@ -255,7 +256,7 @@ def _classify_part(points, scale, tol_periodic, max_period, seed) -> Verdict:
     if periodic:
         # the points coincide: nearest-neighbour growth and dimension measure round-off only
         p = periodic[0]
-        agree = K < K_CHAOS or np.isnan(K)
+        agree = bool(K < K_CHAOS or np.isnan(K))
         return Verdict("periodic", p, K, float("nan"), 0.0, float(r[p - 1]), n, agree,
                        "" if agree else "the 0-1 test disagrees")
     # the geometric indicators on the points' own scale

@@ -411,7 +411,7 @@ def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | N
             image = image[os.write(fd, image):]
         with h5py.File(part, "r+", locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE) as f:  # "w" would free it
             _store_case(f, outcome, compression)
-            f.attrs[ROW_ATTR] = json.dumps(_row(outcome))
+            f.attrs[ROW_ATTR] = json.dumps(_row(outcome), default=_plain)
             f.attrs["sweep_config"] = config  # the sweep's settings: a resume checks them
         release_reserve(fd, end)
         os.close(fd)
@@ -469,6 +469,13 @@ def _table_rows(f) -> list[dict]:
         return table_rows(f, MAX_CASES)
     except DamagedTable as err:
         raise SweepError(str(err)) from None
+
+
+def _plain(value):
+    """JSON for a numpy scalar in a case's row (a verdict's flags can be numpy booleans)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} in a case's row")
 
 
 def _row(outcome: CaseOutcome) -> dict:

@@ -202,3 +202,23 @@ def test_section_round_trip(tmp_path, duffing_cases):
     assert np.array_equal(back.time, sec.time)
     assert back.names == sec.names
     assert (v2.verdict, v2.period, v2.K, v2.n_points) == (verdict.verdict, verdict.period, verdict.K, verdict.n_points)
+
+
+def test_a_verdict_with_numpy_scalars_is_stored_as_json():
+    """A periodic verdict's `agree` flag came from a numpy comparison (numpy.bool_), which json cannot
+    write: the last case of a 64-case scan died storing its row ("Object of type bool is not JSON
+    serializable").  `as_dict` gives plain values, and a case's row is written whatever the verdict holds."""
+    import json
+
+    from planar_mbs.analysis import Verdict
+    from planar_mbs.sweep import CaseOutcome, _plain, _row
+
+    v = Verdict("periodic", 2, np.float64(0.01), float("nan"), 0.0, np.float64(1e-9), 40, np.bool_(False))
+    d = json.loads(json.dumps(v.as_dict()))
+    assert d["agree"] is False and d["K"] == 0.01 and d["period"] == 2
+    periodic = np.tile([[0.0, 1.0], [1.0, 0.0]], (20, 1))
+    assert type(classify(periodic).agree) is bool
+    outcome = CaseOutcome(index=3, key="k", values={"speed": "1rpm"}, status="finished", message="",
+                          results=None, verdict=v, wall_time=np.float64(0.5))
+    row = json.loads(json.dumps(_row(outcome), default=_plain))
+    assert row["index"] == 3 and row["wall_time"] == 0.5 and row["K"] == 0.01

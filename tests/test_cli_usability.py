@@ -145,15 +145,14 @@ def test_sweep_started_with_sigint_ignored_can_still_be_interrupted(tmp_path):
            "-P", "speed=600rpm..1400rpm:6", "-n", "500", "--per-rev", "360", "-o", str(out), "-j", "2", "-q"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    from planar_mbs.sweep_store import journal_folder
+
     deadline = time.time() + 120
-    while time.time() < deadline:  # wait for the first stored case
+    while time.time() < deadline:  # wait for the first finished case (in the sweep's journal)
         time.sleep(0.5)
-        try:
-            with h5py.File(out, "r", locking=False) as f:
-                if "cases" in f and len(f["cases"]):
-                    break
-        except (OSError, KeyError):
-            pass
+        if any(journal_folder(out).glob("case-*.h5")):
+            break
+    assert proc.poll() is None, "the sweep ended before it could be interrupted"
     proc.send_signal(signal.SIGINT)
     assert proc.wait(timeout=60) == 130, proc.stderr.read()
 
