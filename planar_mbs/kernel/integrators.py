@@ -237,6 +237,13 @@ def fixed_step(method, km, cfg, t, y, h, contact, ws, stats):
 
 
 @kernel(inline=True)
+def dense_pending(ws):
+    """The last step's dense output still needs `dense_prepare` (stages only it reads, not yet done)."""
+    method = ws.flags[FL_DENSE_METHOD]
+    return ws.flags[FL_DENSE_READY] == 0 and 0 <= method < N_METHODS and EXTRA_STAGES[method] > 0
+
+
+@kernel
 def dense_prepare(km, cfg, contact, ws, stats):
     """The stages that only the dense output of the last accepted step reads (DOP853's three), and its
     rows ws.F; once per step (ws.flags[FL_DENSE_READY] = 1).  Methods without such stages leave their
@@ -344,14 +351,15 @@ def dense_eval(ws, theta, out):
             out[i] = math.nan
         return
     F = ws.F
-    N = out.shape[0]
-    r = DENSE_ROWS_OF[method] - 1
-    fr = theta if r % 2 == 0 else 1.0 - theta  # alternating x / (1 - x) factors, innermost row first
-    for i in range(N):
-        out[i] = (F[r, i] + 0.0) * fr
-    for r in range(DENSE_ROWS_OF[method] - 2, -1, -1):
-        fr = theta if r % 2 == 0 else 1.0 - theta
-        for i in range(N):
-            out[i] = (F[r, i] + out[i]) * fr
-    for i in range(N):
-        out[i] = ws.ya[i] + out[i]
+    nr = DENSE_ROWS_OF[method]
+    x1 = 1.0 - theta
+    for i in range(out.shape[0]):  # innermost row first: factor x for an even row, 1 - x for an odd one
+        acc = 0.0
+        r = nr - 1
+        if r % 2 == 0:
+            acc = (F[r, i] + 0.0) * theta
+            r -= 1
+        while r > 0:  # an odd row and the even one below it
+            acc = ((F[r, i] + acc) * x1 + F[r - 1, i]) * theta
+            r -= 2
+        out[i] = ws.ya[i] + acc

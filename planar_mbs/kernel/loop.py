@@ -105,7 +105,7 @@ from .expressions import flip_switch, init_switches
 from .forces import force_potential
 from .integrators import (
     ADAPTIVE, BAD_METHOD, END_STAGE, ERROR_EXPONENT, EXTRA_STAGES, FAC_MAX, FAC_MIN, METHOD_ORDER, RICHARDSON,
-    SAFETY, dense_eval, dense_prepare, end_stage, fixed_step, initial_step, method_ok, rk_trial, scaled_error,
+    SAFETY, dense_eval, dense_pending, dense_prepare, end_stage, fixed_step, initial_step, method_ok, rk_trial, scaled_error,
 )
 
 DONE = int(Status.DONE)
@@ -326,9 +326,10 @@ def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t1, y1):
             if nw >= cap:
                 return 0, nw, True
             th = (min(tk, tend) - ta) / h
-            st = dense_prepare(km, cfg, contact, ws, stats)
-            if st != 0:
-                return st, nw, False
+            if dense_pending(ws):
+                st = dense_prepare(km, cfg, contact, ws, stats)
+                if st != 0:
+                    return st, nw, False
             dense_eval(ws, th, ws.yt)
         st = observe_inlined(km, cfg, tk, ws.yt, contact, ws, out[nw])
         if st != 0:
@@ -664,7 +665,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                     y[i] = ws.yb[i]
         sev = -1
         if km.expr_switch.shape[0] > 0:
-            st = dense_prepare(km, cfg, contact, ws, stats)
+            st = dense_prepare(km, cfg, contact, ws, stats) if dense_pending(ws) else 0
             if st != 0:
                 clock[0] = t
                 return st, nw
