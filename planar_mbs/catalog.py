@@ -9,10 +9,9 @@ lists in docs/language.md (`python -m planar_mbs.catalog --docs` rewrites them;
 a test checks they are in step).
 
 Adding an element is writing its formula (the kernel: `kernel/contact.py` for a
-law, `kernel/constraints.py` for a joint type, `kernel/integrators.py` and the
-step branch of `kernel/loop.py` for an integrator) and appending its
-description here with the next free code (docs/architecture.md, "How to add
-things").  The descriptions are plain data, importable without numpy or numba.
+law, `kernel/constraints.py` for a joint type; an explicit Runge-Kutta integrator
+is its tableau here and nothing else) and appending its description here with the
+next free code (docs/architecture.md, "How to add things").  The descriptions are plain data, importable without numpy or numba.
 """
 from __future__ import annotations
 
@@ -226,33 +225,161 @@ def element(name: str) -> ElementSpec:
 
 
 @dataclass(frozen=True)
-class IntegratorSpec:
-    """An explicit Runge-Kutta method of the time loop.
+class DenseRow:
+    """One row of a continuous extension in Hairer's form (dopri5.f ``contd5``, dop853.f ``contd8``):
+    ``F_r = dy (y1 - y0) + h sum_j k[j] k_j - prev F_(r-1)`` over the stages k_j of the step."""
 
-    ``stages``: rows of the stage buffer ws.K it uses; ``end_stage``: the row
-    holding f at the end of an accepted step (FSAL); ``dense_rows``: rows of the
-    dense-output coefficient buffer ws.F (0 = Hermite or built-in dense output);
-    ``adaptive``: step size from an embedded error estimate (else fixed
-    ``step``); ``error_order``: order q of that estimate (step factor err^(-1/(q+1)))."""
+    dy: float = 0.0
+    k: tuple[float, ...] = ()
+    prev: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class IntegratorSpec:
+    """An explicit Runge-Kutta method of the time loop, as its Butcher tableau: the kernel
+    (`kernel/integrators.py`) has one step, one error norm and one dense output for all of them.
+
+    ``c``, ``a``: nodes and rows of A of every stage (``a[s]`` holds the s coefficients of stage s;
+    stage 0 is f at the start of the step); ``b``: the solution's weights, whose length is the number
+    of stages of a trial step; ``end_stage``: the stage holding f at the end of the step (FSAL: its row
+    of A is ``b`` and its node 1; inside the trial step when ``len(b)`` exceeds it, else evaluated
+    once the step is accepted); stages after it and after the trial step feed the dense output only
+    (evaluated when a step needs it).  ``error``: weight rows of the embedded error estimate (b minus
+    the embedded weights); ``error_rule``: how they make the error norm (``"rms"``: Hairer's DOPRI5
+    norm of one row; ``"dop853"``: Hairer's DOP853 blend of a 5th- and a 3rd-order row; ``"none"``:
+    fixed step); ``error_order``: order q of the estimate (step factor err^(-1/(q+1))).  ``dense``:
+    ``"hermite"`` (the cubic through both ends and their derivatives), ``"rows"`` (Hairer's form with
+    ``dense_rows``: y0 + x (F_0 + (1 - x) (F_1 + x (F_2 + ...)))) or ``"none"`` (the time loop then
+    refuses the method: it writes outputs and finds events on the dense output)."""
 
     code: int  # Integrator value, cfg[CFG_METHOD]
     enum: str
     name: str  # as written in a .mbs file and on the command line
     order: int
-    stages: int
-    end_stage: int
-    dense_rows: int
-    adaptive: bool
-    error_order: int
     summary: str
+    reference: str
+    c: tuple[float, ...]
+    a: tuple[tuple[float, ...], ...]
+    b: tuple[float, ...]
+    end_stage: int
+    error: tuple[tuple[float, ...], ...] = ()
+    error_rule: str = "none"
+    error_order: int = 0
+    dense: str = "hermite"
+    dense_rows: tuple[DenseRow, ...] = ()
 
+    @property
+    def stages(self) -> int:
+        """Rows of the stage buffer ws.K it uses."""
+        return len(self.c)
+
+    @property
+    def adaptive(self) -> bool:
+        """Step size from the embedded error estimate (else the fixed ``step``)."""
+        return self.error_rule != "none"
+
+
+ERROR_RULES = ("none", "rms", "dop853")
+DENSE_RULES = ("none", "hermite", "rows")
+
+
+def _minus(x, y):
+    return tuple(u - v for u, v in zip(x, y))
+
+
+_DOPRI5_B = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0)
+_DOPRI5_BHAT = (5179 / 57600, 0.0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40)
+# Hairer's dense-output coefficients d_j (dopri5.f)
+_DOPRI5_D = (-12715105075 / 11282082432, 0.0, 87487479700 / 32700410799, -10690763975 / 1880347072,
+             701980252875 / 199316789632, -1453857185 / 822651844, 69997945 / 29380423)
+# DOP853: Hairer's dop853.f as tabulated in SciPy (integrate/_ivp/dop853_coefficients.py, BSD-3)
+_DOP853_C = (0.0, 0.05260015195876773, 0.0789002279381516, 0.1183503419072274, 0.2816496580927726,
+             0.3333333333333333, 0.25, 0.3076923076923077, 0.6512820512820513, 0.6, 0.8571428571428571, 1.0,
+             1.0, 0.1, 0.2, 0.7777777777777778)
+_DOP853_A = (
+    (),
+    (0.05260015195876773,),
+    (0.0197250569845379, 0.0591751709536137),
+    (0.02958758547680685, 0.0, 0.08876275643042054),
+    (0.2413651341592667, 0.0, -0.8845494793282861, 0.924834003261792),
+    (0.037037037037037035, 0.0, 0.0, 0.17082860872947386, 0.12546768756682242),
+    (0.037109375, 0.0, 0.0, 0.17025221101954405, 0.06021653898045596, -0.017578125),
+    (0.03709200011850479, 0.0, 0.0, 0.17038392571223998, 0.10726203044637328, -0.015319437748624402,
+     0.008273789163814023),
+    (0.6241109587160757, 0.0, 0.0, -3.3608926294469414, -0.868219346841726, 27.59209969944671,
+     20.154067550477894, -43.48988418106996),
+    (0.47766253643826434, 0.0, 0.0, -2.4881146199716677, -0.590290826836843, 21.230051448181193,
+     15.279233632882423, -33.28821096898486, -0.020331201708508627),
+    (-0.9371424300859873, 0.0, 0.0, 5.186372428844064, 1.0914373489967295, -8.149787010746927,
+     -18.52006565999696, 22.739487099350505, 2.4936055526796523, -3.0467644718982196),
+    (2.273310147516538, 0.0, 0.0, -10.53449546673725, -2.0008720582248625, -17.9589318631188,
+     27.94888452941996, -2.8589982771350235, -8.87285693353063, 12.360567175794303, 0.6433927460157636),
+    (0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003, -5.801203960010585,
+     0.3111643669578199, -0.1521609496625161, 0.20136540080403034, 0.04471061572777259),
+    (0.056167502283047954, 0.0, 0.0, 0.0, 0.0, 0.0, 0.25350021021662483, -0.2462390374708025,
+     -0.12419142326381637, 0.15329179827876568, 0.00820105229563469, 0.007567897660545699, -0.008298),
+    (0.03183464816350214, 0.0, 0.0, 0.0, 0.0, 0.028300909672366776, 0.053541988307438566, -0.05492374857139099,
+     0.0, 0.0, -0.00010834732869724932, 0.0003825710908356584, -0.00034046500868740456, 0.1413124436746325),
+    (-0.42889630158379194, 0.0, 0.0, 0.0, 0.0, -4.697621415361164, 7.683421196062599, 4.06898981839711,
+     0.3567271874552811, 0.0, 0.0, 0.0, -0.0013990241651590145, 2.9475147891527724, -9.15095847217987),
+)
+_DOP853_E5 = (0.01312004499419488, 0.0, 0.0, 0.0, 0.0, -1.2251564463762044, -0.4957589496572502,
+              1.6643771824549864, -0.35032884874997366, 0.3341791187130175, 0.08192320648511571,
+              -0.022355307863886294)
+_DOP853_E3 = (-0.18980075407240762, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003,
+              -5.801203960010585, -0.4226823213237919, -0.1521609496625161, 0.20136540080403034,
+              0.02265179219836082)
+_DOP853_D = (
+    (-8.428938276109013, 0.0, 0.0, 0.0, 0.0, 0.5667149535193777, -3.0689499459498917, 2.38466765651207,
+     2.117034582445028, -0.871391583777973, 2.2404374302607883, 0.6315787787694688, -0.08899033645133331,
+     18.148505520854727, -9.194632392478356, -4.436036387594894),
+    (10.427508642579134, 0.0, 0.0, 0.0, 0.0, 242.28349177525817, 165.20045171727028, -374.5467547226902,
+     -22.113666853125306, 7.733432668472264, -30.674084731089398, -9.332130526430229, 15.697238121770845,
+     -31.139403219565178, -9.35292435884448, 35.81684148639408),
+    (19.985053242002433, 0.0, 0.0, 0.0, 0.0, -387.0373087493518, -189.17813819516758, 527.8081592054236,
+     -11.57390253995963, 6.8812326946963, -1.0006050966910838, 0.7777137798053443, -2.778205752353508,
+     -60.19669523126412, 84.32040550667716, 11.99229113618279),
+    (-25.69393346270375, 0.0, 0.0, 0.0, 0.0, -154.18974869023643, -231.5293791760455, 357.6391179106141,
+     93.40532418362432, -37.45832313645163, 104.0996495089623, 29.8402934266605, -43.53345659001114,
+     96.32455395918828, -39.17726167561544, -149.72683625798564),
+)
 
 INTEGRATORS: tuple[IntegratorSpec, ...] = (
-    IntegratorSpec(0, "RK4", "rk4", 4, 5, 4, 0, False, 0, "classic 4-stage Runge-Kutta, fixed step"),
-    IntegratorSpec(1, "DOPRI5", "dopri5", 5, 7, 6, 0, True, 4,
-                   "Dormand-Prince 5(4), adaptive, 4th-order dense output"),
-    IntegratorSpec(2, "DOP853", "dop853", 8, 16, 12, 7, True, 7,
-                   "Dormand-Prince 8(5,3), adaptive, 7th-order dense output"),
+    IntegratorSpec(
+        code=0, enum="RK4", name="rk4", order=4, summary="classic 4-stage Runge-Kutta, fixed step",
+        reference="Kutta (1901); Hairer, Norsett and Wanner, Solving ODEs I, Table II.1.2",
+        c=(0.0, 0.5, 0.5, 1.0, 1.0),
+        a=((), (0.5,), (0.0, 0.5), (0.0, 0.0, 1.0), (1 / 6, 1 / 3, 1 / 3, 1 / 6)),
+        b=(1 / 6, 1 / 3, 1 / 3, 1 / 6), end_stage=4),
+    IntegratorSpec(
+        code=1, enum="DOPRI5", name="dopri5", order=5,
+        summary="Dormand-Prince 5(4), adaptive, 4th-order dense output",
+        reference="Dormand and Prince, A family of embedded Runge-Kutta formulae (1980); Hairer's dopri5.f",
+        c=(0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0),
+        a=((), (1 / 5,), (3 / 40, 9 / 40), (44 / 45, -56 / 15, 32 / 9),
+           (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
+           (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656), _DOPRI5_B[:6]),
+        b=_DOPRI5_B, end_stage=6, error=(_minus(_DOPRI5_B, _DOPRI5_BHAT),), error_rule="rms", error_order=4,
+        dense="rows", dense_rows=(DenseRow(dy=1.0), DenseRow(dy=-1.0, k=(1.0,)),
+                                  DenseRow(dy=1.0, k=(0.0,) * 6 + (-1.0,), prev=1.0), DenseRow(k=_DOPRI5_D))),
+    IntegratorSpec(
+        code=2, enum="DOP853", name="dop853", order=8,
+        summary="Dormand-Prince 8(5,3), adaptive, 7th-order dense output",
+        reference="Prince and Dormand, High order embedded Runge-Kutta formulae (1981); Hairer's dop853.f",
+        c=_DOP853_C, a=_DOP853_A, b=_DOP853_A[12], end_stage=12,
+        error=(_DOP853_E5, _DOP853_E3), error_rule="dop853", error_order=7,
+        dense="rows", dense_rows=(DenseRow(dy=1.0), DenseRow(dy=-1.0, k=(1.0,)),
+                                  DenseRow(dy=2.0, k=(-1.0,) + (0.0,) * 11 + (-1.0,)),
+                                  *(DenseRow(k=row) for row in _DOP853_D))),
+    IntegratorSpec(
+        code=3, enum="BS3", name="bs3", order=3,
+        summary="Bogacki-Shampine 3(2), adaptive, cubic Hermite dense output",
+        reference="Bogacki and Shampine, A 3(2) pair of Runge-Kutta formulas (1989)",
+        c=(0.0, 1 / 2, 3 / 4, 1.0),
+        a=((), (1 / 2,), (0.0, 3 / 4), (2 / 9, 1 / 3, 4 / 9)),
+        b=(2 / 9, 1 / 3, 4 / 9, 0.0), end_stage=3,
+        error=(_minus((2 / 9, 1 / 3, 4 / 9, 0.0), (7 / 24, 1 / 4, 1 / 3, 1 / 8)),), error_rule="rms",
+        error_order=2),
 )
 
 # ------------------------------------------------------------------ lookups
@@ -287,6 +414,21 @@ def choices(table) -> str:
     return n[0] if len(n) == 1 else ", ".join(n[:-1]) + " or " + n[-1]
 
 
+def _check_tableau(s: IntegratorSpec) -> None:
+    """An integrator's tableau has the shape the kernel reads (its order conditions are tested)."""
+    def pad(row):
+        return tuple(row) + (0.0,) * (s.stages - len(row))
+
+    assert len(s.a) == s.stages and all(len(row) == i for i, row in enumerate(s.a)) and s.c[0] == 0.0
+    assert 1 <= len(s.b) <= s.stages and 0 < s.end_stage < s.stages, s.name
+    assert pad(s.a[s.end_stage]) == pad(s.b) and s.c[s.end_stage] == 1.0, f"{s.name}: end stage is f(t + h, y1)"
+    assert s.error_rule in ERROR_RULES and s.dense in DENSE_RULES, s.name
+    assert len(s.error) == {"none": 0, "rms": 1, "dop853": 2}[s.error_rule], s.name
+    assert all(len(row) == len(s.b) for row in s.error) and (s.error_order > 0) == s.adaptive, s.name
+    assert bool(s.dense_rows) == (s.dense == "rows") and all(len(r.k) <= s.stages for r in s.dense_rows)
+    assert s.dense == "rows" or s.stages == max(len(s.b), s.end_stage + 1), f"{s.name}: stages nothing reads"
+
+
 def check() -> None:
     """The tables are consistent: codes 0..n-1 in order, names unique."""
     for table in (LAWS, JOINTS, INTEGRATORS, PAIRS):
@@ -298,7 +440,7 @@ def check() -> None:
         assert s.draw != "slide" or "axis" in s.fields, "a sliding joint is drawn along its axis"
         assert set(s.fields) <= {"axis", "angle", "length"}, "the compiler fills axis, angle and length"
     for s in INTEGRATORS:
-        assert 0 <= s.end_stage < s.stages
+        _check_tableau(s)
     assert ELEMENTS[0].name == CLEARANCE_JOINT and {e.pair for e in ELEMENTS} <= set(names(PAIRS))
 
 

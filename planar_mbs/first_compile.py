@@ -134,8 +134,8 @@ def first_call(dispatcher, *args):
 # on a cold cache): a helper process compiles them, the first one first, while this process compiles the
 # time loop from its start; when the typing reaches one of them it loads it from the cache instead.
 HELPER_KERNELS = (("loop", "_finish_step"), ("events", "locate_event"), ("events", "event_possible"),
-                  ("integrators", "dop853_finish"), ("integrators", "dop853_attempt"),
-                  ("integrators", "dopri5_attempt"), ("integrators", "rk4_step"), ("integrators", "initial_step"))
+                  ("integrators", "rk_stages"), ("integrators", "fixed_step"),
+                  ("integrators", "initial_step"))
 # any model gives the kernels the same argument types (arrays of fixed dtype and rank)
 _TINY = ("body crank { mass = 1 kg  inertia = 1 kg*m^2  position = (0.5, 0)  angle = 0 deg }\n"
          "joint O = revolute(ground (0, 0), crank (-0.5, 0))\n"
@@ -150,9 +150,10 @@ def _signature(dispatcher, km, ws) -> tuple:
     from numba import typeof, types
 
     by_name = {"km": typeof(km), "ws": typeof(ws), "contact": typeof(np.zeros((1, 3))),
-               "stats": typeof(np.zeros(1, np.int64)), "kend": types.int64}
+               "stats": typeof(np.zeros(1, np.int64)), "kend": types.int64, "method": types.int64,
+               "first": types.int64, "last": types.int64}
     vector = typeof(np.zeros(1))
-    return tuple(by_name.get(p, vector if p in ("cfg", "y", "ydot") else types.float64)
+    return tuple(by_name.get(p, vector if p in ("cfg", "y", "ydot", "y0") else types.float64)
                  for p in inspect.signature(dispatcher.py_func).parameters)
 
 

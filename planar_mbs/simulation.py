@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from . import __version__, catalog
 from .errors import ModelError, SimulationError
 from .kinematics import assemble, assembly_changes
 from .model import (
@@ -112,7 +112,7 @@ def check_tolerances(settings: Settings) -> None:
     atol > 0."""
     from .errors import ModelError
 
-    if settings.integrator == Integrator.RK4:
+    if not catalog.INTEGRATORS[int(settings.integrator)].adaptive:
         return
     if not (settings.rtol > RTOL_FLOOR):
         raise ModelError(f"rtol = {settings.rtol:g} is below what double precision can deliver: the floor is "
@@ -232,6 +232,12 @@ def _state_name(model: Model, i: int) -> str:
     return f"{'velocity' if i >= n else 'position'} {coord} of body `{model.body_names[b]}`"
 
 
+def _bad_method() -> int:
+    from .kernel.integrators import BAD_METHOD
+
+    return BAD_METHOD
+
+
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
@@ -245,7 +251,7 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
         where = f" while clearance joint{'s' if len(touching) > 1 else ''} " + ", ".join(
             f"`{n}`" for n in touching) + " in contact" if touching else ""
         limit = ""
-        if settings.integrator != Integrator.RK4:
+        if catalog.INTEGRATORS[int(settings.integrator)].adaptive:
             limit = (f"; the error estimate of the {_state_name(model, info)} limited it (rtol = "
                      f"{settings.rtol:g}, atol = {settings.atol:g})")
         return (f"step size fell below h_min = {settings.h_min:g} s {at}{where}{limit}: the motion is too stiff "
@@ -277,6 +283,13 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
     if status == Status.CONTACT_SOLVE:
         name = model.clearance_names[info] if 0 <= info < model.nclearance else "?"
         return f"the contact law of clearance joint `{name}` found no force {at}"
+    if status == Status.BAD_INPUT and info == _bad_method():
+        code = int(settings.integrator)
+        spec = catalog.INTEGRATORS[code] if 0 <= code < len(catalog.INTEGRATORS) else None
+        why = ("has no dense output (the time loop writes its outputs and finds contact events on it)"
+               if spec is not None and spec.dense == "none" else "is not one the time loop knows")
+        return (f"the integrator `{spec.name if spec else code}` {why}: the run did not start "
+                f"(choose {catalog.choices([s for s in catalog.INTEGRATORS if s.dense != 'none'])})")
     return f"the solver stopped with status {Status(status).name} {at}"
 
 

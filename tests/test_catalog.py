@@ -1,10 +1,12 @@
 """The catalog (planar_mbs/catalog.py) is the one description of contact laws, joint
 types and integrators: everything else follows it.
 
-The last test adds a dummy law, joint type and integrator to a temporary copy of the
+The last tests add a dummy law, joint type and two integrators to a temporary copy of the
 package -- their descriptions, plus the joint's constraint formula (a joint type
-cannot be assembled without one) -- and sees them accepted by `mbs check`, listed in
-`--help` and in the docs' generated lists, with no other file touched.
+cannot be assembled without one); an integrator is its tableau alone -- and see them accepted
+by `mbs check`, listed in `--help` and in the docs' generated lists, with no other file touched;
+`mbs run` integrates an oscillator with the added Heun-Euler 2(1) against its closed form, and
+refuses the added method that has no dense output.
 """
 from __future__ import annotations
 
@@ -62,7 +64,7 @@ def test_the_dissipative_laws_are_the_ones_the_kernel_damps():
 
 
 def test_unknown_names_are_refused_with_the_choices():
-    with pytest.raises(ValueError, match="rk4, dopri5 or dop853"):
+    with pytest.raises(ValueError, match=catalog.choices(catalog.INTEGRATORS)):
         catalog.integrator("euler")
     with pytest.raises(ValueError, match="hertz"):
         catalog.law("hertzz")
@@ -75,7 +77,7 @@ def test_the_library_refuses_an_unknown_integrator_with_the_choices(tmp_path):
     model = mbs.load_model(ROOT / "models" / "slider_crank.mbs")
     with pytest.raises(ModelError, match="unknown integrator `dopri4`") as info:
         mbs.simulate(model, integrator="dopri4")
-    assert "did you mean `dopri5`" in info.value.hint and "rk4, dopri5 or dop853" in info.value.hint
+    assert "did you mean `dopri5`" in info.value.hint and catalog.choices(catalog.INTEGRATORS) in info.value.hint
     with pytest.raises(ModelError, match="unknown integrator `rk5`"):
         run_sweep(ROOT / "models" / "slider_crank.mbs", [parse_param("speed=600rpm")], tmp_path / "s.h5",
                   settings={"integrator": "rk5"}, jobs=1)
@@ -85,7 +87,12 @@ def test_the_library_refuses_an_unknown_integrator_with_the_choices(tmp_path):
 # ------------------------------------------------------------ adding from the descriptions alone
 DUMMY_LAW = ('    LawSpec(len(LAWS) + 0, "SOFT_DUMMY", "soft_dummy", "Soft dummy", ELASTIC, "F = K d^n", "test"),\n')
 DUMMY_JOINT = ('    JointSpec(5, "PIN_DUMMY", "pin_dummy", 2, "P_i - P_j = 0", {}, example="pin_dummy(a (p), b (p))"),\n')
-DUMMY_INTEGRATOR = ('    IntegratorSpec(3, "EULER_DUMMY", "euler_dummy", 1, 1, 0, 0, False, 0, "a dummy method"),\n')
+# Heun-Euler 2(1): Heun's method with Euler's as the embedded one, cubic Hermite dense output (the default)
+DUMMY_INTEGRATOR = ('    IntegratorSpec(code=NEW, enum="HEUN_EULER_DUMMY", name="heun_euler_dummy", order=2,\n'
+                    '        summary="a dummy method", reference="test", c=(0.0, 1.0, 1.0), a=((), (1.0,), (0.5, 0.5)),\n'
+                    '        b=(0.5, 0.5), end_stage=2, error=((-0.5, 0.5),), error_rule="rms", error_order=1),\n'
+                    '    IntegratorSpec(code=NEW + 1, enum="EULER_DUMMY", name="euler_dummy", order=1, summary="no dense output",\n'
+                    '        reference="test", c=(0.0, 1.0), a=((), (1.0,)), b=(1.0,), end_stage=1, dense="none"),\n')
 
 MODEL = """
 material steel { E = 207 GPa  nu = 0.3 }
@@ -95,7 +102,15 @@ joint O = pin_dummy(ground (0, 0), crank (-0.05, 0))
 joint A = clearance_revolute(crank (0.05, 0), disc) {
     clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  law = soft_dummy
 }
-simulate { t_end = 1 ms  integrator = euler_dummy }
+simulate { t_end = 1 ms  integrator = heun_euler_dummy }
+"""
+# a disc on a torsion spring, pivoted at its centre: phi = PHI0 cos(OMEGA t), OMEGA = sqrt(k / I)
+PHI0, OMEGA = 0.2, 10.0
+OSCILLATOR = f"""
+body disc {{ mass = 1 kg  inertia = 0.01 kg*m^2  position = (0, 0)  angle = {PHI0} rad }}
+joint O = revolute(ground (0, 0), disc (0, 0))
+force spring = rotational_spring_damper(ground, disc) {{ stiffness = {OMEGA ** 2 * 0.01} N*m/rad  angle = 0 deg }}
+simulate {{ t_end = 1 s  integrator = heun_euler_dummy  rtol = 1e-6  atol = 1e-8  output_step = 10 ms }}
 """
 
 
@@ -120,8 +135,9 @@ def extended(tmp_path_factory):
                          DUMMY_LAW.replace("len(LAWS) + 0", str(len(catalog.LAWS))))
     cat = _insert_before(cat, ")\n# the clearance joint is a force element", DUMMY_JOINT.replace(
         "JointSpec(5", f"JointSpec({len(catalog.JOINTS)}"))
+    n = len(catalog.INTEGRATORS)
     cat = _insert_before(cat, ")\n\n# ------------------------------------------------------------------ lookups",
-                         DUMMY_INTEGRATOR.replace("IntegratorSpec(3", f"IntegratorSpec({len(catalog.INTEGRATORS)}"))
+                         DUMMY_INTEGRATOR.replace("NEW", str(n)))
     (pkg / "catalog.py").write_text(cat, encoding="utf-8")
     # the joint's formula: the revolute one (a joint type cannot be assembled without a formula)
     cons = (pkg / "kernel" / "constraints.py").read_text(encoding="utf-8")
@@ -130,6 +146,7 @@ def extended(tmp_path_factory):
     cons = cons.replace(anchor, f"if typ == REVOLUTE or typ == WELD or typ == {len(catalog.JOINTS)}:", 1)
     (pkg / "kernel" / "constraints.py").write_text(cons, encoding="utf-8")
     (tmp / "dummy.mbs").write_text(MODEL, encoding="utf-8")
+    (tmp / "oscillator.mbs").write_text(OSCILLATOR, encoding="utf-8")
     return tmp
 
 
@@ -151,7 +168,7 @@ def test_an_added_law_joint_and_integrator_are_accepted_by_mbs_check(extended):
 
 
 def test_the_kernel_constants_of_the_copy_follow_its_catalog(extended):
-    """No hand-kept count: the copy's kernel knows one law, joint type and integrator more."""
+    """No hand-kept count: the copy's kernel knows one law and joint type and two integrators more."""
     env = {**os.environ, "PYTHONPATH": str(extended), "NUMBA_CACHE_DIR": str(extended / "numba_cache")}
     code = ("from planar_mbs.kernel import contact, constraints, integrators; from planar_mbs import model; "
             "print(contact.N_LAWS, len(constraints._JOINT_ROWS), len(integrators.END_STAGE), "
@@ -159,16 +176,16 @@ def test_the_kernel_constants_of_the_copy_follow_its_catalog(extended):
             "bool(contact.is_cylindrical.py_func(contact.N_LAWS - 1)))")
     r = subprocess.run([sys.executable, "-c", code], cwd=extended, env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    nl, nj, ni = len(catalog.LAWS) + 1, len(catalog.JOINTS) + 1, len(catalog.INTEGRATORS) + 1
+    nl, nj, ni = len(catalog.LAWS) + 1, len(catalog.JOINTS) + 1, len(catalog.INTEGRATORS) + 2
     assert r.stdout.split() == [str(nl), str(nj), str(ni), str(nl), str(nj), str(ni), "False"]
 
 
 def test_an_added_law_joint_and_integrator_are_listed_in_help(extended):
     check = _mbs(extended, "check", "--help").stdout
-    for name in ("soft_dummy", "pin_dummy", "euler_dummy"):
+    for name in ("soft_dummy", "pin_dummy", "heun_euler_dummy"):
         assert name in check
-    assert "euler_dummy" in _mbs(extended, "run", "--help").stdout
-    assert "euler_dummy" in _mbs(extended, "sweep", "--help").stdout
+    assert "heun_euler_dummy" in _mbs(extended, "run", "--help").stdout
+    assert "heun_euler_dummy" in _mbs(extended, "sweep", "--help").stdout
 
 
 def test_an_added_law_joint_and_integrator_appear_in_the_generated_docs(extended):
@@ -180,13 +197,33 @@ def test_an_added_law_joint_and_integrator_appear_in_the_generated_docs(extended
     text = doc.read_text(encoding="utf-8")
     assert "| `soft_dummy` | elastic |" in text
     assert "| `pin_dummy(a (p), b (p))` | 2 |" in text
-    assert "| `euler_dummy` | 1 | 1 |" in text
+    assert "| `heun_euler_dummy` | 2 | 3 |" in text and "| `euler_dummy` | 1 | 2 |" in text
     # and nothing else of the page changed
     before = (ROOT / "docs" / "language.md").read_text(encoding="utf-8").splitlines()
     added = [line for line in text.splitlines() if line not in before]
-    assert len(added) == 4 and all("dummy" in line for line in added), added  # 3 rows + the group line
+    assert len(added) == 5 and all("dummy" in line for line in added), added  # 4 rows + the group line
     assert np.all([line in text.splitlines() for line in before if "elastic (`hertz`)" not in line])
 
+
+
+@pytest.mark.slow  # compiles the copy's time loop (about a minute of CPU)
+def test_an_added_integrator_runs_end_to_end(extended):
+    """`mbs run` with the added Heun-Euler 2(1), a tableau and nothing else: the oscillator follows its
+    closed form, in the many steps of a 2nd-order method (h ~ sqrt(2 tol / |phi''|) ~ 1.4e-4 s: several
+    thousand over 1 s, where DOPRI5 takes a few dozen); the added method without dense output is refused
+    with the reason (exit 3), never run with another method's interpolant."""
+    from planar_mbs.results import read_results
+
+    r = _mbs(extended, "run", "oscillator.mbs", "-o", "osc.h5", "-q")
+    assert r.returncode == 0, r.stderr + r.stdout
+    res = read_results(extended / "osc.h5")
+    t, phi = res.time, res["disc.phi"]
+    assert t[-1] == pytest.approx(1.0) and len(t) == 101
+    assert np.max(np.abs(phi - PHI0 * np.cos(OMEGA * t))) < 1e-5
+    assert res.attrs["n_steps"] > 2000
+    r = _mbs(extended, "run", "oscillator.mbs", "--integrator", "euler_dummy", "-o", "e.h5", "-q")
+    assert r.returncode == 3, r.stderr + r.stdout
+    assert "`euler_dummy` has no dense output" in r.stderr + r.stdout
 
 def test_contact_md_describes_every_law():
     """docs/contact.md's table (equations, parameters, where each law holds) has a row per law."""

@@ -13,8 +13,9 @@ import pytest
 import kernel_models as K
 from planar_mbs.kernel import integrators as I
 from planar_mbs.kernel import make_workspace
+from planar_mbs import catalog
 from planar_mbs.kernel.integrators import dense_eval
-from planar_mbs.model import Integrator, Status
+from planar_mbs.model import CFG_METHOD, ST_INFO, Integrator, Status
 
 
 def order_conditions(A, b, c):
@@ -32,44 +33,59 @@ def order_conditions(A, b, c):
     return {p: np.array([v - w for v, w in rows]) for p, rows in conds.items()}
 
 
-def test_rk4_tableau():
-    np.testing.assert_allclose(I.RK4_A.sum(axis=1), I.RK4_C, atol=1e-15)
-    res = order_conditions(I.RK4_A, I.RK4_B, I.RK4_C)
-    for p in range(1, 5):
-        np.testing.assert_allclose(res[p], 0, atol=1e-15)
-    assert np.abs(res[5]).max() > 1e-4  # exactly order 4
+SPECS = catalog.INTEGRATORS  # every integrator of the catalog, no hand list
+IDS = [s.name for s in SPECS]
 
 
-def test_dopri5_tableau():
-    np.testing.assert_allclose(I.DP5_A.sum(axis=1), I.DP5_C, atol=1e-14)
-    np.testing.assert_array_equal(I.DP5_A[6], I.DP5_B)  # FSAL
-    res = order_conditions(I.DP5_A, I.DP5_B, I.DP5_C)
-    for p in range(1, 6):
-        np.testing.assert_allclose(res[p], 0, atol=1e-14)
-    res_hat = order_conditions(I.DP5_A, I.DP5_BHAT, I.DP5_C)
-    for p in range(1, 5):
-        np.testing.assert_allclose(res_hat[p], 0, atol=1e-14)
-    assert np.abs(res_hat[5]).max() > 1e-5  # the embedded method is order 4
-    np.testing.assert_allclose(I.DP5_E, I.DP5_B - I.DP5_BHAT)
+def tableau(spec):
+    """(A, b, c) of a catalog entry as arrays over all its stages (b zero beyond the trial step)."""
+    n = spec.stages
+    A = np.zeros((n, n))
+    for s, row in enumerate(spec.a):
+        A[s, :len(row)] = row
+    return A, np.pad(np.array(spec.b), (0, n - len(spec.b))), np.array(spec.c)
 
 
-def test_dop853_tableau():
-    """Row sums, the 8th-order quadrature conditions b.c^k = 1/(k+1), the order
-    conditions up to 5, and the error weights: E5 and E3 vanish on the low-order
-    quadrature conditions (each is the difference of two methods)."""
-    np.testing.assert_allclose(I.DP8_A.sum(axis=1), I.DP8_C, atol=1e-13)
-    A, b, c = I.DP8_A[:12, :12], I.DP8_B, I.DP8_C[:12]
-    np.testing.assert_array_equal(I.DP8_A[12, :12], b)  # FSAL: stage 13 = f at the new state
-    for k in range(8):
-        assert abs(b @ c**k - 1 / (k + 1)) < 1e-13
+@pytest.mark.parametrize("spec", SPECS, ids=IDS)
+def test_tableau_row_sums_and_order_conditions(spec):
+    """Row sums, the quadrature conditions b.c^k = 1/(k+1) up to the method's order, the order
+    conditions up to min(order, 5) (and one failing beyond a lower order: exactly that order), and
+    the end stage is f(t + h, y1) (FSAL)."""
+    A, b, c = tableau(spec)
+    np.testing.assert_allclose(A.sum(axis=1), c, atol=1e-13)
+    for k in range(spec.order):
+        assert abs(b @ c**k - 1 / (k + 1)) < 1e-13, k
     res = order_conditions(A, b, c)
-    for p in range(1, 6):
+    for p in range(1, min(spec.order, 5) + 1):
         np.testing.assert_allclose(res[p], 0, atol=1e-13)
-    c13 = I.DP8_C[:13]
-    for k in range(3):  # E5 = b - b5, E3 = b - b3: zero on the conditions both satisfy
-        assert abs(I.DP8_E5 @ c13**k) < 1e-13
-        assert abs(I.DP8_E3 @ c13**k) < 1e-13
-    assert abs(I.DP8_E3 @ c13**3) > 1e-6  # the 3rd-order estimate is exactly order 3
+    if spec.order < 5:
+        assert np.abs(res[spec.order + 1]).max() > 1e-4
+    np.testing.assert_array_equal(A[spec.end_stage], b)
+    assert c[spec.end_stage] == 1.0
+
+
+@pytest.mark.parametrize("spec", [s for s in SPECS if s.error_rule == "rms"], ids=lambda s: s.name)
+def test_embedded_method_has_the_error_order(spec):
+    """b - E (the embedded weights) is a method of order error_order exactly."""
+    A, b, c = tableau(spec)
+    bhat = b.copy()
+    bhat[:len(spec.b)] -= np.array(spec.error[0])
+    res = order_conditions(A, bhat, c)
+    for p in range(1, spec.error_order + 1):
+        np.testing.assert_allclose(res[p], 0, atol=1e-14)
+    assert np.abs(res[spec.error_order + 1]).max() > 1e-5
+
+
+def test_dop853_error_weights():
+    """E5 and E3 vanish on the low-order quadrature conditions (each is the difference of two
+    methods); the 3rd-order estimate is exactly order 3."""
+    spec = catalog.integrator("dop853")
+    c12 = np.array(spec.c[:12])
+    e5, e3 = (np.array(row) for row in spec.error)
+    for k in range(3):
+        assert abs(e5 @ c12**k) < 1e-13
+        assert abs(e3 @ c12**k) < 1e-13
+    assert abs(e3 @ c12**3) > 1e-6
 
 
 def test_dop853_dense_output_ends_and_accuracy():
@@ -83,12 +99,13 @@ def test_dop853_dense_output_ends_and_accuracy():
     ws.K[:] = rng.normal(size=ws.K.shape)
     ws.dense[:2] = (0.3, 0.01)
     h = ws.dense[1]
-    ws.yb[:] = ws.ya + h * (I.DP8_B @ ws.K[:12])
-    ws.flags[2] = I.DOP853_CODE
+    spec = catalog.integrator("dop853")
+    ws.yb[:] = ws.ya + h * (np.array(spec.b) @ ws.K[:12])
+    ws.flags[2] = spec.code
     c = K.cfg(integrator=Integrator.DOP853)
     stats = np.zeros(8, np.int64)
     contact = np.zeros((0, 3))
-    assert I.dop853_dense_prepare(km, c, contact, ws, stats) == 0
+    assert I.dense_prepare(km, c, contact, ws, stats) == 0
     out = np.zeros(N)
     dense_eval(ws, 0.0, out)
     np.testing.assert_allclose(out, ws.ya, atol=1e-13)
@@ -120,9 +137,10 @@ def test_dopri5_dense_output_matches_scipy_rk45_polynomial():
     from scipy.integrate._ivp.rk import RK45
 
     rng = np.random.default_rng(0)
-    ws = _dense_ws(I.DOPRI5_CODE, rng)
+    spec = catalog.integrator("dopri5")
+    ws = _dense_ws(spec.code, rng)
     h = ws.dense[1]
-    ws.yb[:] = ws.ya + h * (I.DP5_B @ ws.K[:7])
+    ws.yb[:] = ws.ya + h * (np.array(spec.b) @ ws.K[:7])
     out = np.zeros_like(ws.ya)
     for th in [0.0, 0.13, 0.5, 0.77, 1.0]:
         dense_eval(ws, th, out)
@@ -134,7 +152,7 @@ def test_dopri5_dense_output_matches_scipy_rk45_polynomial():
 
 def test_rk4_hermite_dense_output():
     rng = np.random.default_rng(1)
-    ws = _dense_ws(I.RK4_CODE, rng)
+    ws = _dense_ws(catalog.integrator("rk4").code, rng)
     h = ws.dense[1]
     out = np.zeros_like(ws.ya)
     dense_eval(ws, 0.0, out)
@@ -167,7 +185,7 @@ def pendulum_closed_form(t, L=1.0, m=1.0, I=1e-3, g=K.G, theta0=THETA0):
 def _fixed(method, nsteps):
     km, q0, qd0 = K.pendulum(theta0=THETA0, omega0=0.0)
     h = T_ORDER / nsteps
-    if method == Integrator.RK4:
+    if not SPECS[method].adaptive:
         c = K.cfg(integrator=method, step=h, output_step=T_ORDER)
     else:
         c = K.cfg(integrator=method, step=h, h_max=h, rtol=1e30, atol=1e30, output_step=T_ORDER)
@@ -177,14 +195,14 @@ def _fixed(method, nsteps):
     return y
 
 
-@pytest.mark.parametrize("method, steps, order", [
-    (Integrator.RK4, [80, 160, 320, 640], 4.0),
-    (Integrator.DOPRI5, [80, 160, 320, 640], 5.0),
-    (Integrator.DOP853, [28, 40, 56, 80], 8.0),
-])
-def test_convergence_order(method, steps, order):
-    """Fixed-step error of (theta, theta') at T against the closed form.
-    Measured: RK4 3.99, DOPRI5 5.05 (local ratios 5.09, 5.05, 5.03), DOP853 7.88 (local ratios rising towards 8)."""
+@pytest.mark.parametrize("spec", SPECS, ids=IDS)
+def test_convergence_order(spec):
+    """Fixed-step error of (theta, theta') at T against the closed form, for every integrator of the
+    catalog (fewer, longer steps for a high order, whose error reaches roundoff sooner).  Measured:
+    RK4 3.99, DOPRI5 5.05 (local ratios 5.09, 5.05, 5.03), DOP853 7.88 (local ratios rising towards 8),
+    BS3 2.99."""
+    method = Integrator(spec.code)
+    steps, order = ([28, 40, 56, 80] if spec.order >= 7 else [80, 160, 320, 640]), float(spec.order)
     th, om = pendulum_closed_form(T_ORDER)
     err = []
     for n in steps:
@@ -198,7 +216,7 @@ def test_convergence_order(method, steps, order):
     assert err[-1] > 1e-13  # above roundoff
 
 
-@pytest.mark.parametrize("method", [Integrator.DOPRI5, Integrator.DOP853])
+@pytest.mark.parametrize("method", [Integrator(s.code) for s in SPECS if s.adaptive], ids=lambda m: m.name.lower())
 def test_adaptive_method_meets_tolerance(method):
     km, q0, qd0 = K.pendulum(theta0=1.0, omega0=0.0)
     th, om = pendulum_closed_form(1.0, theta0=1.0)
@@ -209,3 +227,35 @@ def test_adaptive_method_meets_tolerance(method):
         errs.append(abs(y[2] + np.pi / 2 - th))
     assert errs[0] < 1e-5 and errs[1] < 1e-8 and errs[2] < 1e-11
     assert errs[0] > errs[1] > errs[2]
+
+
+@pytest.mark.parametrize("spec", [s for s in SPECS if s.dense != "none"], ids=lambda s: s.name)
+def test_every_dense_output_reproduces_both_ends(spec):
+    """Each method's dense output starts at y0 and ends at its own y1 = y0 + h sum b_j k_j."""
+    rng = np.random.default_rng(3)
+    ws = _dense_ws(spec.code, rng)
+    h = ws.dense[1]
+    nb = len(spec.b)
+    ws.yb[:] = ws.ya + h * (np.array(spec.b) @ ws.K[:nb])
+    km, _, _ = K.double_pendulum()
+    c = K.cfg(integrator=Integrator(spec.code))
+    assert I.dense_prepare(km, c, np.zeros((0, 3)), ws, np.zeros(8, np.int64)) == 0
+    out = np.zeros_like(ws.ya)
+    dense_eval(ws, 0.0, out)
+    np.testing.assert_allclose(out, ws.ya, atol=1e-12)
+    dense_eval(ws, 1.0, out)
+    np.testing.assert_allclose(out, ws.yb, atol=1e-12)
+
+
+def test_an_unknown_method_gets_no_dense_output_and_no_run():
+    """No fallback to another method's interpolant: NaN from the dense output, BAD_INPUT (with the
+    reason's code in stats[ST_INFO]) from the time loop."""
+    ws = _dense_ws(len(SPECS), np.random.default_rng(4))
+    out = np.zeros_like(ws.ya)
+    dense_eval(ws, 0.5, out)
+    assert np.all(np.isnan(out))
+    km, q0, qd0 = K.pendulum(theta0=0.1, omega0=0.0)
+    c = K.cfg(integrator=Integrator.DOPRI5)
+    c[CFG_METHOD] = len(SPECS)
+    st, _, _, _, stats, _ = K.run(km, q0, qd0, c, 0.1)
+    assert st == Status.BAD_INPUT and stats[ST_INFO] == I.BAD_METHOD

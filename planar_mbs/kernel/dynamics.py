@@ -377,6 +377,6 @@ def drift_check(ws, qd, stats, pbound, vbound):
     return 0
 
 
-# `rhs` inlined at DOPRI5's one stage call site (`integrators.dopri5_attempt`): one more copy of
+# `rhs` inlined at the one stage call site of every integrator (`integrators.rk_stages`): one more copy of
 # the right-hand side to compile, not one per caller (kernel/jit.py says what was measured)
 rhs_inlined = kernel(rhs.py_func, inline=True)

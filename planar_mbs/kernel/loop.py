@@ -18,7 +18,7 @@ the step falls below h_min (fixed-step RK4 returns it at once).
 
 Workspace flags: [0] outputs of the last step pending, [1] joint whose mode
 switches at the end of the last step (-1 none), [2] integrator of the stored
-dense output, [3] DOP853 dense output of the last step prepared.  ws.dense:
+dense output, [3] its rows (ws.F) prepared for the last step.  ws.dense:
 [0] step start ta, [1] step size h, [2] end of the kept part of the step (an
 event cuts it), [3] time of the last off-grid final sample, [4] error of the
 last accepted step (PI controller).
@@ -31,8 +31,8 @@ from .jit import kernel
 from ..model import CT_IMPACT_VELOCITY, TOUCHING
 from .contact import contact_mode
 from .workspace import (
-    DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_PROJECT_FROM, DN_SPEED, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PASSAGE,
-    FL_PENDING_OUTPUTS, FL_PROJECTING, FL_REG_SEEN, FL_STEP_REG, FL_SWITCH_EXPR, FL_SWITCH_JOINT,
+    DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_PROJECT_FROM, DN_SPEED, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_DENSE_READY,
+    FL_PASSAGE, FL_PENDING_OUTPUTS, FL_PROJECTING, FL_REG_SEEN, FL_STEP_REG, FL_SWITCH_EXPR, FL_SWITCH_JOINT,
 )
 
 from ..model import (
@@ -104,11 +104,8 @@ from .events import event_possible, init_modes, locate_event, locate_switch, swi
 from .expressions import flip_switch, init_switches
 from .forces import force_potential
 from .integrators import (
-    ERROR_EXPONENT,
-    METHOD_ORDER,
-    DOP853_CODE, DOPRI5_CODE, DP5_E, DP8_E5, END_STAGE, FAC_MAX, FAC_MIN, RK4_CODE, SAFETY, dense_eval,
-    dop853_attempt,
-    dop853_dense_prepare, dop853_finish, dopri5_attempt, initial_step, rk4_step,
+    ADAPTIVE, BAD_METHOD, END_STAGE, ERROR_EXPONENT, EXTRA_STAGES, FAC_MAX, FAC_MIN, METHOD_ORDER, RICHARDSON,
+    SAFETY, dense_eval, dense_pending, dense_prepare, end_stage, fixed_step, initial_step, method_ok, rk_trial, scaled_error,
 )
 
 DONE = int(Status.DONE)
@@ -121,9 +118,6 @@ CONTACT_SOLVE = int(Status.CONTACT_SOLVE)
 SINGULAR = int(Status.SINGULAR)
 CONSTRAINTS_LOST = int(Status.CONSTRAINTS_LOST)
 PASSAGE = int(Status.PASSAGE)
-RK4 = RK4_CODE  # method codes: catalog.INTEGRATORS
-DOPRI5 = DOPRI5_CODE
-DOP853 = DOP853_CODE
 layout = kernel(observation_layout)  # the observation row's block offsets, compiled
 
 GRID_TOL = 1e-9  # an output time within GRID_TOL * output_step of a step end belongs to it
@@ -332,8 +326,8 @@ def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t1, y1):
             if nw >= cap:
                 return 0, nw, True
             th = (min(tk, tend) - ta) / h
-            if ws.flags[FL_DENSE_METHOD] == DOP853_CODE:
-                st = dop853_dense_prepare(km, cfg, contact, ws, stats)
+            if dense_pending(ws):
+                st = dense_prepare(km, cfg, contact, ws, stats)
                 if st != 0:
                     return st, nw, False
             dense_eval(ws, th, ws.yt)
@@ -409,10 +403,11 @@ def lost_check(cfg, ws, qd, stats):
 
 
 @kernel
-def rk4_passage_check(km, cfg, t, y, h, contact, ws, stats):
-    """After a fixed RK4 step in which a factor was regularised (a singular position; ws.yb, ws.K hold
-    the step): the same step in two halves.  The positions' difference over 15 (Richardson) is the error of
-    the step; beyond rtol / atol the step cannot resolve the passage and the run stops (PASSAGE)
+def passage_check(method, km, cfg, t, y, h, contact, ws, stats):
+    """After a fixed step (RK4) in which a factor was regularised (a singular position; ws.yb, ws.K hold
+    the step): the same step in two halves.  The positions' difference over 2^p - 1 (Richardson, p the
+    method's order: 15 for RK4) is the error of the step; beyond rtol / atol the step cannot resolve the
+    passage and the run stops (PASSAGE)
     instead of going on wrong, as the adaptive methods' error estimate would shorten the step.
     Leaves the full step in ws.yb, ws.K as before (ws.F rows as scratch).  Returns a Status code."""
     N = y.shape[0]
@@ -420,24 +415,24 @@ def rk4_passage_check(km, cfg, t, y, h, contact, ws, stats):
     for i in range(N):
         F[0, i] = ws.f[i]
         F[1, i] = ws.yb[i]
-    st = rk4_step(km, cfg, t, y, 0.5 * h, contact, ws, stats)
+    st = fixed_step(method, km, cfg, t, y, 0.5 * h, contact, ws, stats)
     if st == 0:
         for i in range(N):
             F[2, i] = ws.yb[i]
-            ws.f[i] = ws.K[4, i]
-        st = rk4_step(km, cfg, t + 0.5 * h, F[2], 0.5 * h, contact, ws, stats)
+            ws.f[i] = ws.K[END_STAGE[method], i]
+        st = fixed_step(method, km, cfg, t + 0.5 * h, F[2], 0.5 * h, contact, ws, stats)
     err = 0.0
     if st == 0:
         rtol = cfg[CFG_RTOL]
         atol = cfg[CFG_ATOL]
         for i in range(N // 2):  # positions: a velocity's noise at the passage itself is not an error of the motion
-            e = abs(ws.yb[i] - F[1, i]) / 15.0 / (atol + rtol * max(abs(y[i]), abs(ws.yb[i])))
+            e = abs(ws.yb[i] - F[1, i]) / RICHARDSON[method] / (atol + rtol * max(abs(y[i]), abs(ws.yb[i])))
             if e > err:
                 err = e
                 stats[ST_INFO] = i
     for i in range(N):
         ws.f[i] = F[0, i]
-    st2 = rk4_step(km, cfg, t, y, h, contact, ws, stats)
+    st2 = fixed_step(method, km, cfg, t, y, h, contact, ws, stats)
     if st != 0:
         return st
     if st2 != 0:
@@ -449,19 +444,10 @@ def rk4_passage_check(km, cfg, t, y, h, contact, ws, stats):
 def _worst_component(method, cfg, y, h, ws):
     """Index of the state component with the largest scaled error estimate in the last
     trial step (what limited the step)."""
-    rtol = cfg[CFG_RTOL]
-    atol = cfg[CFG_ATOL]
     worst = -1.0
     iw = 0
     for i in range(y.shape[0]):
-        e = 0.0
-        if method == DOPRI5:
-            for j in range(7):
-                e += DP5_E[j] * ws.K[j, i]
-        else:
-            for j in range(12):
-                e += DP8_E5[j] * ws.K[j, i]
-        r = abs(h * e) / (atol + rtol * max(abs(y[i]), abs(ws.yb[i])))
+        r = scaled_error(method, cfg, y, h, ws, i)
         if r > worst:
             worst = r
             iw = i
@@ -499,8 +485,10 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     dto = cfg[CFG_OUTPUT_STEP]
     nobs = layout(nb, nj, nd, nc)[OB_SIZE]
     if (cap == 0 or not (dto > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
-            or N != 2 * km.minv.shape[0] or (method != RK4 and method != DOPRI5 and method != DOP853)
-            or (method == RK4 and not (cfg[CFG_STEP] > 0.0))):
+            or N != 2 * km.minv.shape[0]):
+        return BAD_INPUT, 0
+    if not method_ok(method) or (not ADAPTIVE[method] and not (cfg[CFG_STEP] > 0.0)):
+        stats[ST_INFO] = BAD_METHOD  # unknown, without dense output, or fixed-step without a step
         return BAD_INPUT, 0
     for k in range(nc):
         if not law_supported(km.clearance_law[k]):
@@ -541,7 +529,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     budget = clock[3] if clock.shape[0] > 3 else 0.0
     rhs_start = stats[ST_RHS]
     steps_start = stats[ST_STEPS]
-    if method == RK4:
+    if not ADAPTIVE[method]:
         h = cfg[CFG_STEP]
     else:
         h = clock[1]
@@ -561,20 +549,19 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             return BUFFER_FULL, nw
         last = False
         hh = h
-        if method == RK4:
+        if not ADAPTIVE[method]:
             if t + hh >= t_stop - STRETCH * hh:
                 hh = t_stop - t
                 last = True
             ws.flags[FL_STEP_REG] = 0
-            st = rk4_step(km, cfg, t, y, hh, contact, ws, stats)
+            st = fixed_step(method, km, cfg, t, y, hh, contact, ws, stats)
             if st == 0:
                 st = drift_check(ws, ws.yb[n:], stats, DRIFT_POSITION, DRIFT_VELOCITY)  # no error control
             if st == 0 and ws.flags[FL_STEP_REG] == 1:
-                st = rk4_passage_check(km, cfg, t, y, hh, contact, ws, stats)
+                st = passage_check(method, km, cfg, t, y, hh, contact, ws, stats)
             if st != 0:
                 clock[0] = t
                 return st, nw
-            ws.flags[FL_DENSE_METHOD] = RK4_CODE
         else:
             rejected = False
             nonfinite = False
@@ -604,12 +591,9 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                         hh = tk - t
                         cut = True
                 ws.flags[FL_STEP_REG] = 0
-                if method == DOPRI5:
-                    st, err = dopri5_attempt(km, cfg, t, y, hh, contact, ws, stats)
-                else:
-                    st, err = dop853_attempt(km, cfg, t, y, hh, contact, ws, stats)
-                    if st == 0 and err <= 1.0:
-                        st = dop853_finish(km, cfg, t, hh, contact, ws, stats)
+                st, err = rk_trial(method, km, cfg, t, y, hh, contact, ws, stats)
+                if st == 0 and err <= 1.0:
+                    st = end_stage(method, km, cfg, t, hh, contact, ws, stats)
                 if st == CONTACT_SOLVE or st == SINGULAR:
                     # a trial stage went past the end of an implicit law's branch (no force
                     # exists there), or a too long trial step reached a pose where the
@@ -641,7 +625,6 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 nonfinite = not (err < math.inf)
                 fac = FAC_MIN if nonfinite else max(FAC_MIN, SAFETY * err ** -expo)
                 h = hh * min(fac, 1.0)
-            ws.flags[FL_DENSE_METHOD] = method
             ws.flags[FL_PASSAGE] = ws.flags[FL_STEP_REG]
             if lost_check(cfg, ws, ws.yb[n:], stats) != 0:
                 if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
@@ -652,6 +635,8 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 else:
                     clock[0] = t  # the constraints gave way: a driver past a limit position
                     return CONSTRAINTS_LOST, nw
+        ws.flags[FL_DENSE_METHOD] = method
+        ws.flags[FL_DENSE_READY] = 0  # the dense output of this step is not prepared yet
         stats[ST_STEPS] += 1
         tnew = t_stop if last else t + hh
         for i in range(N):
@@ -662,9 +647,9 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         kev = -1
         th = 1.0
         if nc > 0:
-            if method == DOP853:
+            if EXTRA_STAGES[method] > 0:  # screen first: its dense output costs stages
                 if event_possible(km, ws, contact, END_STAGE[method]):
-                    st = dop853_dense_prepare(km, cfg, contact, ws, stats)
+                    st = dense_prepare(km, cfg, contact, ws, stats)
                     if st != 0:
                         clock[0] = t
                         return st, nw
@@ -680,11 +665,10 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                     y[i] = ws.yb[i]
         sev = -1
         if km.expr_switch.shape[0] > 0:
-            if method == DOP853:
-                st = dop853_dense_prepare(km, cfg, contact, ws, stats)
-                if st != 0:
-                    clock[0] = t
-                    return st, nw
+            st = dense_prepare(km, cfg, contact, ws, stats) if dense_pending(ws) else 0
+            if st != 0:
+                clock[0] = t
+                return st, nw
             sev, ths = locate_switch(km, ws, th if kev >= 0 else 1.0 + 1e-9)
             if sev >= 0:  # a comparison switches first: the step ends there, a later contact event waits
                 kev = -1
@@ -712,7 +696,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         st, restart, hcap = _finish_step(km, cfg, t, y, contact, stats, ws)
         if st != 0:
             return st, nw
-        if method != RK4:
+        if ADAPTIVE[method]:
             h = min(h, hcap)
             clock[1] = h
         if not _all_finite(y):

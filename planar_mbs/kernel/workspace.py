@@ -11,14 +11,14 @@ from ..model import JOINT_ROWS, N_STATS, KernelModel, observation_size
 
 # stage and dense-output buffer rows: the most any integrator uses (catalog.INTEGRATORS)
 N_STAGES = max(s.stages for s in catalog.INTEGRATORS)
-N_DENSE_ROWS = max(1, max(s.dense_rows for s in catalog.INTEGRATORS))
+N_DENSE_ROWS = max(3, max(len(s.dense_rows) for s in catalog.INTEGRATORS))  # 3: the passage check's scratch
 
 
 # ws.flags slots (int64) -- the time loop's state between steps and calls
 FL_PENDING_OUTPUTS = 0  # 1: outputs of the last accepted step still to be written
 FL_SWITCH_JOINT = 1  # clearance joint whose contact mode switches at the end of the last step (-1: none)
 FL_DENSE_METHOD = 2  # integrator code of the stored dense output
-FL_DENSE_READY = 3  # 1: DOP853's dense output of the last step is prepared (ws.F)
+FL_DENSE_READY = 3  # 1: the dense-output rows ws.F of the last step are prepared
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
 FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
 FL_PROJECTING = 6  # `projection = auto` has turned the projection on: 1 at a regularised factor, 2 at drift past the bound
@@ -54,7 +54,7 @@ class Workspace(NamedTuple):
     Qe: np.ndarray  # (n,) applied forces
     qdd: np.ndarray  # (n,) accelerations
     K: np.ndarray  # (N_STAGES, 2n) stage derivatives; K[0] = f(ya), K[END_STAGE[method]] = f(yb)
-    F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output coefficients of the last step (DOP853)
+    F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output rows of the last step (`integrators.dense_rows`)
     f: np.ndarray  # (2n,) derivative at the current state (the next step's k1)
     ya: np.ndarray  # (2n,) state at the start of the last step
     yb: np.ndarray  # (2n,) state at the end of the last step
