@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 
+from . import catalog
+
 MAX_T_END = 1e6  # s of simulated time (11.6 days): beyond it a typo is far likelier than a wish
 CLI, API = "cli", "api"
 
@@ -65,11 +67,9 @@ def check_settings(settings, given=(), style: str = API, source: str = "") -> No
         high = MAX_T_END if n == "t_end" else None
         number(n, low=0.0, high=high, hint=f"give a positive time with units, e.g. {_example(n, style, given)}"
                + (f" (at most {high:g} s)" if high else ""))
-    from .model import Integrator
-
     # an rtol outside (0, 1) is a mistake wherever it is given; one in the model file matters where it is used
-    # (RK4 uses no tolerance); the floor of double precision and atol: `simulation.check_tolerances`
-    if settings.integrator != Integrator.RK4 or "rtol" in given:
+    # (a fixed-step method uses no tolerance); the floor of double precision and atol: `simulation.check_tolerances`
+    if _method(settings).adaptive or "rtol" in given:
         number("rtol", low=0.0, high=1.0, high_ok=False,
                hint=f"a relative tolerance lies between 0 and 1, e.g. {_example('rtol', style, given)}")
     for n in ("h_min", "h_max", "alpha", "beta"):
@@ -86,17 +86,20 @@ def check_settings(settings, given=(), style: str = API, source: str = "") -> No
     _check_fixed_step(settings, name, where)
 
 
-def _check_fixed_step(settings, name, where) -> None:
-    """RK4 takes t_end / step steps: more than max_steps is refused before the run, not after it."""
-    from .model import Integrator
+def _method(settings) -> catalog.IntegratorSpec:
+    return catalog.INTEGRATORS[int(settings.integrator)]
 
-    if settings.integrator != Integrator.RK4:
+
+def _check_fixed_step(settings, name, where) -> None:
+    """A fixed-step method takes t_end / step steps: more than max_steps is refused before the run, not after it."""
+    method = _method(settings)
+    if method.adaptive:
         return
     steps = settings.t_end / settings.step
     if steps > settings.max_steps:
         from .errors import ModelError
 
-        raise ModelError(f"RK4 with `{shown(name('step'))} {settings.step:g} s` needs {steps:.3g} steps to reach "
+        raise ModelError(f"{method.name.upper()} with `{shown(name('step'))} {settings.step:g} s` needs {steps:.3g} steps to reach "
                          f"t_end = {settings.t_end:g} s, more than max_steps = {settings.max_steps:,}",
                          where("step"), hint=f"a step of at least {settings.t_end / settings.max_steps:.3g} s "
                          "(a unit typo?), or a larger max_steps")
