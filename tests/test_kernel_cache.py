@@ -157,8 +157,7 @@ def test_hidden_private_class_falls_back_to_numba_public_cache_with_the_same_res
 
 
 def _read_only_tree(base: Path) -> Path:
-    """A copy of the package (and the slider-crank model) nobody running the test can write: the
-    files made read-only, and, for root (who writes anyway), the run done as `nobody`."""
+    """A copy of the package and the slider-crank model with every file and folder read-only."""
     tree = base / "install"
     shutil.copytree(Path(planar_mbs.__file__).resolve().parent, tree / "planar_mbs",
                     ignore=shutil.ignore_patterns("__pycache__"))
@@ -168,54 +167,58 @@ def _read_only_tree(base: Path) -> Path:
     return tree
 
 
-def _as_nobody():
+# TMPDIR the temporary folder even where it cannot be written (tempfile would look for another)
+MBS_TMP = "import os, tempfile; tempfile.tempdir = os.environ['TMPDIR']; " + MBS
+# root writes into read-only folders: for root, the folders are mounted read-only in a mount namespace
+READ_ONLY = 'for d in $RO_FOLDERS; do mount --bind "$d" "$d" && mount -o remount,bind,ro "$d" "$d" || exit 99; done; ' \
+            'exec "$@"'
+
+
+def _read_only_run(cmd: list[str], folders: list[Path], env: dict, cwd: Path) -> subprocess.CompletedProcess:
     if os.geteuid() == 0:
-        os.setgid(65534)
-        os.setgroups([])
-        os.setuid(65534)
+        if shutil.which("unshare") is None:
+            pytest.skip("root writes into read-only folders, and unshare is missing")
+        cmd = ["unshare", "-m", "sh", "-c", READ_ONLY, "sh", *cmd]
+        env = {**env, "RO_FOLDERS": " ".join(str(f) for f in folders)}
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, env=env, cwd=cwd)
+    assert res.returncode != 99, f"mounting read-only failed: {res.stderr}"
+    return res
 
 
 @pytest.mark.slow
-def test_read_only_install_without_a_writable_cache_folder_runs():
+def test_read_only_install_without_a_writable_cache_folder_runs(tmp_path):
     """A read-only install whose user cache folder and NUMBA_CACHE_DIR cannot be written either:
     `mbs run` keeps the compiled kernels in a folder of the temporary directory (one line says
     where; a second run loads them from there), and with no writable temporary folder either it
     compiles them uncached (one line says so); never numba's "cannot cache function"."""
-    import tempfile
-
-    base = Path(tempfile.mkdtemp(prefix="ro-install-"))
+    tree = _read_only_tree(tmp_path)
+    locked, scratch, out = tmp_path / "locked", tmp_path / "tmp", tmp_path / "out"
+    for folder in (locked, scratch, out):
+        folder.mkdir()
+    (locked / "numba").mkdir()
+    locked.chmod(0o555)
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(locked / "numba"),
+           "XDG_CACHE_HOME": str(locked), "HOME": str(locked)}
+    env.pop("PLANAR_MBS_PUBLIC_CACHE", None)
+    results, cached = [], {}
     try:
-        base.chmod(0o755)
-        tree = _read_only_tree(base)
-        locked, scratch, out = base / "locked", base / "tmp", base / "out"
-        for folder in (locked, scratch, out):
-            folder.mkdir()
-        locked.chmod(0o555)
-        scratch.chmod(0o777)
-        out.chmod(0o777)
-        env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(locked / "numba"),
-               "XDG_CACHE_HOME": str(locked), "HOME": str(locked), "TMPDIR": str(scratch)}
-        env.pop("PLANAR_MBS_PUBLIC_CACHE", None)
-        args = ["run", "slider_crank.mbs", "--t-end", "2ms", "-o"]
-        results, cached = [], {}
         for run, tmpdir in enumerate((scratch, scratch, locked)):
-            env["TMPDIR"] = str(tmpdir)
-            res = _mbs(MBS, args + [str(out / f"{run}.h5")], env, cwd=tree, preexec_fn=_as_nobody)
+            cmd = [sys.executable, "-c", MBS_TMP, "run", "slider_crank.mbs", "--t-end", "2ms", "-o", str(out / f"{run}.h5")]
+            res = _read_only_run(cmd, [tree, locked], {**env, "TMPDIR": str(tmpdir)}, tree)
             assert res.returncode == 0, res.stderr
             assert "Traceback" not in res.stderr and "internal error" not in res.stderr
             notes = [line for line in res.stderr.splitlines() if line.startswith("note:")]
-            results.append(_slider_x(out / f"{run}.h5"))
-            files = {p: p.stat().st_mtime_ns for p in scratch.rglob("*") if p.is_file()}
-            assert run != 1 or files == cached  # the second run loaded the kernels: nothing written
-            cached = files
             if tmpdir == scratch:
                 assert len(notes) == 1 and str(scratch / "planar_mbs-numba-") in notes[0], res.stderr
             else:
                 assert len(notes) == 1 and "uncached" in notes[0], res.stderr
-        assert np.array_equal(results[0], results[1]) and np.array_equal(results[0], results[2])
-        assert [p.name.split("-")[:2] for p in scratch.iterdir()] == [["planar_mbs", "numba"]]
+            results.append(_slider_x(out / f"{run}.h5"))
+            files = {p: p.stat().st_mtime_ns for p in scratch.rglob("*") if p.is_file()}
+            assert files and (run != 1 or files == cached)  # the second run loaded the kernels: nothing written
+            cached = files
     finally:
-        for p in [base, *base.rglob("*")]:
-            if not p.is_symlink():
-                p.chmod(0o755 if p.is_dir() else 0o644)
-        shutil.rmtree(base)
+        for p in [tree, *tree.rglob("*"), locked]:
+            p.chmod(0o755 if p.is_dir() else 0o644)
+    assert np.array_equal(results[0], results[1]) and np.array_equal(results[0], results[2])
+    assert [p.name.split("-")[:2] for p in scratch.iterdir()] == [["planar_mbs", "numba"]]
+    assert not any(tree.rglob("__pycache__")) and not any(locked.rglob("*.nbi"))
