@@ -4,6 +4,7 @@ Exit codes (one table, also in README and `mbs --help`):
 
 ====  ==========================================================
 0     success
+1     an internal error (a bug), or the reader of the output went away (`| head`)
 2     bad model file, bad `--set` value or bad command-line usage
 3     the simulation failed (results up to the failure are kept)
 130   interrupted by Ctrl-C (143: by SIGTERM); results so far kept
@@ -21,9 +22,11 @@ import typer
 from planar_mbs import catalog
 
 from .common import internal_error
+from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
 
 _INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
-EPILOG = ("Exit codes: 0 success · 2 bad model or usage · 3 the simulation failed (results kept) · "
+EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
+          "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed (results kept) · "
           "130/143 interrupted by Ctrl-C/SIGTERM (results kept).")
 
 
@@ -37,10 +40,13 @@ app = typer.Typer(
     ),
     epilog=EPILOG,
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,
     rich_markup_mode="rich",
     pretty_exceptions_enable=False,
+    cls=ReadableGroup,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
+use_one_error_style()
 
 
 def _version(value: bool) -> None:
@@ -75,7 +81,7 @@ _CHECK_HELP = (
     f"Integrators: {', '.join(catalog.names(catalog.INTEGRATORS))}.")
 
 
-@app.command(help=_CHECK_HELP)
+@app.command(help=_CHECK_HELP, cls=ReadableCommand)
 def check(model: ModelArg, set_: SetOpt = None) -> None:
     """Compile a model and print it (help text: _CHECK_HELP, from the catalog)."""
     from .check_command import check_model
@@ -85,12 +91,13 @@ def check(model: ModelArg, set_: SetOpt = None) -> None:
         raise typer.Exit(code)
 
 
-@app.command()
+@app.command(cls=ReadableCommand)
 def run(
     model: ModelArg,
     output: Annotated[Optional[Path], typer.Option(
         "--output", "-o", help="HDF5 results file.",
-        show_default="results/<model name>.h5, with the --set values in the name")] = None,
+        show_default="results/<model name>.h5, with the --set values in the name; when that file holds a run with "
+                     "other settings, beside it with the options given in the name (results/a_n=100.h5)")] = None,
     set_: SetOpt = None,
     t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time, with units (\"0.06 s\", 60ms).",
                      show_default="the model's simulate block")] = None,
@@ -119,12 +126,15 @@ def run(
     magnify: Annotated[float, typer.Option(help="Clearance magnification in the rerun drawing.", min=0.0)] = 10.0,
     fps: Annotated[Optional[float], typer.Option(help="rerun frames per simulated second.",
                    show_default="90 per revolution of the driven body")] = None,
-    view_: Annotated[bool, typer.Option("--view", help="Open the rerun viewer on the recording.")] = False,
+    open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the --rerun recording (as "
+                     "`mbs view --open`).")] = False,
+    view_: Annotated[bool, typer.Option("--view", hidden=True, help="The old name of --open.")] = False,
     rerun_signals: Annotated[str, typer.Option("--rerun-signals", help="envelope: per frame the first, smallest "
                              "and largest sample of each signal (peaks kept); full: every output sample.")]
     = "envelope",
     force: Annotated[bool, typer.Option("--force", help="Run even when the estimated output is beyond 10^8 rows "
-                     "or larger than the free disk space (the run then stops cleanly if the disk fills).")] = False,
+                     "or larger than the free disk space (the run then stops cleanly if the disk fills); replace "
+                     "a --rerun file that is not a recording of these results.")] = False,
     until_settled: Annotated[bool, typer.Option("--until-settled", help="Run revolution by revolution until the "
                              "Poincaré points have settled on a periodic orbit (checked every 50 revolutions), at "
                              "most --max-revolutions; see docs/sweeps.md.")] = False,
@@ -142,8 +152,8 @@ def run(
 
     code = run_model(model, output=output, set_=set_, t_end=t_end, revolutions=revolutions, output_step=output_step,
                      per_rev=per_rev, integrator=integrator, rtol=rtol, atol=atol, step=step, quiet=quiet,
-                     rerun=rerun, magnify=magnify, fps=fps, view_=view_, rerun_signals=rerun_signals, force=force,
-                     until_settled=until_settled, max_revolutions=max_revolutions, keep=keep)
+                     rerun=rerun, magnify=magnify, fps=fps, view_=open_ or view_, rerun_signals=rerun_signals,
+                     force=force, until_settled=until_settled, max_revolutions=max_revolutions, keep=keep)
     if code:
         raise typer.Exit(code)
 
@@ -151,10 +161,8 @@ def run(
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
 from .sweep_commands import analyze, sweep  # noqa: E402  (light: imports only typer)
 
-app.command()(plot)
-app.command()(view)
-app.command()(sweep)
-app.command()(analyze)
+for _command in (plot, view, sweep, analyze):
+    app.command(cls=ReadableCommand)(_command)
 
 
 def main() -> None:

@@ -146,12 +146,13 @@ def same_file(a, b) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
-def check_output(path, option: str, inputs=(), others=(), folder: bool = False) -> None:
+def check_output(path, option: str, inputs=(), others=(), folder: bool = False, make_parents: bool = False) -> None:
     """Refuse, before anything runs, an output that would overwrite an input (compared as files),
     that names the same file as another output, or that cannot be written: a folder (or, with
     `folder`, a file), a FIFO or device, a missing or read-only parent folder.
 
-    ``inputs`` and ``others`` are (description, path) pairs."""
+    ``inputs`` and ``others`` are (description, path) pairs; `make_parents`: missing folders are
+    made by the command (as `results/`), so the first existing one is checked instead."""
     import os
     import stat
     from pathlib import Path
@@ -186,7 +187,7 @@ def check_output(path, option: str, inputs=(), others=(), folder: bool = False) 
             raise _option_error(option, f"`{shown}` is not writable", "choose another output, or change its mode")
         return
     parent = path.parent
-    if folder:  # figures' folders are created as needed: find the first one that exists
+    if folder or make_parents:  # folders created as needed: find the first one that exists
         while not os.path.lexists(parent) and parent != parent.parent:
             parent = parent.parent
     if not parent.exists():

@@ -45,8 +45,10 @@ def plot(
         "--output", "-o", help="Directory for the figures.",
         show_default="<results>_plots/ next to the results file")] = None,
     fmt: Annotated[str, typer.Option("--format", "-f", help="png, svg or pdf.")] = "png",
-    skip: Annotated[int, typer.Option(help="Revolutions dropped as transient before Poincaré sampling.",
-                                      min=0)] = 1,
+    transient: Annotated[int, typer.Option("--transient", help="Revolutions dropped at the start before "
+                                           "Poincaré sampling (as `mbs analyze --transient`).", min=0)] = 1,
+    skip: Annotated[Optional[int], typer.Option("--skip", hidden=True, min=0, help="The old name of --transient.")]
+    = None,
     body: Annotated[Optional[str], typer.Option(
         "--clock", help="Body whose revolutions clock the Poincaré section.",
         show_default="the body that turns most, i.e. the driven crank")] = None,
@@ -63,7 +65,7 @@ def plot(
     per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
-    mbs plot a.h5 --poincare slider.vx:slider.ax --skip 2 · mbs plot a.h5 --orbit A -f svg ·
+    mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
     mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
     """
     from planar_mbs.errors import MbsError
@@ -71,6 +73,7 @@ def plot(
 
     from .common import check_choice, check_number, check_output
 
+    skip = transient if skip is None else skip
     try:
         fmt = check_choice(fmt, FORMATS, "--format")
         file = _results_path(results)
@@ -157,6 +160,8 @@ def view(
                                                     "(no envelope).", min=1)] = 1,
     signals_only: Annotated[bool, typer.Option("--signals-only", help="Do not rebuild the model; log the "
                                                "signals, contact events and Poincaré points only.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace the output even when it is not a recording of "
+                                        "these results (another run's).")] = False,
 ) -> None:
     """Turn a results file into a rerun recording (.rrd) and optionally open the viewer.
 
@@ -168,7 +173,7 @@ def view(
     from planar_mbs.errors import MbsError
     from planar_mbs.plot import PlotError
     from planar_mbs.results import read_results
-    from planar_mbs.rerun_log import model_from_results
+    from planar_mbs.rerun_log import check_replace, model_from_results, recording_key
 
     from .common import check_choice, check_number, check_output
 
@@ -179,13 +184,15 @@ def view(
         check_number(signal_rate, "--signal-rate", low=0.0, hint="bins per simulated second, e.g. 2000")
         file = _results_path(results)
         out = output or file.with_suffix(".rrd")
-        check_output(out, "--output", [("the results file", file)])
+        check_output(out, "--output", [("the results file", file)], make_parents=True)
+        key = recording_key(results)
+        check_replace(out, key, force)
         res = read_results(results)
         if not len(res.time):
             raise PlotError(f"error: {results} holds no samples: nothing to record")
         model = None if signals_only else model_from_results(res)
         record_run(res, model, out, magnify=magnify, fps=fps, signal_stride=signal_stride, open_viewer=open_,
-                   signals=signals, signal_rate=signal_rate)
+                   signals=signals, signal_rate=signal_rate, recording_id=key)
     except MbsError as err:
         _fail(err)
     except OSError as err:
@@ -194,7 +201,7 @@ def view(
 
 def record_run(results, model, path, magnify: float = 10.0, fps: float | None = None, signal_stride: int = 1,
                open_viewer: bool = False, quiet: bool = False, signals: str = "envelope",
-               signal_rate: float | None = None):
+               signal_rate: float | None = None, recording_id: str | None = None):
     """Write a rerun recording of `results` (drawn with `model`; None = signals only) to
     `path`, print one summary line, optionally open the viewer.  `mbs run --rerun` calls this
     (`signals="full"` for every sample of every signal, e.g. from a `--rerun-signals full`)."""
@@ -202,7 +209,7 @@ def record_run(results, model, path, magnify: float = 10.0, fps: float | None = 
     from planar_mbs.rerun_log import record_run as _record
 
     info = _record(results, model, path, magnify=magnify, fps=fps, signal_stride=signal_stride,
-                   signals=signals, signal_rate=signal_rate)
+                   signals=signals, signal_rate=signal_rate, recording_id=recording_id)
     if not quiet:
         loop = float(results.attrs.get("wall_time") or 0.0)
         # a share of the time loop only when it is one: short runs pay rerun's fixed start-up cost

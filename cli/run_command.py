@@ -25,6 +25,9 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
               until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as `app.run`'s); the exit code."""
+    from planar_mbs.first_compile import announce_if_cold
+
+    announce_if_cold()  # a first run says at once that it compiles the solver (before reading the model)
     from planar_mbs import simulate
     from planar_mbs.compile import load_model
     from planar_mbs.errors import MbsError, ModelError, SimulationError
@@ -33,6 +36,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     sets = {}
     out = output
     try:
+        _needs_rerun(view_, rerun)
         sets = parse_sets(set_ or [])
         out = output or default_output(model, sets)
         m = load_model(model, sets)
@@ -61,11 +65,15 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
         inputs = [("the model file" if i == 0 else "a file the model includes", f)
                   for i, f in enumerate(m.source_files or [model])]
+        if output is None:
+            out = _beside_another_run(out, m, changes, {
+                "n": revolutions, "t-end": t_end, "per-rev": per_rev, "output-step": output_step,
+                "integrator": integrator, "rtol": rtol, "atol": atol, "step": step})
         make_folder = output is None and not out.parent.exists()  # results/, made once every check passed
         if not make_folder:
             check_output(out, "--output", inputs)
         if rerun is not None:
-            check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)])
+            _check_rerun(rerun, out, inputs, force)
         if not until_settled:
             _check_output_size(m, changes, out, model, force)
         if make_folder:
@@ -82,8 +90,11 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
         if err.results is not None:
             _print_summary(err.results, out)
             if rerun is not None:
-                record_run(err.results, m, rerun, magnify=magnify, fps=fps, open_viewer=view_,
-                           signals=rerun_signals)
+                try:
+                    record_run(err.results, m, rerun, magnify=magnify, fps=fps, open_viewer=view_,
+                               signals=rerun_signals, recording_id=_recording_key(out))
+                except (MbsError, OSError) as rec_err:  # the viewer could not start: said, then the failure
+                    fail_code(rec_err if isinstance(rec_err, MbsError) else f"error: {rec_err}")
         _console(stderr=True).print(f"simulation failed: {err.message}\n"
                                     f"results up to t = {err.time:.6g} s kept in {out} (marked incomplete)",
                                     markup=False)
@@ -99,7 +110,8 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     _print_summary(res, out)
     if rerun is not None:
         try:
-            record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals)
+            record_run(res, m, rerun, magnify=magnify, fps=fps, open_viewer=view_, signals=rerun_signals,
+                       recording_id=_recording_key(out))
         except (MbsError, OSError) as err:  # the results are written; the recording is not
             return fail_code(err if isinstance(err, MbsError) else f"error: {err}")
     return 0
@@ -134,6 +146,30 @@ def record_run(*args, **kwargs):
     return record(*args, **kwargs)
 
 
+def _needs_rerun(view_: bool, rerun: Path | None) -> None:
+    """--open without --rerun cannot act: refused (exit 2) rather than ignored."""
+    from planar_mbs.errors import ModelError
+
+    if view_ and rerun is None:
+        raise ModelError("--open opens the viewer on the run's rerun recording, and no --rerun is given",
+                         "--open", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
+
+
+def _check_rerun(rerun: Path, out: Path, inputs: list, force: bool) -> None:
+    """The --rerun file: a writable place (missing folders are made) that holds no recording of other
+    results, unless --force (`rerun_log.check_replace`)."""
+    from planar_mbs.rerun_log import check_replace, recording_key
+
+    check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)], make_parents=True)
+    check_replace(rerun, recording_key(out), force, "--rerun")
+
+
+def _recording_key(out: Path) -> str:
+    from planar_mbs.rerun_log import recording_key
+
+    return recording_key(out)
+
+
 def _driver_period(m):
     from planar_mbs.analysis import driver_period
 
@@ -147,6 +183,34 @@ def default_output(model: Path, sets: dict[str, str]) -> Path:
 
     tag = "".join(f"_{name}={re.sub(r'[^A-Za-z0-9.+-]', '', value)}" for name, value in sets.items())
     return Path("results") / f"{model.stem}{tag}.h5"
+def _beside_another_run(out: Path, m, changes: dict, given: dict) -> Path:
+    """The default output `out`; or, when it holds a run with other settings (another `-n`, `--t-end`,
+    step or tolerance), a name beside it carrying the options given (results/a_n=100.h5), said on
+    stdout: a default name never replaces the results of a run that differs in more than its time."""
+    import dataclasses
+
+    from planar_mbs.results import read_results
+    from planar_mbs.simulation import run_settings
+
+    if not out.is_file():
+        return out
+    try:
+        before = dict(read_results(out).attrs.get("settings") or {})
+    except Exception:  # noqa: BLE001  (not a results file: the checks of the output deal with it)
+        return out
+    settings = run_settings(m, **changes)
+    now = {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
+    same = all(k in before and (before[k] == now[k] or (isinstance(now[k], float) and math.isclose(before[k], now[k])))
+               for k in ("t_end", "output_step", "integrator", "rtol", "atol", "step"))
+    if same:
+        return out
+    text = lambda v: f"{v:g}" if isinstance(v, float) else str(v)  # noqa: E731  (-n 100 -> n=100)
+    tag = "".join(f"_{opt}={re.sub(r'[^A-Za-z0-9.+-]', '', text(v))}" for opt, v in given.items() if v is not None)
+    beside = out.with_name(f"{out.stem}{tag or '_other'}{out.suffix}")
+    _console().print(f"{out} holds a run with other settings: this one goes to {beside}", markup=False)
+    return beside
+
+
 def _check_output_size(m, changes: dict, out: Path, model: Path, force: bool) -> None:
     """Refuse (exit 2) before running what asks for too many rows or more disk than is free."""
     from planar_mbs.output_size import check_output, estimate
@@ -173,9 +237,13 @@ def _run_until_settled(m, out: Path, max_revolutions: int, quiet: bool, changes:
                      n_contact_events=int(stats[ST_CONTACT_EVENTS]))
     out.unlink(missing_ok=True)
     write_results(str(out), res)
-    text = (f"settled on a periodic orbit at revolution {run.settled_at}" if run.settled_at is not None
-            else f"not settled on a periodic orbit after {run.revolutions} revolutions")
-    _console().print(f"{text}; {run.revolutions} revolutions run", markup=False)
+    from planar_mbs.analysis import analyze, report
+
+    stop = ("stopped: the section settled on a periodic orbit" if run.settled_at is not None
+            else "no periodic orbit found (--max-revolutions)")
+    _console().print(f"{run.revolutions} revolutions run; {stop}", markup=False)
+    for line in report(*analyze(res)):  # the verdict as `mbs analyze` gives it on the file
+        _console().print(line, markup=False)
     return res
 
 
@@ -277,7 +345,7 @@ _OPTIONS = {
     "--rerun": ("rerun", "path", None),
     "--magnify": ("magnify", "float", 0.0),
     "--fps": ("fps", "float", None),
-    "--view": ("view_", "flag", None),
+    "--open": ("view_", "flag", None), "--view": ("view_", "flag", None),  # --view: the old name
     "--rerun-signals": ("rerun_signals", "str", None),
     "--force": ("force", "flag", None),
     "--until-settled": ("until_settled", "flag", None),

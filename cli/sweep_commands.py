@@ -338,7 +338,7 @@ class _SweepProgress:
         last = ""
         if outcome is not None:
             vals = ", ".join(f"{k}={v}" for k, v in outcome.values.items())
-            last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.label()}" if outcome.verdict else "")
+            last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
         self.bar.update(self.task, completed=done, last=last)
 
     def __exit__(self, *exc):
@@ -377,7 +377,7 @@ def analyze(
 
 def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
     from planar_mbs import read_results
-    from planar_mbs.analysis import classify, poincare_section, store_section
+    from planar_mbs.analysis import classify, poincare_section, report, store_section
     from planar_mbs.sweep import read_case_table
 
     from planar_mbs.results import check_results_file, open_results
@@ -399,21 +399,13 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
     verdict = classify(sec)
     con = _console()
     con.print(f"Poincaré section of {results}: {len(sec)} points of {', '.join(sec.names)} "
-              f"({sec.kind}, period {sec.period if sec.period else float('nan'):.6g} s, {sec.method}, "
+              f"({sec.kind}" + (f", period {sec.period:.6g} s" if sec.period else "") + f", {sec.method}, "
               f"transient {sec.transient:g})", markup=False)
     if sec.method == "interpolated":
         con.print("  interpolation error (relative to each signal's spread): "
                   + ", ".join(f"{k} {v:.1e}" for k, v in sec.interp_error.items()), markup=False)
-    if verdict.settled_revolution is not None:
-        con.print(f"settled at revolution {verdict.settled_revolution} (of {int(sec.revolution[-1])}); "
-                  f"classified on the {verdict.n_points} section points after it", markup=False)
-    elif verdict.n_total:
-        con.print(f"not settled after {int(sec.revolution[-1])} revolutions: the last half classified "
-                  "(run longer, e.g. `mbs run --until-settled`)", markup=False)
-    con.print(f"[bold]{verdict.label()}[/]  K = {verdict.K:.3f}   λ = {verdict.lyapunov:.3f} per period   "
-              f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}" +
-              (f"   ({verdict.note})" if verdict.note and (verdict.settled_revolution is not None
-                                                      or verdict.verdict == "undetermined") else ""))
+    for line in report(sec, verdict):  # the one wording of a verdict (run --until-settled prints it too)
+        con.print(line, markup=False)
     if store:
         store_section(file, group, sec, verdict)
         con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)

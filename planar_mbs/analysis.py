@@ -179,6 +179,26 @@ class Verdict:
             return f"periodic ({self.period}T)" if self.period and self.period > 1 else "periodic"
         return self.verdict
 
+    def doubts(self) -> list[str]:
+        """What the verdict cannot vouch for, in short words: too few points, not settled, the
+        indicators disagreeing.  Every command shows them with the verdict (`headline`, `report`)."""
+        out = []
+        if self.verdict == "undetermined":
+            out.append(f"too few points: {self.n_points} of at least {MIN_POINTS}")
+        else:
+            if self.settled_revolution is None and self.n_total:
+                out.append("not settled")
+            if self.n_points < MIN_POINTS:  # the settled part (or last half) alone
+                out.append(f"few points: {self.n_points} classified")
+        if not self.agree and self.verdict != "undetermined":
+            out.append("indicators disagree")
+        return out
+
+    def headline(self) -> str:
+        """The label with its doubts: ``chaotic (not settled)``; the sweep table's verdict."""
+        doubts = self.doubts()
+        return self.label() + (f" ({'; '.join(doubts)})" if doubts else "")
+
     def summary(self) -> str:
         settle = self.settling_text()
         return (f"{self.label()}" + (f", {settle}" if settle else "")
@@ -261,6 +281,28 @@ def analyze(results, signals: Sequence[str] | None = None, **section_options) ->
     """Poincaré section of a run and the verdict on it."""
     sec = poincare_section(results, signals, **section_options)
     return sec, classify(sec)
+
+
+def report(sec: PoincareSection, verdict: Verdict) -> list[str]:
+    """The verdict as `mbs analyze`, `mbs run --until-settled` and the sweep table give it: where the
+    motion settled (or that it did not, or that there are too few points), then the headline
+    (`Verdict.headline`, with its doubts) and the indicators it rests on."""
+    last = int(sec.revolution[-1]) if len(sec) else 0
+    if verdict.verdict == "undetermined":
+        where = (f"too few section points to classify: {verdict.n_points}, at least {MIN_POINTS} are needed "
+                 "(run longer, e.g. `--revolutions 60`)")
+    elif verdict.settled_revolution is not None:
+        where = (f"settled at revolution {verdict.settled_revolution} (of {last}); "
+                 f"classified on the {verdict.n_points} section points after it")
+    else:
+        where = (f"not settled after {last} revolutions: the last half classified "
+                 "(run longer, e.g. `mbs run --until-settled`)")
+    if verdict.verdict == "undetermined":
+        return [where, verdict.headline()]
+    note = verdict.note if verdict.note and verdict.settled_revolution is not None else ""
+    return [where, f"{verdict.headline()}  K = {verdict.K:.3f}   λ = {verdict.lyapunov:.3f} per period   "
+                   f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}"
+                   + (f"   ({note})" if note else "")]
 
 
 # ---------------------------------------------------------------- storage

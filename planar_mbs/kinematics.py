@@ -292,12 +292,25 @@ def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | 
             s = slice(3 * b, 3 * b + 3)
             if np.all(d[s] <= tol[s]) or (what == "velocity" and not np.any(given[s])):
                 continue
-            moved.append(f"`{name}` by {np.max(d[s]):.3g}")
+            moved.append(f"`{name}` by {_change(d[s], tol[s], what)}")
         if moved:
-            out.append(("assembly moved " + ", ".join(moved) + " (m or rad) to close the joints"
+            out.append(("assembly moved " + ", ".join(moved) + " to close the joints"
                         if what == "pose" else "assembly changed the stated velocity of " + ", ".join(moved)
-                        + " (m/s or rad/s): the joints and drivers forbid it"))
+                        + ": the joints and drivers forbid it"))
     return out
+
+
+def _change(d: np.ndarray, tol: np.ndarray, what: str) -> str:
+    """A body's change (|dx|, |dy|, |dφ|) in one unit per kind: the displacement in mm and the turn
+    in degrees (a pose), or m/s and rad/s (a velocity); a part within its tolerance is left out."""
+    shift, turn = float(np.hypot(d[0], d[1])), float(d[2])
+    if what == "pose":
+        parts = [f"{shift * 1e3:.3g} mm" if np.any(d[:2] > tol[:2]) else "",
+                 f"{np.degrees(turn):.3g}°" if d[2] > tol[2] else ""]
+    else:
+        parts = [f"{shift:.3g} m/s" if np.any(d[:2] > tol[:2]) else "",
+                 f"{turn:.3g} rad/s" if d[2] > tol[2] else ""]
+    return " and ".join(p for p in parts if p)
 
 
 def constraint_report(model: Model, q: np.ndarray, t: float = 0.0) -> dict:

@@ -204,7 +204,9 @@ def time_window(results: "Results", t_from: float | None = None, t_to: float | N
                         f"{t[0]:g} s to {t[-1]:g} s)\nhint: choose a window inside the run")
     cut = Results(time=t[mask], signals={}, units=dict(results.units), attrs=dict(results.attrs))
     cut.signals = _WindowSignals(results, mask)
-    cut.attrs["window"] = (float(t[mask][0]), float(t[mask][-1]))
+    # the window as asked (an open end: the run's first or last sample), for titles
+    cut.attrs["window"] = (float(t[mask][0]) if t_from is None else float(t_from),
+                           float(t[mask][-1]) if t_to is None else float(t_to))
     return cut
 
 
@@ -262,9 +264,31 @@ def pretty_unit(unit: str) -> str:
     return _UNIT_PRETTY.get(unit, unit.replace("*", "·").replace("^2", "²").replace("^3", "³"))
 
 
+# what each quantity is, in words (a figure's y label: "slider velocity x (slider.vx) [m/s]")
+QUANTITY_WORDS = {
+    "x": "position x", "y": "position y", "phi": "angle", "vx": "velocity x", "vy": "velocity y",
+    "omega": "angular velocity", "ax": "acceleration x", "ay": "acceleration y", "alpha": "angular acceleration",
+    "fx": "force x", "fy": "force y", "force": "force", "moment": "moment", "torque": "torque", "power": "power",
+    "contact_force": "contact force", "penetration": "penetration", "e": "eccentricity", "ex": "eccentricity x",
+    "ey": "eccentricity y", "impact_velocity": "impact velocity", "in_contact": "in contact",
+    "kinetic_energy": "kinetic energy", "potential_energy": "potential energy", "total_energy": "total energy",
+    "position_error": "position error", "velocity_error": "velocity error",
+}
+
+
 def label(name: str, unit: str) -> str:
     u = pretty_unit(unit)
     return f"{name} [{u}]" if u else name
+
+
+def words_label(name: str, unit: str) -> str:
+    """A y label in words with the signal's name under it: ``slider velocity x`` / ``(slider.vx) [m/s]``
+    (two lines, so that it fits beside a panel of a few inches)."""
+    entity, _, quantity = name.rpartition(".")
+    words = QUANTITY_WORDS.get(quantity)
+    text = f"{entity} {words}\n({name})" if words and entity else name
+    u = pretty_unit(unit)
+    return f"{text} [{u}]" if u else text
 
 
 def axis_values(results: "Results", name: str | None) -> tuple[np.ndarray, str]:
@@ -331,31 +355,71 @@ def _title(results: "Results", width: float = 8.0) -> str:
     if results.attrs.get("window"):
         t0, t1 = results.attrs["window"]
         bits.append(f"t = {t0:.6g} … {t1:.6g} s")
-    import textwrap
+    return wrap_pairs(bits, int(width * 10))  # ~10 characters per inch at 10 pt
 
-    return "\n".join(textwrap.wrap(" · ".join(bits), int(width * 10)))  # ~10 characters per inch at 10 pt
+
+def wrap_pairs(bits: Sequence[str], width: int) -> str:
+    """``bits`` joined with " · " (each bit's own "k = v, k = v" kept), in lines of at most `width`
+    characters broken only between two pairs or two bits, never inside ``key = value``."""
+    units: list[str] = []  # the pieces a line may end after
+    for i, bit in enumerate(bits):
+        pairs = bit.split(", ") if " = " in bit else [bit]
+        for j, pair in enumerate(pairs):
+            last = j == len(pairs) - 1
+            units.append(pair + ("" if last and i == len(bits) - 1 else " ·" if last else ","))
+    lines, line = [], ""
+    for unit in units:
+        if line and len(line) + 1 + len(unit) > width:
+            lines.append(line)
+            line = unit
+        else:
+            line = f"{line} {unit}" if line else unit
+    lines.append(line)
+    return "\n".join(lines)
+
+
+LONG_RUN_REVOLUTIONS = 10  # a time plot of more revolutions marks the start-up and scales to what follows it
+
+
+def startup_end(results: "Results", transient: int = 1, model: "Model | None" = None) -> float | None:
+    """End of the start-up of a long run (more than `LONG_RUN_REVOLUTIONS` revolutions of the turning
+    body): the time of its `transient`-th revolution; None for a short run or one that does not turn."""
+    body = turning_body(results, model)
+    if body is None or f"{body}.phi" not in results or transient < 1:
+        return None
+    from .section import crossings
+
+    times = crossings(results.time, results[f"{body}.phi"])
+    return float(times[transient - 1]) if len(times) > LONG_RUN_REVOLUTIONS else None
 
 
 def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: str | None = None,
-                  title: str | None = None):
-    """One subplot per panel (sharing x); the signals of a panel share its axes."""
+                  title: str | None = None, startup: float | None = None):
+    """One subplot per panel (sharing x); the signals of a panel share its axes.  ``startup`` (s,
+    time plots only): the start-up is shaded and each panel's y range fits what comes after it,
+    so that one start-up impact does not flatten a long run into a band."""
     names = [n for p in panels for n in p]
     check_signals(results, names)
     x, xlabel = axis_values(results, against)
     fig = _figure(8.0, 1.0 + 2.3 * len(panels))
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     scatter = against is not None and results.units.get(against, "") != "rad"
+    degrees = against is not None and results.units.get(against, "") == "rad"  # x in degrees: angles too
+    shown_unit = lambda n: "deg" if degrees and results.units.get(n, "") == "rad" else results.units.get(n, "")  # noqa: E731
     for ax, panel in zip(axes, panels):
-        units = {results.units.get(n, "") for n in panel}
+        units = {shown_unit(n) for n in panel}
         for name in panel:
-            y = _with_breaks(x, results[name], len(results.time))
+            v = np.degrees(results[name]) if shown_unit(name) == "deg" else results[name]
+            y = _with_breaks(x, v, len(results.time))
             if scatter:
                 ax.plot(x, y, ".", ms=1.0, label=name)
             else:
                 xs, ys = envelope(x, y)
                 ax.plot(xs, ys, lw=0.7, label=name)
+        if startup is not None and against is None:
+            _mark_startup(ax, results, panel, startup)
         if len(panel) == 1:
-            ax.set_ylabel(label(panel[0], results.units.get(panel[0], "")))
+            ax.set_ylabel(words_label(panel[0], shown_unit(panel[0])))
         else:
             ax.set_ylabel(f"[{pretty_unit(units.pop())}]" if len(units) == 1 else "")
             ax.legend(loc="upper right", fontsize="small")
@@ -363,6 +427,19 @@ def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: 
     axes[-1].set_xlabel(xlabel)
     fig.suptitle(title if title is not None else _title(results), fontsize="medium")
     return fig
+
+
+def _mark_startup(ax, results: "Results", panel: Sequence[str], startup: float) -> None:
+    """Shade the start-up and fit the y range to the samples after it (5 % margin)."""
+    after = np.asarray(results.time) > startup
+    values = np.concatenate([np.asarray(results[n], float)[after] for n in panel])
+    values = values[np.isfinite(values)]
+    ax.axvspan(float(results.time[0]), startup, color="0.85", lw=0, zorder=0, label="start-up")
+    ax.text(startup, 0.98, " ← start-up (its peaks off scale)", transform=ax.get_xaxis_transform(), ha="left",
+            va="top", fontsize="x-small", color="0.35")
+    if len(values) and np.ptp(values) > 0:
+        pad = 0.05 * np.ptp(values)
+        ax.set_ylim(values.min() - pad, values.max() + pad)
 
 
 def poincare_figure(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
@@ -460,6 +537,9 @@ def parameter_value(text) -> tuple[float, str] | None:
     return (float(m.group(1)), m.group(2).strip()) if m else None
 
 
+SUBPLOT_CHARS = 44  # characters of a title line that fit a 4-inch subplot at the "small" font size
+
+
 def _grid(n: int):
     ncols = min(n, 2 if n <= 4 else math.ceil(math.sqrt(n)))
     return math.ceil(n / ncols), ncols
@@ -476,7 +556,7 @@ def sweep_grid_figure(cases, name: str, against: str | None = None):
         x, xlabel = axis_values(res, against)
         xs, ys = envelope(x, _with_breaks(x, res[name], len(res.time)))
         ax.plot(xs, ys, lw=0.6)
-        ax.set_title(case_label(res, keys, k), fontsize="small")
+        ax.set_title(wrap_pairs([case_label(res, keys, k)], SUBPLOT_CHARS), fontsize="small")
         ax.set_xlabel(xlabel, fontsize="small")
         ax.set_ylabel(label(name, res.units.get(name, "")), fontsize="small")
         ax.grid(True, lw=0.3, alpha=0.6)
@@ -494,7 +574,7 @@ def poincare_grid_figure(cases, x: str, y: str, body: str | None = None, skip: i
     for ax, (k, res) in zip(axes, cases):
         ps = poincare(res, x, y, body, skip)
         ax.plot(ps.x, ps.y, "o", ms=2.5, color="C3")
-        ax.set_title(f"{case_label(res, keys, k)} ({len(ps.t)} points)", fontsize="small")
+        ax.set_title(wrap_pairs([case_label(res, keys, k), f"{len(ps.t)} points"], SUBPLOT_CHARS), fontsize="small")
         ax.set_xlabel(label(x, res.units.get(x, "")), fontsize="small")
         ax.set_ylabel(label(y, res.units.get(y, "")), fontsize="small")
         ax.grid(True, lw=0.3, alpha=0.6)
@@ -659,10 +739,18 @@ def plot_results(
         check_signals(results, [against])
     defaults = not panels and pair is None and not orbit
     if defaults:
+        startup = startup_end(results, skip, model) if window is None else None  # a long run, no window asked
         for fname, names in default_panels(results, model):
-            _save(series_figure(results, [names], against), outdir / f"{stem}_{_slug(fname)}.{fmt}", written)
+            _save(series_figure(results, [names], against, startup=startup),
+                  outdir / f"{stem}_{_slug(fname)}.{fmt}", written)
+        if startup is not None and notes is not None:
+            notes.append(f"a long run: the start-up (to t = {startup:.3g} s, shaded) is off the y scale of the "
+                         "time plots; `--from`/`--to` draws a window")
         orbit = clearance_names(results)
         slider = slider_body(results, model)
+        if slider is None and notes is not None:
+            notes.append("no slider in this mechanism: no slider figures and no Poincaré map; name the signals "
+                         "to draw (`mbs plot FILE BODY.omega`) and the map's (`-p X:Y`)")
         if slider and (body or turning_body(results, model)):
             p = poincare(full, f"{slider}.vx", f"{slider}.ax", body, skip, model)
             if len(p.t):

@@ -320,6 +320,36 @@ def record_run(
     return info
 
 
+def recording_key(results_file) -> str:
+    """The recording id `mbs` gives a recording of the results file `results_file` (``FILE.h5`` or
+    ``FILE.h5:/cases/3``): a digest of its absolute path.  It is written into the .rrd, so that a
+    recording about to be replaced can be told to be of the same results (`check_replace`)."""
+    import hashlib
+
+    file, sep, group = str(results_file).partition(":/")
+    where = str(Path(file).resolve()) + (sep + group if sep else "")
+    return "mbs-" + hashlib.sha256(where.encode()).hexdigest()[:32]
+
+
+def check_replace(path, key: str, force: bool, option: str = "--output") -> None:
+    """Refuse (`PlotError`, exit 2), before anything runs, to replace an existing file at `path` that is
+    not a recording of the same results (its `recording_key` is not in it), unless `force`: a recording
+    of another run is not replaced without a word."""
+    import mmap
+
+    path = Path(path)
+    if force or not path.is_file() or path.stat().st_size == 0:
+        return
+    try:
+        with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+            if data.find(key.encode()) >= 0:
+                return
+    except (OSError, ValueError):
+        pass
+    raise PlotError(f"error: {option} {path} exists and is not a recording of these results (another run's, or "
+                    f"another file)\nhint: give --force to replace it, or another name with {option}")
+
+
 def _part_beside(path: Path) -> Path:
     """The hidden file a recording is written to before it replaces `path`."""
     import secrets
@@ -812,11 +842,31 @@ def _blueprint(results, model, pair):
     )
 
 
+VIEWER_WAIT = 3.0  # s: a viewer still running by then has started (one that cannot start ends in ~0.1 s)
+
+
 def open_viewer(path: str | Path) -> None:
-    """Start the rerun viewer on a recording, detached from this process."""
+    """Start the rerun viewer on a recording, detached from this process.  A viewer that ends
+    within `VIEWER_WAIT` with a failure (no display, no GPU) raises `PlotError` with its exit code
+    and its own last error line: the recording is written, the viewer is not open."""
+    import re
     import subprocess
     import sys
+    import tempfile
 
     env = dict(os.environ, RERUN_TELEMETRY_ENABLED="false")
-    subprocess.Popen([sys.executable, "-m", "rerun", str(path)], env=env, start_new_session=True,
-                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    with tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen([sys.executable, "-m", "rerun", str(path)], env=env, start_new_session=True,
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=log)
+        try:
+            code = proc.wait(VIEWER_WAIT)
+        except subprocess.TimeoutExpired:
+            return  # running: the user's window
+        if code == 0:
+            return
+        log.seek(0)
+        lines = [re.sub(r"\x1b\[[0-9;]*m", "", ln).strip() for ln in log.read().decode(errors="replace").splitlines()]
+    lines = [ln for ln in lines if ln]
+    reason = next((ln for ln in reversed(lines) if ln.lower().startswith("error")), lines[-1] if lines else "")
+    raise PlotError(f"error: the rerun viewer did not start (exit code {code})" + (f": {reason}" if reason else "")
+                    + f"\nhint: the recording {path} is written; open it where there is a display: `rerun {path}`")

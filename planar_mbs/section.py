@@ -92,7 +92,8 @@ def clock_body(results, model=None) -> str | None:
 def slider_body(results, model=None) -> str | None:
     """The body shown as "the slider": the body a translational joint ties to ground (from
     the model when given); else the one body that moves without turning; else a body named
-    like a slider; else the last body."""
+    like a slider; else None (a mechanism without a slider: figures and sections ask for signals,
+    rather than showing another body's motion as the slider's)."""
     if model is not None:
         from .model import JointType
 
@@ -106,15 +107,14 @@ def slider_body(results, model=None) -> str | None:
     if not bodies:
         return None
     if results is None:
-        return bodies[-1]
-    still = [b for b in bodies if f"{b}.x" in results and np.ptp(results[f"{b}.phi"]) < 1e-9
-             and np.ptp(results[f"{b}.x"]) + np.ptp(results[f"{b}.y"]) > 0]
+        still = []
+    else:
+        still = [b for b in bodies if f"{b}.x" in results and np.ptp(results[f"{b}.phi"]) < 1e-9
+                 and np.ptp(results[f"{b}.x"]) + np.ptp(results[f"{b}.y"]) > 0]
     if len(still) == 1:
         return still[0]
     named = [b for b in (still or bodies) if any(w in b.lower() for w in SLIDER_WORDS)]
-    if named:
-        return named[0]
-    return (still or bodies)[-1]
+    return named[0] if named else None
 
 
 def default_signals(results, model=None) -> tuple[str, str]:
@@ -123,8 +123,11 @@ def default_signals(results, model=None) -> tuple[str, str]:
     body = slider_body(results, model)
     names = (f"{body}.vx", f"{body}.ax")
     if body is None or (results is not None and any(n not in results for n in names)):
-        raise AnalysisError(f"no slider signals ({', '.join(names) if body else 'no body'}) to take the "
-                            "Poincaré section of; name two signals with `-p X:Y` (e.g. `-p crank.omega:crank.alpha`)")
+        bodies = _bodies(results) if results is not None else list(model.body_names if model else [])
+        other = next((b for b in reversed(bodies) if b != clock_body(results, model)), "crank")
+        what = f"no slider signals ({', '.join(names)})" if body else "no slider in this mechanism"
+        raise AnalysisError(f"{what} to take the Poincaré section of; name two signals with `-p X:Y` "
+                            f"(e.g. `-p {other}.omega:{other}.alpha`)")
     return names
 
 

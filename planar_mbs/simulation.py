@@ -197,6 +197,12 @@ def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Set
     return dataclasses.replace(model.settings, **changes)
 
 
+# what scipy (solve_ivp's RK45, DOP853), MATLAB (ode45) and Hairer's codes call our integrators: a
+# spelling like `rk45` is closest to `rk4` letter by letter, but means Dormand-Prince 5(4)
+OTHER_INTEGRATOR_NAMES = {"rk45": "dopri5", "ode45": "dopri5", "dopri": "dopri5", "dp5": "dopri5", "dp45": "dopri5",
+                          "rk853": "dop853", "dp8": "dop853", "dopri8": "dop853", "dopri853": "dop853"}
+
+
 def integrator_of(name: str, where: str = "integrator") -> Integrator:
     """The integrator called `name` (catalog.INTEGRATORS); a ModelError naming the valid ones
     (and the closest) otherwise.  `where` labels the error (e.g. "--integrator")."""
@@ -205,7 +211,9 @@ def integrator_of(name: str, where: str = "integrator") -> Integrator:
 
     names = catalog.names(catalog.INTEGRATORS)
     if str(name).lower() not in names:
-        hint = did_you_mean(str(name).lower(), names)
+        ours = OTHER_INTEGRATOR_NAMES.get(str(name).lower())
+        hint = (f"did you mean `{ours}`? (`{name}` in other tools);" if ours
+                else did_you_mean(str(name).lower(), names))
         raise ModelError(f"unknown integrator `{name}`", where,
                          hint=(hint + " " if hint else "") + "choose " + catalog.choices(catalog.INTEGRATORS))
     return Integrator(catalog.integrator(name).code)
@@ -383,6 +391,7 @@ def simulate(
     with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
     Raises `SimulationError` (with ``.results``) on failure.
     """
+    from .first_compile import first_call
     from .kernel import advance, make_workspace
 
     settings = run_settings(model, **settings_changes)
@@ -406,7 +415,7 @@ def simulate(
     table, cols = signal_selection(model, signals, cfg)
 
     # compile (or load from the cache) outside the timed loop, on throw-away copies
-    advance(km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
+    first_call(advance, km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
 
     attrs = {
         "model_source": model.source_text,
@@ -540,6 +549,7 @@ class Simulation:
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
                  **settings_changes):
+        from .first_compile import first_call
         from .kernel import advance, make_workspace
 
         self.model = model
@@ -563,8 +573,8 @@ class Simulation:
         self._wall = 0.0
         self._status = int(Status.DONE)
         self._failure = ""
-        advance(self._km, self._cfg, self._y.copy(), self._clock.copy(), self._contact.copy(),  # compile first
-                self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
+        first_call(advance, self._km, self._cfg, self._y.copy(), self._clock.copy(),  # compile first
+                   self._contact.copy(), self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
         self._ws = make_workspace(self._km)
         self._attrs = {
             "model_source": model.source_text, "model_path": model.source_path, "parameters": model.parameters,

@@ -75,13 +75,14 @@ class Stepper:
     def run_to(self, t_stop: float) -> tuple[np.ndarray, np.ndarray]:
         """Integrate to ``t_stop``; returns the output times and observation rows written
         on the way (the output grid of the settings).  Raises `SimulationError`."""
+        from .first_compile import first_call
         from .kernel import advance
         from .simulation import _failure_message
 
         times, rows = [], []
         while True:
-            status, n = advance(self.model.kernel, self.cfg, self.y, self.clock, self.contact, self.stats,
-                                self.ws, t_stop, self._out_t, self._out)
+            status, n = first_call(advance, self.model.kernel, self.cfg, self.y, self.clock, self.contact,
+                                   self.stats, self.ws, t_stop, self._out_t, self._out)
             if n:
                 times.append(self._out_t[:n].copy())
                 rows.append(self._out[:n].copy())

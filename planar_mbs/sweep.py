@@ -490,7 +490,7 @@ def _write_table(f, rows: list[dict], params: list[str]) -> None:
 def _row(outcome: CaseOutcome) -> dict:
     v = outcome.verdict
     return {"index": outcome.index, "key": outcome.key, "status": outcome.status, "message": outcome.message,
-            "values": outcome.values, "verdict": v.label() if v else "",
+            "values": outcome.values, "verdict": v.headline() if v else "",
             "period": (v.period if v and v.period else np.nan), "K": v.K if v else np.nan,
             "lyapunov": v.lyapunov if v else np.nan, "dimension": v.dimension if v else np.nan,
             "wall_time": outcome.wall_time}

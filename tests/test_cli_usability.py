@@ -54,7 +54,8 @@ def _options():
     group = typer.main.get_command(app)
     for name, command in group.commands.items():
         for p in command.params:
-            if isinstance(p, typer.core.TyperOption) and not p.is_flag and not p.required and p.name != "help":
+            if (isinstance(p, typer.core.TyperOption) and not p.is_flag and not p.required and p.name != "help"
+                    and not p.hidden):  # a hidden option is an old name of another
                 yield name, p
 
 
@@ -211,3 +212,73 @@ def test_run_keep_with_an_option_that_needs_every_signal_is_refused(tmp_path, ot
     r = runner.invoke(app, ["run", str(IDEAL), "-q", "--keep", "slider", "-o", str(tmp_path / "k.h5"), *other])
     assert r.exit_code == 2 and "--keep" in r.output, r.output
     assert not (tmp_path / "k.h5").exists()
+
+
+# ---------------------------------------------------------------- help that reads well, one error style
+@pytest.mark.parametrize("argv", [[], ["run"], ["plot"], ["view"], ["sweep"], ["analyze"], ["check"]])
+def test_help_names_values_in_words(argv):
+    """-h works everywhere; values are named in words (TIME, NAME=VALUE, MODEL), a flag shows no
+    value, and choices are listed as choices; no Python type names."""
+    r = runner.invoke(app, [*argv, "-h"], env={"COLUMNS": "200"})
+    assert r.exit_code == 0, r.output
+    for typer_text in ("<bool>", "<list[str]>", "<str>", "<path>", "<float", "<int", "{model}", "{results}"):
+        assert typer_text not in r.output, (argv, typer_text)
+    if argv == ["run"]:
+        assert "rk4|dopri5|dop853" in r.output and "NAME=VALUE" in r.output and "TIME" in r.output
+        assert "Usage: mbs run [OPTIONS] MODEL" in r.output
+
+
+def test_mbs_help_lists_every_exit_code_and_completion():
+    r = runner.invoke(app, ["--help"], env={"COLUMNS": "300"})
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    table = re.findall(r"^\| (\d+(?:, \d+)*) \|", readme, re.M)
+    codes = [c for row in table for c in row.split(", ")]
+    assert sorted(codes) == ["0", "1", "130", "143", "2", "3"]
+    for code in codes:
+        assert re.search(rf"(^|[ /·]){code}[ /]", r.output.split("Exit codes:")[1]), code
+    assert "--install-completion" in r.output
+
+
+@pytest.mark.parametrize("argv,where", [(["run", "m.mbs", "--per-rev", "0"], "--per-rev"),
+                                        (["run", "m.mbs", "--bogus"], "mbs run"),
+                                        (["plot"], "RESULTS")])
+def test_usage_errors_read_like_every_other_error(argv, where):
+    """click's usage errors in the project's style (`WHERE: error: ...`, a hint), not a box."""
+    r = runner.invoke(app, argv)
+    assert r.exit_code == 2
+    assert r.output.startswith(f"{where}: error: ") and "\nhint: " in r.output and "╭" not in r.output, r.output
+
+
+def test_rk45_means_dopri5():
+    r = runner.invoke(app, ["run", str(IDEAL), "--integrator", "rk45"])
+    assert r.exit_code == 2 and "did you mean `dopri5`?" in r.output
+
+
+def test_one_name_per_idea_old_names_still_work(monkeypatch):
+    """`run --open` as `view --open`, `plot --transient` as `analyze --transient`; the old names
+    (`--view`, `--skip`) still work and are not shown."""
+    from planar_mbs.cli import run_command
+
+    seen = []
+    monkeypatch.setattr(run_command, "run_model", lambda model, **kw: seen.append(kw["view_"]) or 0)
+    for flag in ("--open", "--view"):
+        assert runner.invoke(app, ["run", "m.mbs", "--rerun", "x.rrd", flag]).exit_code == 0
+    assert seen == [True, True]
+    for command, shown, hidden in (("run", "--open", "--view"), ("plot", "--transient", "--skip")):
+        text = runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"}).output
+        assert shown in text and hidden not in text
+
+
+def test_a_default_name_does_not_replace_a_run_with_other_settings(tmp_path, monkeypatch):
+    """results/<model>.h5 of a 2 ms run is kept when a 3 ms run follows: that one goes beside it, its
+    name carrying the option given; the same run again replaces its own file."""
+    monkeypatch.chdir(tmp_path)
+    first = tmp_path / "results" / "slider_crank.h5"
+    assert runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "2ms"]).exit_code == 0
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "3ms"])
+    assert r.exit_code == 0, r.output
+    second = tmp_path / "results" / "slider_crank_t-end=3ms.h5"
+    assert "holds a run with other settings" in r.output and str(second.relative_to(tmp_path)) in r.output
+    assert read_results(first).time[-1] == pytest.approx(2e-3) and read_results(second).time[-1] == pytest.approx(3e-3)
+    r = runner.invoke(app, ["run", str(IDEAL), "-q", "--t-end", "2ms"])
+    assert r.exit_code == 0 and "other settings" not in r.output and sorted(first.parent.glob("*.h5")) == [first, second]

@@ -162,13 +162,24 @@ def test_assembly_changes_are_reported():
     changes = assembly_changes(model, q, qd)
     assert len(changes) == 1 and changes[0].startswith("assembly moved `crank` by")
     assert "`rod`" in changes[0] and "`slider`" in changes[0]
+    # one unit per kind: the shift in mm and the turn in degrees, as computed here from the poses
+    import re
+
+    assert "(m or rad)" not in changes[0]
+    b = model.body_names.index("rod")
+    d = np.abs(q - model.q0)[3 * b:3 * b + 3]
+    shown = re.search(r"`rod` by (\S+) mm and (\S+)°", changes[0])
+    assert shown, changes[0]
+    assert float(shown[1]) == pytest.approx(np.hypot(d[0], d[1]) * 1e3, rel=1e-2)
+    assert float(shown[2]) == pytest.approx(np.degrees(d[2]), rel=1e-2)
     # a stated velocity the driver forbids is reported too
     stated = model.qd0.copy()
     stated[2] = 1.0  # the crank's angular velocity, which the driver sets to 5000 rpm
     model.qd0 = stated
     q, qd = assemble(model)
     changes = assembly_changes(model, q, qd)
-    assert changes[-1].startswith("assembly changed the stated velocity of `crank` by 523")
+    # 5000 rpm = 523.6 rad/s; the crank's centre, 25 mm from its pivot, then moves at 13.09 m/s
+    assert changes[-1].startswith("assembly changed the stated velocity of `crank` by 13.1 m/s and 523 rad/s")
 
 
 def test_offset_beyond_the_clearance_is_refused():

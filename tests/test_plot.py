@@ -49,7 +49,7 @@ def _lines(ax):
 def test_series_figure_plots_the_signals_with_their_labels(results):
     fig = P.series_figure(results, [["slider.vx"], ["A.fx", "A.fy"]])
     ax0, ax1 = fig.axes
-    assert ax0.get_ylabel() == "slider.vx [m/s]" and ax1.get_xlabel() == "time [s]"
+    assert ax0.get_ylabel() == "slider velocity x\n(slider.vx) [m/s]" and ax1.get_xlabel() == "time [s]"
     (line,) = _lines(ax0)
     np.testing.assert_array_equal(line.get_xdata(), results.time)
     np.testing.assert_array_equal(line.get_ydata(), results["slider.vx"])

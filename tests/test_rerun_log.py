@@ -301,3 +301,71 @@ def test_mbs_run_rerun(tmp_path):
     res = read_results(tmp_path / "a.h5")
     t_ns, vx = _series(rrd, "slider.vx")
     _assert_exact_envelope(res, "slider.vx", t_ns, vx, R.frame_rate(res, R.model_from_results(res)))
+
+
+# ---------------------------------------------------------------- viewers that fail, outputs of other runs
+def _viewer_that_fails(tmp_path, monkeypatch):
+    """A stand-in `rerun` module, first on the viewer's path, that fails as rerun does without a display."""
+    fake = tmp_path / "fake" / "rerun"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("")
+    (fake / "__main__.py").write_text("import sys\nprint('\\x1b[33m WARN\\x1b[0m something', file=sys.stderr)\n"
+                                      "print('Error: neither WAYLAND_DISPLAY nor DISPLAY is set.', file=sys.stderr)\n"
+                                      "sys.exit(7)\n")
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path / "fake"))
+
+
+def test_view_open_reports_the_viewers_failure(tmp_path, monkeypatch):
+    """A viewer that cannot start makes `mbs view --open` exit 2 with the viewer's exit code and its
+    own reason; the recording is written."""
+    _viewer_that_fails(tmp_path, monkeypatch)
+    h5 = tmp_path / "v.h5"
+    write_run(h5, n=300)
+    res = runner.invoke(app, ["view", str(h5), "--signals-only", "--open"])
+    assert res.exit_code == 2, res.output
+    assert "exit code 7" in res.output and "neither WAYLAND_DISPLAY nor DISPLAY is set" in res.output
+    assert (tmp_path / "v.rrd").stat().st_size > 0
+
+
+def test_run_view_without_rerun_says_it_cannot_act():
+    from pathlib import Path
+
+    from planar_mbs.cli.run_command import run_model
+
+    model = Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs"
+    assert run_model(model, view_=True) == 2  # refused before anything runs (no kernel, no file)
+
+
+def test_a_recording_of_other_results_is_not_replaced(tmp_path):
+    """`mbs view b.h5 -o a.rrd` where a.rrd records a.h5: refused (exit 2) unless --force; a recording
+    of the same results is replaced; a missing output folder is made."""
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    write_run(a, n=300)
+    write_run(b, n=300, rpm=2500.0)
+    rrd = tmp_path / "deeper" / "still" / "a.rrd"
+    assert runner.invoke(app, ["view", str(a), "-o", str(rrd), "--signals-only"]).exit_code == 0
+    before = rrd.read_bytes()
+    res = runner.invoke(app, ["view", str(b), "-o", str(rrd), "--signals-only"])
+    assert res.exit_code == 2 and "--force" in res.output and rrd.read_bytes() == before
+    assert runner.invoke(app, ["view", str(a), "-o", str(rrd), "--signals-only"]).exit_code == 0
+    assert runner.invoke(app, ["view", str(b), "-o", str(rrd), "--signals-only", "--force"]).exit_code == 0
+    assert rrd.read_bytes() != before
+    notes = tmp_path / "notes.rrd"
+    notes.write_text("my notes")
+    assert runner.invoke(app, ["view", str(a), "-o", str(notes), "--signals-only"]).exit_code == 2
+    assert notes.read_text() == "my notes"
+
+
+def test_run_open_reports_the_viewers_failure(tmp_path, monkeypatch):
+    """`mbs run --rerun --open`: the run and its recording are written, the viewer's failure is said and
+    the exit code is 2 (it was 0, silently)."""
+    from pathlib import Path
+
+    from planar_mbs.cli.app import app as real
+
+    _viewer_that_fails(tmp_path, monkeypatch)
+    model = Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs"
+    res = runner.invoke(real, ["run", str(model), "-q", "--t-end", "1 ms", "-o", str(tmp_path / "a.h5"),
+                               "--rerun", str(tmp_path / "a.rrd"), "--open"])
+    assert res.exit_code == 2 and "exit code 7" in res.output and "DISPLAY is set" in res.output, res.output
+    assert (tmp_path / "a.rrd").stat().st_size > 0 and read_results(tmp_path / "a.h5").complete

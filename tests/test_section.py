@@ -42,11 +42,15 @@ def test_clock_and_slider_from_the_signals():
 
 
 def test_no_slider_asks_for_signals():
-    """With no translating body the rule falls back to the last body (as `mbs plot` does);
-    when that body's signals are not in the file, the error names `-p X:Y`."""
+    """With no translating body (a four-bar) no other body is taken for the slider: the error names
+    `-p X:Y` with a body of the mechanism; a slider whose signals are not in the file, the same."""
     t = np.linspace(0, 1, 101)
     res = _run({"wheel": (0 * t, 0 * t, 20 * t), "arm": (np.cos(t), 0 * t, np.sin(t))}, t)
-    assert default_signals(res) == ("arm.vx", "arm.ax")
-    del res.signals["arm.vx"], res.signals["arm.ax"]
+    assert slider_body(res) is None
+    with pytest.raises(AnalysisError, match=r"no slider in this mechanism.*-p X:Y.*-p arm\.omega:arm\.alpha"):
+        default_signals(res)
+    res = _run({"wheel": (0 * t, 0 * t, 20 * t), "ram": (np.cos(t), 0 * t, 0 * t)}, t)
+    assert default_signals(res) == ("ram.vx", "ram.ax")
+    del res.signals["ram.vx"], res.signals["ram.ax"]
     with pytest.raises(AnalysisError, match="-p X:Y"):
         default_signals(res)

@@ -145,11 +145,60 @@ def test_mbs_run_until_settled_and_analyze_agree(tmp_path):
     assert run.exit_code == 0, run.output
     got = CliRunner().invoke(app, ["analyze", str(out)])
     assert got.exit_code == 0, got.output
-    if "settled on a periodic orbit at revolution" in run.output:
-        rev = int(run.output.split("at revolution ")[1].split(";")[0])
-        assert f"settled at revolution {rev} " in got.output
+    assert _verdict_lines(run.output) == _verdict_lines(got.output)  # one verdict, worded once
+    if "settled on a periodic orbit" in run.output:
+        rev = int(got.output.split("settled at revolution ")[1].split(" ")[0])
         sec = poincare_section(read_results(out))
         tail = sec.array()[sec.revolution >= rev] / np.array([sec.scale[n] for n in sec.names])
         assert any(np.max(np.linalg.norm(tail[p:] - tail[:-p], axis=1)) < 1e-3 for p in range(1, 17))
-    else:
-        assert "not settled" in run.output
+
+
+def _verdict_lines(text: str) -> list[str]:
+    """`analysis.report`'s two lines in a command's output (where it settled, the verdict)."""
+    lines = text.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith(("settled at", "not settled", "too few")))
+    return lines[first:first + 2]
+
+
+# ---------------------------------------------------------------- one verdict, its doubts everywhere
+def test_the_sweep_table_carries_the_verdicts_doubts():
+    """The sweep table's verdict column is `Verdict.headline`: a drift that never settles reads
+    "... (not settled)", too few points "undetermined (too few points ...)"; a settled periodic
+    orbit has no doubt."""
+    from planar_mbs.sweep import CaseOutcome, _row
+
+    n = np.arange(600)
+    drift = classify(np.column_stack([n / 600.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)]))
+    short = classify(np.zeros((5, 2)) + np.arange(5)[:, None])
+    settled = classify(transient_then_periodic(300, 1000, 1))
+    rows = [_row(CaseOutcome(0, "k", {}, "ok", "", None, None, v)) for v in (drift, short, settled)]
+    assert "(not settled" in rows[0]["verdict"]
+    assert rows[1]["verdict"] == "undetermined (too few points: 5 of at least 20)"
+    assert rows[2]["verdict"] == "periodic"
+
+
+def test_mbs_analyze_on_too_few_points_says_so(tmp_path):
+    """Three revolutions: `mbs analyze` says how many points there are and how many it needs, and
+    prints no NaN."""
+    import typer
+
+    from planar_mbs.cli.sweep_commands import analyze
+
+    path = tmp_path / "short.h5"
+    write_results(str(path), fake_long_run(2, 3))
+    app = typer.Typer()
+    app.command()(analyze)
+    out = CliRunner().invoke(app, [str(path)])
+    assert out.exit_code == 0, out.output
+    assert "too few section points to classify: 2, at least 20 are needed" in out.output
+    assert "nan" not in out.output.lower()
+
+
+def test_a_short_classified_part_is_a_doubt():
+    """30 points that do not settle: the last half (15 points) is classified, fewer than MIN_POINTS."""
+    from planar_mbs.analysis import MIN_POINTS
+
+    n = np.arange(30)
+    v = classify(np.column_stack([n / 30.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)]))
+    assert v.n_points == 15 < MIN_POINTS
+    assert "few points: 15 classified" in v.doubts() and "few points: 15 classified" in v.headline()

@@ -1,0 +1,72 @@
+"""Numbers the pages of docs/ state about the program, checked against the program: a page whose
+number drifts from what the program gives fails here."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import planar_mbs as mbs
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = ROOT / "models" / "slider_crank_clearance_a.mbs"
+
+
+def test_the_complete_model_of_the_language_page_is_the_shipped_one():
+    """docs/language.md §11 says its model is shipped as models/slider_crank_clearance_a.mbs: the same
+    settings (integrator, tolerances, output step, end time) and values of the parameters it shows."""
+    text = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
+    section = text[text.index("## 11. A complete model"):text.index("## 12.")]
+    block = re.search(r"```mbs\n(.*?)```", section, re.S)[1]
+    page, shipped = mbs.compile_text(block, "page.mbs"), mbs.load_model(SHIPPED)
+    assert page.settings == shipped.settings
+    assert {k: shipped.parameters.get(k) for k in page.parameters} == page.parameters
+
+
+def test_the_plots_page_states_the_shipped_tolerance():
+    """docs/plots.md's performance section names the tolerance the model ships with."""
+    text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
+    stated = float(re.search(r"it now ships with rtol (\S+?) --", text)[1])
+    assert stated == mbs.load_model(SHIPPED).settings.rtol
+
+
+def test_the_poincare_count_of_the_plots_page():
+    """docs/plots.md: the shipped model run as the page runs it (`--t-end 0.36s`, 30 revolutions at
+    5000 rpm) gives the number of Poincaré points the page states, and the page's revolutions are
+    the run's."""
+    from planar_mbs import plot as P
+
+    text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
+    assert "mbs run models/slider_crank_clearance_a.mbs -o a_5000.h5 --t-end 0.36s" in text
+    revolutions, points = (int(n) for n in re.search(
+        r"The Poincaré map \((\d+) revolutions, the first dropped, so (\d+) points\)", text).groups())
+    res = mbs.simulate(mbs.load_model(SHIPPED), t_end="0.36 s", output_step="100 us")
+    assert revolutions == round(0.36 * 5000 / 60)
+    assert len(P.poincare(res, "slider.vx", "slider.ax").t) == points
+
+
+def test_contact_events_and_onsets_in_the_samples():
+    """docs/plots.md: the run's contact events (onsets the integrator located) against the onsets
+    seen in the output samples: equal at a fine output step, fewer at a coarse one, as the page says
+    (its numbers are these)."""
+    from planar_mbs import plot as P
+
+    text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
+    events, fine, coarse = (int(n) for n in re.search(
+        r"(\d+) events, and\s+(\d+) onsets in the samples at a 10 µs output step, (\d+) at 100 µs", text).groups())
+    model = mbs.load_model(SHIPPED)
+    for step, onsets in (("10 us", fine), ("100 us", coarse)):
+        res = mbs.simulate(model, t_end="24 ms", output_step=step)  # two revolutions at 5000 rpm
+        assert res.attrs["n_contact_events"] == events
+        assert len(P.contact_onsets(res, "A")) == onsets
+
+
+def test_the_readme_poincare_count():
+    """README: the first command (60 revolutions of the shipped model) draws a Poincaré map of the
+    number of points it states."""
+    from planar_mbs import plot as P
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert "--revolutions 60" in text.split("```")[1]  # the first command
+    points = int(re.search(r"a Poincaré map of (\d+) points", text)[1])
+    res = mbs.simulate(mbs.load_model(SHIPPED), revolutions=60, per_rev=90)
+    assert len(P.poincare(res, "slider.vx", "slider.ax").t) == points
