@@ -145,10 +145,11 @@ def test_hidden_private_class_falls_back_to_numba_public_cache_with_the_same_res
         assert len(notes) == 1 and "UserWideCacheLocator" in notes[0] and "public cache" in notes[0], slow.stderr
         assert "Traceback" not in slow.stderr and "internal error" not in slow.stderr
         assert np.array_equal(_slider_x(tmp_path / f"public{run}.h5"), _slider_x(tmp_path / "fast.h5"))
-        files = {p: p.stat().st_mtime_ns for p in (tmp_path / "cache").rglob("*") if p.is_file()}
+        files = {p: p.stat().st_mtime_ns for p in (tmp_path / "cache").glob("planar_mbs-*/**/*") if p.is_file()}
         assert files and (run == 0 or files == cached)  # the second run compiled nothing: nothing written
         cached = files
-    assert [p.name for p in (tmp_path / "cache").iterdir()] == [f"planar_mbs-{SOURCE_HASH[:16]}"]
+    # (first_compile's helper process, which compiles part of the kernels, runs without the hidden class)
+    assert [p.name for p in (tmp_path / "cache").glob("planar_mbs-*")] == [f"planar_mbs-{SOURCE_HASH[:16]}"]
     # the slider of an ideal slider-crank (crank 0.05 m, rod 0.12 m) at the crank's angle
     res = planar_mbs.read_results(tmp_path / "public1.h5")
     phi = np.asarray(res["crank.phi"])
