@@ -159,10 +159,12 @@ def run(
 
 
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
-from .sweep_commands import analyze, sweep  # noqa: E402  (light: imports only typer)
+from .sweep_commands import analyze, route, sweep, sweep_merge, sweep_replay  # noqa: E402  (light: typer)
 
 for _command in (plot, view, sweep, analyze):
     app.command(cls=ReadableCommand)(_command)
+app.command("sweep-replay", hidden=True, cls=ReadableCommand)(sweep_replay)
+app.command("sweep-merge", hidden=True, cls=ReadableCommand)(sweep_merge)
 
 
 def main() -> None:
@@ -171,6 +173,7 @@ def main() -> None:
     MBS_TRACEBACK=1 asks for it."""
     import sys
 
+    route(sys.argv)
     try:
         app()
     except Exception as exc:  # noqa: BLE001  (the last line of defence: never a traceback)

@@ -15,14 +15,14 @@ def check_model(model, sets: list[str]) -> int:
     """Check one model; print its summary or its errors (with file:line:col).  Returns the exit code."""
     from planar_mbs.compile import load_model  # errors worded for --set
     from planar_mbs.errors import MbsError
-    from planar_mbs.kinematics import assemble, assembly_changes, constraint_report
+    from planar_mbs.kinematics import assemble, assembly_changes, constraint_report, start_gaps
 
     try:
         m = load_model(model, parse_sets(sets))
         q, qd = assemble(m)
     except MbsError as err:
         return fail_code(err)
-    _print_model(m, constraint_report(m, q))
+    _print_model(m, {**constraint_report(m, q), "gaps": start_gaps(m, q)})
     _print_output_size(m)
     print_assembly(assembly_changes(m, q, qd))
     return 0
@@ -60,6 +60,10 @@ def _print_model(m, report: dict) -> None:
               f"{'' if report['rank'] == m.nconstraint else ' (rank ' + str(report['rank']) + ')'}, "
               f"{dof} degree{'s' if dof != 1 else ''} of freedom "
               f"({m.nclearance} clearance joint{'s' if m.nclearance != 1 else ''})")
+    if report.get("singular"):
+        con.print(f"the initial pose is a singular position: the constraints lose rank there (rank "
+                  f"{report['rank']}, {report['rank_nearby']} at the poses next to it; a parallelogram with its bars "
+                  "in line, a toggle); no joint is redundant, and the run passes it (projection = auto)")
     if report["redundant"]:
         names = ", ".join(f"`{escape(n)}`" for n in report["redundant"])
         con.print(f"redundant at the initial pose: {names} (rows that repeat what the other joints impose; "
@@ -85,16 +89,25 @@ def _print_model(m, report: dict) -> None:
         joints.add_row(name, "driver", f"{_body(m, i1)} – {_body(m, i2)}", "1")
     con.print(joints)
     if m.nclearance:
-        cl = table("clearance joints", "clearance joint", "bearing – journal", "clearance [mm]", "law",
-                   "K [N/m^n]")
+        cl = table("clearance joints and contacts", "clearance joint", "bearing – journal", "clearance [mm]", "law",
+                   "K [N/m^n]", "at the start")
         for c, name in enumerate(m.clearance_names):
             i1, i2 = k.clearance_body[c]
             law = catalog.LAWS[int(k.clearance_law[c])]
             cl.add_row(name, f"{_body(m, i1)} – {_body(m, i2)}",
                        f"{k.clearance_param[c, CP_CLEARANCE] * 1e3:g}",
                        law.name, "—" if law.group.compliance == "materials"  # no K of F = K d^n
-                       else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}")
+                       else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}", _gap(report, c))
         con.print(cl)
+
+
+def _gap(report: dict, c: int) -> str:
+    """What element c does at the start: its gap, or that it touches (and how deep)."""
+    gaps = report.get("gaps")
+    if gaps is None:
+        return "—"
+    g = float(gaps[c])
+    return f"touching ({-g * 1e6:.3g} µm deep)" if g < 0 else ("touching" if g == 0 else f"gap {g * 1e3:.4g} mm")
 
 
 def _body(m, i: int) -> str:

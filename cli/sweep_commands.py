@@ -124,9 +124,10 @@ def sweep(
     atol: Annotated[Optional[float], typer.Option(help="Absolute tolerance (> 0).",
                                                     show_default="the model's simulate block, else 1e-9")] = None,
     keep: Annotated[Optional[str], typer.Option(
-        "--keep", help="Comma-separated signals to store per case; an entity name (slider) keeps all its "
-        "signals; --keep \"\" stores none (the Poincaré "
-        "section and verdict are kept).", show_default="all")] = None,
+        "--keep", help="Comma-separated signals to store per case besides its Poincaré section, verdict and "
+        "summary statistics (extrema and RMS of every signal); an entity name (slider) keeps all its "
+        "signals; --keep all stores every signal of every sample (large: `mbs sweep replay` reruns any "
+        "case instead).", show_default="none")] = None,
     poincare: PoincareOpt = None,
     period: PeriodOpt = None,
     angle: AngleOpt = None,
@@ -149,10 +150,12 @@ def sweep(
 ) -> None:
     """Run a model for every combination of parameter values, in parallel, into one HDF5 file.
 
-    Each case is stored under /cases/<k>/ as a run would be, with its Poincaré section and the
-    verdict on its motion (periodic, quasi-periodic or chaotic) under /cases/<k>/poincare; the
-    table of cases is /cases_table. Rerunning the same command resumes: finished cases are not
-    run again.
+    Each case is stored under /cases/<k>/ with its Poincaré section and the verdict on its motion
+    (periodic, quasi-periodic or chaotic) under /cases/<k>/poincare, the extrema and RMS of every
+    signal under /cases/<k>/summary and the signals named with --keep; the table of cases is
+    /cases_table. `mbs sweep replay FILE K -o case.h5` reruns case K with every signal; `mbs sweep
+    merge A B -o ALL` merges scans. Rerunning the same command resumes: finished cases are not run
+    again, and a killed sweep loses no finished case.
 
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
@@ -174,7 +177,8 @@ def sweep(
         if t_end is not None and revolutions is not None:
             raise ModelError("give --t-end or --revolutions, not both", "--revolutions")
         section = _section_options(poincare, period, angle, transient, clock, no_section)
-        keep_list = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None  # "": none
+        keep_list = None if keep is not None and keep.strip() == "all" else \
+            [k.strip() for k in (keep or "").split(",") if k.strip()]  # none by default
         _check_sweep_files(model, output, set_ or [], keep_list)
         with _interruptible(), _SweepProgress(quiet) as bar, _cluster(scheduler) as executor:
             summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
@@ -187,6 +191,10 @@ def sweep(
         _console(stderr=True).print(f"interrupted; finished cases are kept in {output}: run the same command "
                                     "again to resume")
         raise typer.Exit(128 + _interruptible.signum(err))
+    finally:
+        from planar_mbs.sweep_server import remove_temp_folder
+
+        remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
     _print_table(summary.rows, [a.name for a in axes])
     for r in summary.rows:
         if r["index"] in summary.failed and r.get("message"):
@@ -317,6 +325,7 @@ class _SweepProgress:
 
     def __init__(self, quiet: bool):
         self.quiet = quiet
+        self.failed = 0
         self.bar = None
         self.task = None
 
@@ -336,9 +345,13 @@ class _SweepProgress:
             self.bar.start()
             self.task = self.bar.add_task("sweep", total=total, completed=done, last="")
         last = ""
+        if outcome is not None and outcome.status != "finished":
+            self.failed += 1
         if outcome is not None:
             vals = ", ".join(f"{k}={v}" for k, v in outcome.values.items())
             last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
+        if self.failed:
+            last = f"{self.failed} failed  {last}"
         self.bar.update(self.task, completed=done, last=last)
 
     def __exit__(self, *exc):
@@ -377,7 +390,7 @@ def analyze(
 
 def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
     from planar_mbs import read_results
-    from planar_mbs.analysis import classify, poincare_section, report, store_section
+    from planar_mbs.analysis import classify, poincare_section, store_section
     from planar_mbs.sweep import read_case_table
 
     from planar_mbs.results import check_results_file, open_results
@@ -393,11 +406,40 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
         params = list(rows[0]["values"]) if rows else []
         _print_table(rows, params)
         return
+    con = _console()
+    stored = _stored_case(file, group) if is_sweep and group else None
+    if stored is not None:  # a case of a scan that kept no signal: its stored section and verdict
+        sec, verdict = stored
+        con.print(f"{results} keeps no signals (`mbs sweep replay {file} {group.strip('/').split('/')[-1]} "
+                  "-o case.h5` runs it again with all of them); its stored section:", markup=False)
+        _print_verdict(con, results, sec, verdict)
+        return
     res = read_results(results)
     signals = opts.pop("signals", None)  # None: the slider, chosen as plots and sweeps do
     sec = poincare_section(res, signals, **opts)
     verdict = classify(sec)
-    con = _console()
+    _print_verdict(con, results, sec, verdict)
+    if store:
+        store_section(file, group, sec, verdict)
+        con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)
+
+
+def _stored_case(file: str, group: str):
+    """(section, verdict) stored for a sweep's case that has no signals; None otherwise."""
+    from planar_mbs.analysis import read_section
+    from planar_mbs.results import open_results
+
+    with open_results(file) as f:
+        g = f.get(group)
+        if g is None or "signals" in g or "poincare" not in g:
+            return None
+        sec, verdict = read_section(g)
+    return (sec, verdict) if verdict is not None else None
+
+
+def _print_verdict(con, results, sec, verdict) -> None:
+    from planar_mbs.analysis import report
+
     con.print(f"Poincaré section of {results}: {len(sec)} points of {', '.join(sec.names)} "
               f"({sec.kind}" + (f", period {sec.period:.6g} s" if sec.period else "") + f", {sec.method}, "
               f"transient {sec.transient:g})", markup=False)
@@ -406,6 +448,65 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
                   + ", ".join(f"{k} {v:.1e}" for k, v in sec.interp_error.items()), markup=False)
     for line in report(sec, verdict):  # the one wording of a verdict (run --until-settled prints it too)
         con.print(line, markup=False)
-    if store:
-        store_section(file, group, sec, verdict)
-        con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)
+
+
+SUBCOMMANDS = {"replay": "sweep-replay", "merge": "sweep-merge"}
+
+
+def route(argv: list[str]) -> None:
+    """``mbs sweep replay ...`` and ``mbs sweep merge ...`` are the commands `sweep_replay` and
+    `sweep_merge` (``sweep`` itself takes a model file first; a model file named ``replay`` in the
+    working folder is still a model)."""
+    if argv[1:2] == ["sweep"] and argv[2:3] and argv[2] in SUBCOMMANDS and not Path(argv[2]).exists():
+        argv[1:3] = [SUBCOMMANDS[argv[2]]]
+
+
+def sweep_replay(
+    scan: Annotated[Path, typer.Argument(help="The sweep's HDF5 file.", show_default=False)],
+    case: Annotated[int, typer.Argument(help="The case's index (the `case` column of `mbs analyze`).",
+                                        show_default=False)],
+    output: Annotated[Path, typer.Option("--output", "-o", help="The case's results file (every signal).",
+                                         show_default=False)],
+) -> None:
+    """Run one case of a sweep again, from what the sweep file records (the model with its includes,
+    the --set values, the settings): the same results as `mbs run` with those settings, bit for bit."""
+    from planar_mbs.errors import MbsError
+    from planar_mbs.results import check_results_file
+    from planar_mbs.sweep import replay_case
+
+    from .common import check_output as _check_output
+
+    try:
+        check_results_file(scan)
+        _check_output(output, "--output", [("the sweep file", scan)])
+        res = replay_case(scan, case, output)
+    except MbsError as err:
+        _fail(err)
+    _console().print(f"case {case}: {res.attrs.get('message', 'finished')} ({len(res.time)} rows) → {output}",
+                     markup=False)
+    if not res.attrs.get("complete", True):
+        raise typer.Exit(ExitCode.SIMULATION_FAILED)
+
+
+def sweep_merge(
+    inputs: Annotated[list[Path], typer.Argument(help="Sweep files of the same model and settings.",
+                                                 show_default=False)],
+    output: Annotated[Path, typer.Option("--output", "-o", help="The merged sweep file.", show_default=False)],
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing output.")] = False,
+) -> None:
+    """Merge sweep files of the same model and settings (e.g. computed on two machines) into one;
+    a case found in two files is refused."""
+    from planar_mbs.errors import MbsError
+    from planar_mbs.results import check_results_file
+    from planar_mbs.sweep import merge_sweeps
+
+    from .common import check_output as _check_output
+
+    try:
+        for p in inputs:
+            check_results_file(p)
+        _check_output(output, "--output", [("a file to merge", p) for p in inputs])
+        n = merge_sweeps(inputs, output, overwrite=overwrite)
+    except MbsError as err:
+        _fail(err)
+    _console().print(f"{n} case(s) from {len(inputs)} files → {output}", markup=False)

@@ -136,6 +136,92 @@ JOINTS: tuple[JointSpec, ...] = (
 # the clearance joint is a force element, not a constraint: its name is a joint type of the language
 CLEARANCE_JOINT = "clearance_revolute"
 
+# ------------------------------------------------------------------ contact elements
+# Force elements written as joints (`joint NAME = TYPE(a (p), b (p)) { ... }`), compiled into one or more
+# contact *pairs*; each pair is a geometry (`kernel/contact.py` computes its penetration, normal, slip and
+# contact points) with a contact law, friction and its own located onsets (kernel/events.py).
+
+
+@dataclass(frozen=True)
+class PairSpec:
+    """A contact geometry of the kernel: what touches what on the first body i and the second body j."""
+
+    code: int  # clearance_param[k, CP_KIND]
+    enum: str
+    name: str
+    penetration: str  # the event function delta (> 0: touching)
+
+
+PAIRS: tuple[PairSpec, ...] = (
+    PairSpec(0, "CIRCLE_IN_CIRCLE", "circle_in_circle",
+             "delta = |P_j - P_i| - (R_i - R_j): a journal (circle) in a bearing (cavity)"),
+    PairSpec(1, "LUBRICATED", "lubricated",
+             "delta = |P_j - P_i| - eps_b c: the film breaks down at eccentricity ratio eps_b"),
+    PairSpec(2, "CIRCLE_ON_LINE", "circle_on_line",
+             "delta = R_j - (P_j - P_i) . m_i: a circle (R_j = 0: a point) against the line through P_i "
+             "with outward normal m_i"),
+    PairSpec(3, "CIRCLE_ON_CIRCLE", "circle_on_circle", "delta = R_i + R_j - |P_j - P_i|: two circles from outside"),
+)
+
+
+@dataclass(frozen=True)
+class ElementSpec:
+    """A contact element of the language: ``name`` as a joint type, the pairs it compiles into
+    (``parts``: the suffix of each pair's signal entity, "" = the element's own name), the
+    settings it takes besides those of every contact element (law, friction, materials)."""
+
+    name: str
+    pair: str  # PairSpec name (the `contact` element's `shape` chooses among several)
+    parts: tuple[str, ...]
+    summary: str
+    fields: dict[str, str]
+    reference: str
+    example: str
+
+
+ELEMENTS: tuple[ElementSpec, ...] = (
+    ElementSpec("clearance_revolute", "circle_in_circle", ("",), "dry revolute clearance joint",
+                {"clearance": "c = R_B - R_J", "bearing_radius": "R_B", "journal_radius": "R_J",
+                 "length": "bearing length"},
+                "Muvengei, Kihiu & Ikua, eqs. 3-16", "clearance_revolute(a (p), b (p)) { ... }"),
+    ElementSpec("lubricated_revolute", "lubricated", ("",),
+                "short journal bearing: hydrodynamic film force (wedge and squeeze), dry contact past "
+                "the breakdown eccentricity ratio",
+                {"clearance": "c = R_B - R_J", "bearing_radius": "R_B", "journal_radius": "R_J",
+                 "length": "bearing length L", "viscosity": "dynamic viscosity mu of the oil",
+                 "breakdown": "eccentricity ratio eps_b where the film breaks down (default 0.95)"},
+                "Flores, Ambrosio, Claro & Lankarani, Mech. Mach. Theory 2006 (Pinkus & Sternlicht short bearing)",
+                "lubricated_revolute(a (p), b (p)) { ... }"),
+    ElementSpec("clearance_translational", "circle_on_line",
+                ("rear_bottom", "rear_top", "front_bottom", "front_top"),
+                "a block of `length` x `width` in a guide `clearance` wider: each corner against the guide "
+                "surface on its side",
+                {"axis": "guide direction (ux, uy) in the guide's frame", "clearance": "guide width - block width",
+                 "length": "block length along the axis", "width": "block width",
+                 "corner_radius": "radius of the block's rounded corners (default 0)"},
+                "Flores, Ambrosio, Claro & Lankarani, Kinematics and Dynamics of Multibody Systems with "
+                "Imperfect Joints (2008), ch. 5",
+                "clearance_translational(guide (p), block (p), axis = (1, 0)) { ... }"),
+    ElementSpec("contact", "circle_on_line", ("",),
+                "contact between body outlines: `shape` = circle_on_line (a point when `radius = 0`), "
+                "circle_on_circle (from outside) or circle_in_circle (a circle in a cavity)",
+                {"shape": "circle_on_line | circle_on_circle | circle_in_circle",
+                 "radius": "radius of the second body's circle (0: a point)",
+                 "first_radius": "radius of the first body's circle or cavity",
+                 "normal": "outward normal (nx, ny) of the first body's line, in its frame"},
+                "Flores & Lankarani, Contact Force Models for Multibody Dynamics (2016)",
+                "contact(a (p), b (p)) { shape = ... }"),
+)
+CONTACT_SHAPES = ("circle_on_line", "circle_on_circle", "circle_in_circle")
+
+
+def pair(name: str) -> PairSpec:
+    return _by_name(PAIRS, name, "contact geometry")
+
+
+def element(name: str) -> ElementSpec:
+    return _by_name(ELEMENTS, name, "contact element")
+
 # ------------------------------------------------------------------ integrators
 
 
@@ -203,7 +289,7 @@ def choices(table) -> str:
 
 def check() -> None:
     """The tables are consistent: codes 0..n-1 in order, names unique."""
-    for table in (LAWS, JOINTS, INTEGRATORS):
+    for table in (LAWS, JOINTS, INTEGRATORS, PAIRS):
         assert [s.code for s in table] == list(range(len(table))), "codes must be 0..n-1 in order"
         assert len(set(names(table))) == len(table), "names must be unique"
         assert len({s.enum for s in table}) == len(table), "enum names must be unique"
@@ -213,6 +299,7 @@ def check() -> None:
         assert set(s.fields) <= {"axis", "angle", "length"}, "the compiler fills axis, angle and length"
     for s in INTEGRATORS:
         assert 0 <= s.end_stage < s.stages
+    assert ELEMENTS[0].name == CLEARANCE_JOINT and {e.pair for e in ELEMENTS} <= set(names(PAIRS))
 
 
 check()
@@ -231,7 +318,7 @@ def docs_lists() -> dict[str, str]:
                        + ("; ".join(f"`{k}`: {v}" for k, v in s.fields.items()) or "—") + " |" for s in JOINTS)
     return {
         "joints": "| type | rows | equations (P = r + A s) | settings |\n| --- | --- | --- | --- |\n" + joints
-                  + f"\n| `{CLEARANCE_JOINT}(a (p), b (p)) {{ ... }}` | 0 | — | a force element, below |",
+                  + "".join(f"\n| `{e.example}` | 0 | — | a force element, below |" for e in ELEMENTS),
         "laws": "| law | group | normal force | reference |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.name}` | {s.group.name} | {s.formula} | {s.reference} |" for s in LAWS),
         "law_groups": "\n".join(

@@ -26,13 +26,14 @@ from .evaluate import (  # noqa: F401  the evaluator's names stay importable fro
     symbol_of, vector_si,
 )
 from .model import (
-    CONTACT_LAW_NAMES, CP_CLEARANCE, CP_EXPONENT, CP_FRICTION, CP_FRICTION_V0, CP_LENGTH,
+    CONTACT_LAW_NAMES, CP_BREAKDOWN, CP_CLEARANCE, CP_EXPONENT, CP_KIND, CP_NX, CP_NY, CP_VISCOSITY, PairKind, CP_FRICTION, CP_FRICTION_V0, CP_LENGTH,
     CP_FRICTION_V1, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS,
     JOINT_ROWS, JP_LENGTH,
     JP_PHI0, N_CLEARANCE_PARAM, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM, ContactLaw,
     INTEGRATOR_NAMES, DriverType, ForceType, Integrator, JointType, KernelModel, Model, MotionType, Settings,
     SourceRef,
 )
+from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
 from .ordering import reorder
 from .parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from .spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
@@ -87,6 +88,12 @@ BODY_FIELDS = {"mass": "kg", "inertia": "kg*m^2", "position": "(x, y) of the cen
                "shape": "bar(length, width) | box(width, height) | circle(radius)"}
 MATERIAL_FIELDS = {"E": "Young's modulus, e.g. 207 GPa", "nu": "Poisson's ratio, e.g. 0.3",
                    "density": "e.g. 7800 kg/m^3"}
+_CONTACT_FIELDS = {  # every contact element (catalog.ELEMENTS) takes these
+    "material": "material of both parts", "law": "contact law name", "restitution": "coefficient of restitution",
+    "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)", "friction": "Coulomb coefficient (default 0)",
+    "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
+    "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
+}
 JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
     **{spec.name: dict(spec.fields) for spec in catalog.JOINTS},
     "clearance_revolute": {
@@ -103,28 +110,37 @@ JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
         "relative_velocity": "initial velocity of the journal centre relative to the bearing centre (vx, vy), "
                              "bearing frame"},
 }
+JOINT_FIELDS["lubricated_revolute"] = {**JOINT_FIELDS["clearance_revolute"],
+                                       **catalog.element("lubricated_revolute").fields}
+JOINT_FIELDS["clearance_translational"] = {**catalog.element("clearance_translational").fields, **_CONTACT_FIELDS}
+JOINT_FIELDS["contact"] = {**catalog.element("contact").fields, **_CONTACT_FIELDS}
+CONTACT_ELEMENTS = tuple(e.name for e in catalog.ELEMENTS)
 JOINT_TYPES = {spec.name: JointType(spec.code) for spec in catalog.JOINTS}
 LAWS = {name: law for law, name in CONTACT_LAW_NAMES.items()}
 LAW_SETTINGS = frozenset(key for g in catalog.LAW_GROUPS for key in g.takes)  # a law's call arguments
 DRIVER_KINDS = ("rotation", "translation")
-DRIVER_FIELDS = {"speed": "constant speed", "motion": "ramp(...) | harmonic(...) | polynomial(...)",
+DRIVER_FIELDS = {"speed": "constant speed",
+                 "motion": "ramp(...) | harmonic(...) | polynomial(...) | an expression of t",
                  "relative_to": "reference body (default ground)", "axis": "axis (ux, uy) (translation)",
                  "initial": "value of the coordinate at t = 0 (default: from the initial pose)"}
 MOTIONS = ("ramp", "harmonic", "polynomial")
-FORCE_KINDS = ("constant", "torque", "spring_damper", "rotational_spring_damper")
+FORCE_KINDS = ("constant", "torque", "spring_damper", "rotational_spring_damper", "expression")
 FORCE_FIELDS = {
     "constant": {"force": "(fx, fy) in the global frame"},
     "torque": {"torque": "e.g. 2 N*m"},
     "spring_damper": {"stiffness": "N/m", "damping": "N*s/m", "length": "free length (default: initial)",
-                      "actuator": "constant actuator force (tension positive)"},
+                      "actuator": "actuator force (tension positive): a constant or an expression"},
     "rotational_spring_damper": {"stiffness": "N*m/rad", "damping": "N*m*s/rad",
-                                 "angle": "free angle (default: initial)", "actuator": "constant torque"},
+                                 "angle": "free angle (default: initial)",
+                                 "actuator": "actuator torque: a constant or an expression"},
+    "expression": {"fx": "force along global x: an expression of t, params and signals",
+                   "fy": "force along global y (the same)", "torque": "torque on the body (the same)"},
 }
 SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalog.INTEGRATORS)), "rtol": "relative tolerance",
               "atol": "absolute tolerance", "step": "RK4 step / first trial step", "h_min": "smallest step",
               "h_max": "largest step", "output_step": "time between outputs",
               "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
-              "projection": "on | off", "max_steps": "step limit"}
+              "projection": "auto | on | off", "max_steps": "step limit"}
 # every name that may be called in a model (the rest are unknown functions)
 _CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle"}
 RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
@@ -244,7 +260,7 @@ class _LayoutPasses:
         self.ideal, self.clearance = [], []
         for st in self._of("joint"):
             jt = st.value.name
-            if jt == "clearance_revolute":
+            if jt in CONTACT_ELEMENTS:
                 self.clearance.append(st)
             elif jt in JOINT_TYPES:
                 self.ideal.append(st)
@@ -252,6 +268,16 @@ class _LayoutPasses:
                 raise st.value.name_pos.error(f"unknown joint type `{jt}`",
                                               hint=did_you_mean(jt, JOINT_FIELDS) or
                                               "joint types: " + ", ".join(JOINT_FIELDS))
+        # contact pairs: one per clearance element, four for a translational clearance joint
+        self.pairs = []
+        for st in self.clearance:
+            parts = catalog.element(st.value.name).parts
+            self.pairs += [(f"{st.name}_{part}" if part else st.name, st) for part in parts]
+        for name, st in self.pairs:
+            if name != st.name and name in self.kind_of:
+                raise (st.name_pos or st.pos).error(
+                    f"the corner `{name}` of `{st.name}` has the name of another element",
+                    hint="rename one of them")
         self.drivers = self._of("driver")
         for st in self.drivers:
             if st.value.name not in DRIVER_KINDS:
@@ -269,7 +295,7 @@ class _LayoutPasses:
     def pass_size(self):
         """Counts and first constraint rows: joints in order, then drivers (one row each)."""
         self.nbody, self.njoint = len(self.bodies), len(self.ideal)
-        self.ndriver, self.nclear, self.nforce = len(self.drivers), len(self.clearance), len(self.forces)
+        self.ndriver, self.nclear, self.nforce = len(self.drivers), len(self.pairs), len(self.forces)
         types = [JOINT_TYPES[s.value.name] for s in self.ideal]
         rows = JOINT_ROWS[np.array(types, dtype=np.int64)] if types else np.zeros(0, np.int64)
         self.joint_row = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64) if types \
@@ -309,8 +335,10 @@ class _LayoutPasses:
             self._sigma(st.name, st.name_pos)
         for k, st in enumerate(self.ideal):
             self._fill_joint(k, st)
-        for k, st in enumerate(self.clearance):
-            self._fill_clearance(k, st)
+        self.clearance_assembly = []
+        for st in self.clearance:
+            self._fill_element(len(self.clearance_assembly), st)
+        self.programs = Programs(self.ev, self._expression_context())
         for k, st in enumerate(self.drivers):
             self._fill_driver(k, st)
         for k, st in enumerate(self.forces):
@@ -319,6 +347,15 @@ class _LayoutPasses:
         if g is not None:
             self.a["gravity"][:] = vector_si(self.ev, g.value, U.ACCELERATION, "")
         self.settings = self._settings(self.elements.get("simulate"))
+
+    def _expression_context(self) -> Context:
+        """What the expressions of loads and motions may name (`expressions.Context`)."""
+        a = self.a
+        clearance = {st.name: (int(a["clearance_body"][k, 0]), tuple(a["clearance_point"][k, 0]),
+                               int(a["clearance_body"][k, 1]), tuple(a["clearance_point"][k, 1]),
+                               float(a["clearance_param"][k, CP_CLEARANCE]))
+                     for k, st in enumerate(self.clearance)}
+        return Context(self.body_id, self.q0, self.qd0, clearance, self.kind_of)
 
     def _fields(self, st: Statement, label: str, allowed: dict, call: Call | None = None) -> Fields:
         extra = tuple(Field(k.name, k.value, k.pos) for k in call.kwargs) if call else ()
@@ -512,9 +549,22 @@ class _ClearancePass:
                               hint=f"e.g. `{key} = steel` with `material steel {{ E = 207 GPa  nu = 0.3 }}`")
         return v.name, e.pos
 
+    def _fill_element(self, k: int, st: Statement):
+        """The contact pairs of one contact element, from pair k on (catalog.ELEMENTS)."""
+        kind = st.value.name
+        if kind in ("clearance_revolute", "lubricated_revolute"):
+            self._fill_clearance(k, st)
+        elif kind == "clearance_translational":
+            self._fill_translational(k, st)
+        else:
+            self._fill_contact(k, st)
+
     def _fill_clearance(self, k: int, st: Statement):
-        """A revolute clearance joint: a force element (Muvengei et al. §II.A–C), stiffness from eq. 18."""
-        label = f"clearance joint `{st.name}`"
+        """A revolute clearance joint: a force element (Muvengei et al. §II.A–C), stiffness from eq. 18;
+        lubricated, it adds the short-bearing film (Flores et al. 2006) and its dry contact begins at
+        the breakdown eccentricity ratio."""
+        lubricated = st.value.name == "lubricated_revolute"
+        label = f"{'lubricated' if lubricated else 'clearance'} joint `{st.name}`"
         bi, pi, bj, pj = self._two_refs(st, label)
         f = self._clearance_fields(st, label)
         name = f.symbol("law", list(LAWS))
@@ -532,6 +582,109 @@ class _ClearancePass:
         self.a["clearance_body"][k] = (bi, bj)
         self.a["clearance_point"][k] = (pi, pj)
         self.a["clearance_law"][k] = int(law)
+        self.clearance_assembly.append(("revolute",))
+        if lubricated:
+            p[CP_KIND] = int(PairKind.LUBRICATED)
+            if not length > 0:
+                raise f.missing("length")
+            p[CP_VISCOSITY] = f.scalar("viscosity", U.VISCOSITY, positive=True)
+            eb = p[CP_BREAKDOWN] = f.scalar("breakdown", U.NUMBER, 0.95)
+            if not 0 < eb < 1:
+                raise f.expr("breakdown").pos.error(
+                    f"the breakdown eccentricity ratio must lie in (0, 1), got {f.expr('breakdown').pos.text}",
+                    hint="the film breaks down before the journal touches the bearing (ratio 1), e.g. 0.95")
+
+    def _contact_law(self, f: Fields, st: Statement, label: str, r_eff: float):
+        """(law, K, n, c_e, sigma) of a contact element of a plane geometry: a cylindrical law needs a
+        bearing, and without `stiffness` K = 4 / (3 (sigma_1 + sigma_2)) sqrt(R) (Hertz, a circle of
+        effective radius R on a plane or on another circle; no default for a sharp corner, R = 0)."""
+        name = f.symbol("law", list(LAWS))
+        group = catalog.law(name).group
+        if group.compliance == "materials":
+            raise f.expr("law").pos.error(f"law {name} is for a journal in a bearing; {label} is no bearing",
+                                          hint="use hertz or a dissipative law, e.g. lankarani_nikravesh")
+        sigma_sum = self._clearance_sigma(f, st, label)
+        if not f.has("stiffness") and not r_eff > 0:
+            raise (st.name_pos or st.pos).error(f"{label} touches at a sharp corner: give its `stiffness`",
+                                                hint="e.g. `stiffness = 1e9` (N/m^1.5), or a `corner_radius`")
+        if not f.has("stiffness") and sigma_sum == 0:
+            raise (st.name_pos or st.pos).error(f"{label} needs `material` (or `stiffness`)",
+                                                hint="e.g. `material = steel`")
+        # the bearing radii only set _clearance_law's default stiffness, replaced here
+        K, n, ce = self._clearance_law(f, st, label, name, group, 2.0, 1.0, sigma_sum, 0.0)
+        if not f.has("stiffness"):
+            K = 4.0 / (3.0 * sigma_sum) * math.sqrt(r_eff)
+        return LAWS[name], K, n, ce, sigma_sum
+
+    def _fill_pair(self, k: int, kind: int, bodies, points, law, K, n, ce, sigma, f: Fields, **cols):
+        p = self.a["clearance_param"][k]
+        p[CP_KIND], p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = kind, K, n, ce, sigma
+        for col, v in cols.items():
+            p[globals()[col]] = v
+        self._clearance_friction(f, p)
+        self.a["clearance_body"][k] = bodies
+        self.a["clearance_point"][k] = points
+        self.a["clearance_law"][k] = int(law)
+
+    def _fill_translational(self, k: int, st: Statement):
+        """A block of `length` x `width` in a guide `clearance` wider (Flores et al. 2008, ch. 5): four
+        pairs, each corner (a circle of `corner_radius`, 0: sharp) against the guide surface on its side."""
+        label = f"translational clearance joint `{st.name}`"
+        bi, pi, bj, pj = self._two_refs(st, label)
+        f = self._clearance_fields(st, label)
+        ax = np.array(self._unit_axis(f, "axis"))
+        cl = f.scalar("clearance", U.LENGTH, positive=True)
+        length = f.scalar("length", U.LENGTH, positive=True)
+        width = f.scalar("width", U.LENGTH, positive=True)
+        rc = f.scalar("corner_radius", U.LENGTH, 0.0, nonneg=True)
+        if not cl < width:
+            raise f.expr("clearance").pos.error(f"the clearance of {label} must be smaller than the block's width",
+                                                hint="a corner could then reach the far guide surface")
+        if not 2 * rc < min(length, width):
+            raise f.expr("corner_radius").pos.error("the corners' radius must be less than half the block's sides")
+        law, K, n, ce, sigma = self._contact_law(f, st, label, rc)
+        phi0 = 0.0  # the block's sides lie along `axis` in its own frame too: aligned at equal angles
+        ab = ax
+        ng, nb = np.array([-ax[1], ax[0]]), np.array([-ab[1], ab[0]])
+        half = 0.5 * (width + cl)
+        for i, (sa, sn) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
+            line = np.asarray(pi) + sn * half * ng
+            corner = np.asarray(pj) + sa * (0.5 * length - rc) * ab + sn * (0.5 * width - rc) * nb
+            self._fill_pair(k + i, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (line, corner), law, K, n, ce, sigma, f,
+                            CP_CLEARANCE=cl, CP_R_JOURNAL=rc, CP_NX=-sn * ng[0], CP_NY=-sn * ng[1], CP_LENGTH=length)
+            self.clearance_assembly.append(
+                ("translational", bi, bj, tuple(pi), tuple(pj), tuple(ax), phi0, st.name) if i == 0 else ("none",))
+
+    def _fill_contact(self, k: int, st: Statement):
+        """Contact between two bodies' outlines: a circle (or point) on a line, two circles from outside,
+        or a circle in a cavity."""
+        label = f"contact `{st.name}`"
+        bi, pi, bj, pj = self._two_refs(st, label)
+        f = self._clearance_fields(st, label)
+        shape = f.symbol("shape", list(catalog.CONTACT_SHAPES))
+        takes = {"circle_on_line": ("normal", "radius"), "circle_on_circle": ("radius", "first_radius"),
+                 "circle_in_circle": ("radius", "first_radius")}[shape]
+        for key in ("normal", "radius", "first_radius"):
+            if f.has(key) and key not in takes:
+                raise f.expr(key).pos.error(f"shape {shape} takes no `{key}`", hint="it takes " + _chain(takes))
+        if shape == "circle_on_line":
+            r = f.scalar("radius", U.LENGTH, 0.0, nonneg=True)
+            m = self._unit_axis(f, "normal")
+            law, K, n, ce, sigma = self._contact_law(f, st, label, r)
+            self._fill_pair(k, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (pi, pj), law, K, n, ce, sigma, f,
+                            CP_R_JOURNAL=r, CP_NX=m[0], CP_NY=m[1])
+        else:
+            r = f.scalar("radius", U.LENGTH, positive=True)
+            r1 = f.scalar("first_radius", U.LENGTH, positive=True)
+            inside = shape == "circle_in_circle"
+            if inside and not r < r1:
+                raise f.expr("radius").pos.error(f"the circle (radius {r:g} m) must be smaller than the cavity "
+                                                 f"(first_radius {r1:g} m)")
+            law, K, n, ce, sigma = self._contact_law(f, st, label, r * r1 / (r1 - r if inside else r1 + r))
+            kind = PairKind.CIRCLE_IN_CIRCLE if inside else PairKind.CIRCLE_ON_CIRCLE
+            self._fill_pair(k, int(kind), (bi, bj), (pi, pj), law, K, n, ce, sigma, f,
+                            CP_R_BEARING=r1, CP_R_JOURNAL=r, CP_CLEARANCE=r1 - r if inside else 0.0)
+        self.clearance_assembly.append(("none",))
 
     def _clearance_start(self, f: Fields, k: int, cl: float):
         """The journal's initial `offset` and `relative_velocity` (bearing frame), when given."""
@@ -549,23 +702,24 @@ class _ClearancePass:
         """The joint's fields, with the settings a law call carries
         (``law = lankarani_nikravesh(restitution = 0.9)``) added to them."""
         c: Call = st.value
-        f = self._fields(st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT], c)
+        allowed = JOINT_FIELDS[c.name]
+        f = self._fields(st, label, allowed, c)
         if not f.has("law"):
             return f
         lv = self.ev.value(f.expr("law"))
         if not isinstance(lv, CallVal):
             return f
         law_call = lv.call
-        allowed = LAW_SETTINGS  # the chosen law's group checks them later
+        settings = LAW_SETTINGS  # the chosen law's group checks them later
         extra = []
         for kw in law_call.kwargs:
-            if kw.name not in allowed:
+            if kw.name not in settings:
                 raise kw.pos.error(f"unknown argument `{kw.name}` of the contact law",
-                                   hint=did_you_mean(kw.name, allowed) or "arguments: " + ", ".join(sorted(allowed)))
+                                   hint=did_you_mean(kw.name, settings) or "arguments: " + ", ".join(sorted(settings)))
             extra.append(Field(kw.name, kw.value, kw.pos))
         if law_call.args:
             raise law_call.pos.error("contact law arguments are named, e.g. `restitution = 0.9`")
-        return Fields(self.ev, st, label, JOINT_FIELDS[catalog.CLEARANCE_JOINT],
+        return Fields(self.ev, st, label, allowed,
                       tuple(Field(kw.name, kw.value, kw.pos) for kw in c.kwargs) + tuple(extra))
 
     def _clearance_radii(self, f: Fields, st: Statement, label: str) -> tuple[float, float, float]:
@@ -715,11 +869,17 @@ class _DriverPass:
                     f"{label} needs one motion",
                     hint="`speed = ...`, `ramp(speed = ..., time = ...)`, `harmonic(amplitude = ..., "
                          "frequency = ...)` or `polynomial(c0, c1, ...)`")
-            mtype, mp = self._motion(motions[0], coord, rate, p0)
+            e = motions[0]
+            if isinstance(e, Call) and e.name not in EXPRESSION_FUNCTIONS or \
+                    isinstance(e, Name) and e.name in self.ev.params:
+                mtype, mp = self._motion(e, coord, rate, p0)
+            else:  # an expression of t: its program, derivatives by dual numbers
+                mtype, mp = MotionType.EXPRESSION, [self.programs.program(e, coord, label, state=False)]
         if f.has("initial"):
-            if mtype == MotionType.POLYNOMIAL:
-                raise f.expr("initial").pos.error("`initial` does not apply to a polynomial; its c0 is the start value",
-                                                  hint="remove `initial` and set c0")
+            if mtype in (MotionType.POLYNOMIAL, MotionType.EXPRESSION):
+                raise f.expr("initial").pos.error("`initial` does not apply to a polynomial or an expression; "
+                                                  "its value at t = 0 is the start value",
+                                                  hint="remove `initial`")
             mp[0] = f.scalar("initial", coord)
         a["driver_motion"][k] = int(mtype)
         a["driver_motion_param"][k, :len(mp)] = mp
@@ -729,7 +889,8 @@ class _DriverPass:
         if not isinstance(v, CallVal) or v.call.name not in MOTIONS:
             name = v.call.name if isinstance(v, CallVal) else e.pos.text
             raise e.pos.error(f"unknown motion `{name}`",
-                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial")
+                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial, or an "
+                                                                  "expression of t (`30 deg * sin(2 * pi * 1 Hz * t)`)")
         c = v.call
         if c.name == "polynomial":
             if c.kwargs or not 1 <= len(c.args) <= N_MOTION_PARAM:
@@ -779,22 +940,54 @@ class _ForcePass:
             a["force_point"][k, 0] = p
             a["force_param"][k, :len(value)] = value
             return
+        if c.name == "expression":
+            return self._fill_expression_force(k, st, c, f, label)
         rotational = c.name == "rotational_spring_damper"
         bi, pi, bj, pj = self._two_refs(st, label, point=not rotational)
         if rotational:
             free0 = self._angle0(bj) - self._angle0(bi)
             params = (f.scalar("stiffness", U.ROT_STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.ROT_DAMPING, 0.0, nonneg=True),
-                      f.scalar("angle", U.ANGLE, free0), f.scalar("actuator", U.TORQUE, 0.0))
+                      f.scalar("angle", U.ANGLE, free0), *self._actuator(f, U.TORQUE, label))
         else:
             free0 = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
             params = (f.scalar("stiffness", U.STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.DAMPING, 0.0, nonneg=True),
-                      f.scalar("length", U.LENGTH, free0, nonneg=True), f.scalar("actuator", U.FORCE, 0.0))
+                      f.scalar("length", U.LENGTH, free0, nonneg=True), *self._actuator(f, U.FORCE, label))
         a["force_type"][k] = int(ForceType.ROTATIONAL_SPRING_DAMPER if rotational else ForceType.SPRING_DAMPER)
         a["force_body"][k] = (bi, bj)
         a["force_point"][k] = (pi, pj)
         a["force_param"][k] = params
+
+    def _actuator(self, f: Fields, dim: U.Dim, label: str) -> tuple[float, float]:
+        """(constant actuator, 1 + result row of its expression or 0): a constant stays a number, an
+        expression of t or the state becomes a load's program (`expressions`)."""
+        e = f.expr("actuator")
+        if e is None:
+            return 0.0, 0.0
+        value, prog = self.programs.constant_or_program(e, dim, f"{label}'s `actuator`")
+        return (value, 0.0) if prog is None else (0.0, float(self.programs.result_row(prog) + 1))
+
+    def _fill_expression_force(self, k: int, st: Statement, c: Call, f: Fields, label: str):
+        """`expression(body (p), fx = ..., fy = ..., torque = ...)`: a program per component given."""
+        if len(c.args) != 1:
+            raise c.pos.error(f"`expression(body, fx = ..., fy = ..., torque = ...)` acts on one body",
+                              hint="e.g. `expression(slider, fx = if(slider.vx < 0 m/s, -800 N, 0 N))`")
+        b, p = self._ref(c.args[0], label, point=True)
+        if b < 0:
+            raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
+        dims = {"fx": U.FORCE, "fy": U.FORCE, "torque": U.TORQUE}
+        if not any(f.has(key) for key in dims):
+            raise c.pos.error(f"{label} needs `fx`, `fy` or `torque`",
+                              hint="e.g. `fx = -800 N * step(slider.vx, -0.01 m/s, 1, 0 m/s, 0)`")
+        progs = [self.programs.result_row(self.programs.program(f.expr(key), dim, f"{label}'s `{key}`"))
+                 if f.has(key) else -1 for key, dim in dims.items()]
+        a = self.a
+        a["force_type"][k] = int(ForceType.EXPRESSION)
+        a["force_body"][k] = (b, -1)
+        a["force_point"][k, 0] = p
+        a["force_param"][k, :3] = progs
+
 
 class _SettingsPass:
     """The `simulate` block."""
@@ -815,8 +1008,8 @@ class _SettingsPass:
         s.output_step = f.scalar("output_step", U.TIME, s.output_step, positive=True)
         s.alpha = f.scalar("alpha", U.RATE, s.alpha, nonneg=True)
         s.beta = f.scalar("beta", U.RATE, s.beta, nonneg=True)
-        s.projection = f.symbol("projection", ["on", "off", "true", "false", "yes", "no"],
-                                "on" if s.projection else "off") in ("on", "true", "yes")
+        p = f.symbol("projection", ["auto", "on", "off", "true", "false", "yes", "no"], s.projection)
+        s.projection = {"true": "on", "yes": "on", "false": "off", "no": "off"}.get(p, p)
         n = f.scalar("max_steps", U.NUMBER, float(s.max_steps), positive=True)
         if n != int(n) or n > 2**62:
             raise f.expr("max_steps").pos.error("`max_steps` must be a whole number", hint="e.g. `max_steps = 1e6`")
@@ -835,6 +1028,7 @@ class _CheckPass:
         for name, arr in self.a.items():
             if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
                 raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
+        self.a.update(self.programs.arrays())
         kernel = reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()}))
 
         def refs(sts):
@@ -843,10 +1037,11 @@ class _CheckPass:
         self.model = Model(
             kernel=kernel, settings=self.settings, q0=self.q0, qd0=self.qd0,
             body_names=[s.name for s in self.bodies], joint_names=[s.name for s in self.ideal],
-            driver_names=[s.name for s in self.drivers], clearance_names=[s.name for s in self.clearance],
+            driver_names=[s.name for s in self.drivers], clearance_names=[n for n, _ in self.pairs],
             force_names=[s.name for s in self.forces], body_geometry=self.geometry,
             body_source=refs(self.bodies), joint_source=refs(self.ideal),
-            driver_source=refs(self.drivers), clearance_source=refs(self.clearance),
+            driver_source=refs(self.drivers), clearance_source=refs([s for _, s in self.pairs]),
+            clearance_assembly=self.clearance_assembly,
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
             source_key=self.spec.key, source_includes=dict(self.spec.includes),
             source_files=list(self.spec.include_files),

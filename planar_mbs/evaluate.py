@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from . import units as U
 from .errors import ModelError, did_you_mean
-from .spec import BinOp, Call, Expr, Field, Name, Neg, Number, Pos, Statement, Vector
+from .spec import BinOp, Call, Compare, Expr, Field, Name, Neg, Number, Pos, SignalRef, Statement, String, Vector
 
 
 # ------------------------------------------------------------------ values
@@ -43,6 +43,8 @@ class CallVal:
     call: Call
 
 
+# functions only an expression of a load or a motion may call (`expressions.py` compiles them)
+EXPRESSION_FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "abs", "atan2", "min", "max", "if", "step", "table")
 FUNCTIONS = {"sqrt": 1, "sin": 1, "cos": 1, "tan": 1, "atan2": 2, "abs": 1}
 
 
@@ -129,6 +131,8 @@ class Evaluator:
             if e.name in FUNCTIONS:
                 return self._function(e)
             return CallVal(e)
+        if isinstance(e, (Compare, SignalRef, String)):
+            raise self.expression_only(e)
         raise TypeError(f"unknown expression {e!r}")  # pragma: no cover
 
     def number(self, v, e: Expr) -> Scalar:
@@ -145,7 +149,21 @@ class Evaluator:
         raise e.pos.error(f"a number was expected, got `{e.pos.text}`",
                           hint="write a number with its unit, e.g. `0.3 kg`, or the name of a param")
 
+    def expression_only(self, e: Expr) -> ModelError:
+        """A comparison, a signal or a quoted text where a constant is expected."""
+        if isinstance(e, String):
+            return e.pos.error("a quoted text is only used by `include` and as a table's file name",
+                               hint='write names without quotes (`law = hertz`)')
+        what = {Compare: "a comparison", SignalRef: f"the signal `{e.pos.text}`"}[type(e)]
+        return e.pos.error(f"{what} can only be used in an expression of a load or a motion",
+                           hint="write it in `force NAME = expression(body, fx = ..., fy = ..., torque = ...)` "
+                                "or a driver's `motion = ...`; params are constants")
+
     def unknown_function(self, c: Call) -> ModelError:
+        if c.name in EXPRESSION_FUNCTIONS:
+            return c.name_pos.error(f"unknown function `{c.name}` here: it is a function of expressions",
+                                    hint="write it in an expression of a load or a motion (docs/language.md, "
+                                         "Expressions); params use " + ", ".join(FUNCTIONS))
         return c.name_pos.error(f"unknown function `{c.name}`",
                                 hint=did_you_mean(c.name, FUNCTIONS) or "functions: " + ", ".join(FUNCTIONS))
 

@@ -48,7 +48,8 @@ def closes_loop(model: Model) -> list[bool]:
     k = model.kernel
     nb = model.nbody
     edges = [tuple(b) for b in np.asarray(k.joint_body)] + [tuple(b) for b in np.asarray(k.driver_body)]
-    clear = [tuple(b) for b in np.asarray(k.clearance_body)]
+    holds = [a[0] != "none" for a in _assembly_of(model)]  # a contact holds nothing; a translational
+    clear = [tuple(b) if h else (-1, -1) for b, h in zip(np.asarray(k.clearance_body), holds)]  # joint: 1 edge
     out = []
     for c, (a, b) in enumerate(clear):
         parent = list(range(nb + 1))
@@ -65,21 +66,43 @@ def closes_loop(model: Model) -> list[bool]:
     return out
 
 
-def assembly_kernel(model: Model, use=None, offset=None) -> tuple[KernelModel, list[str]]:
-    """The model's kernel arrays with the clearance joints `use` (default: all) turned into
-    revolute joints whose bearing point is shifted by `offset` (bearing frame; default 0),
-    and the name of the element behind each constraint row."""
+def _assembly_of(model: Model) -> list[tuple]:
+    """How the assembly treats each clearance element (`Model.clearance_assembly`; all revolute
+    when the model does not say)."""
+    a = list(model.clearance_assembly or [])
+    return a if len(a) == model.nclearance else [("revolute",)] * model.nclearance
+
+
+def revolute_clearances(model: Model) -> list[int]:
+    """The clearance elements that assemble as revolute joints (journals in bearings)."""
+    return [c for c, a in enumerate(_assembly_of(model)) if a[0] == "revolute"]
+
+
+def assembly_kernel(model: Model, use=None, offset=None, slides=True) -> tuple[KernelModel, list[str]]:
+    """The model's kernel arrays with the clearance joints `use` (default: every revolute one) turned
+    into revolute joints whose bearing point is shifted by `offset` (bearing frame; default 0), with
+    `slides` every translational clearance joint that closes a loop into a translational joint (the
+    block centred in its guide), and the name of the element behind each constraint row."""
     k = model.kernel
-    use = list(range(model.nclearance)) if use is None else list(use)
+    use = revolute_clearances(model) if use is None else list(use)
+    loop = closes_loop(model)
+    slides = [a for c, a in enumerate(_assembly_of(model)) if a[0] == "translational" and loop[c] and slides]
+    ns = len(slides)
     nc = len(use)
     cpoint = np.array(np.asarray(k.clearance_point)[use], dtype=np.float64).reshape(nc, 2, 2)
     if offset is not None and nc:
         cpoint[:, 0, :] += np.asarray(offset, dtype=np.float64)[use]
-    jt = np.concatenate([k.joint_type, np.full(nc, int(JointType.REVOLUTE), dtype=np.int64)])
-    jb = np.concatenate([k.joint_body, np.asarray(k.clearance_body)[use].reshape(nc, 2)]).astype(np.int64)
-    jp = np.concatenate([k.joint_point, cpoint])
-    ja = np.concatenate([k.joint_axis, np.tile([1.0, 0.0], (nc, 1))])
-    jpar = np.concatenate([k.joint_param, np.zeros((nc, k.joint_param.shape[1]))])
+    spar = np.zeros((ns, k.joint_param.shape[1]))
+    spar[:, 0] = [a[6] for a in slides]  # JP_PHI0
+    jt = np.concatenate([k.joint_type, np.full(ns, int(JointType.TRANSLATIONAL), dtype=np.int64),
+                         np.full(nc, int(JointType.REVOLUTE), dtype=np.int64)])
+    jb = np.concatenate([k.joint_body, np.array([a[1:3] for a in slides], dtype=np.int64).reshape(ns, 2),
+                         np.asarray(k.clearance_body)[use].reshape(nc, 2)]).astype(np.int64)
+    jp = np.concatenate([k.joint_point, np.array([(a[3], a[4]) for a in slides], dtype=np.float64).reshape(ns, 2, 2),
+                         cpoint])
+    ja = np.concatenate([k.joint_axis, np.array([a[5] for a in slides], dtype=np.float64).reshape(ns, 2),
+                         np.tile([1.0, 0.0], (nc, 1))])
+    jpar = np.concatenate([k.joint_param, spar, np.zeros((nc, k.joint_param.shape[1]))])
     rows = JOINT_ROWS[jt]
     jrow = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64) if len(jt) else np.zeros(0, np.int64)
     ndr = len(k.driver_type)
@@ -98,7 +121,7 @@ def assembly_kernel(model: Model, use=None, offset=None) -> tuple[KernelModel, l
         clearance_param=np.zeros((0, k.clearance_param.shape[1])),
     )
     owners = []
-    names = list(model.joint_names) + [model.clearance_names[c] for c in use]
+    names = list(model.joint_names) + [a[7] for a in slides] + [model.clearance_names[c] for c in use]
     for name, r in zip(names, rows):
         owners += [name] * int(r)
     owners += list(model.driver_names)
@@ -230,6 +253,7 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
 
 def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Consistent (q, q') at time t from the user's pose ``model.q0`` and velocities ``model.qd0``."""
+    model.kernel.expr_mode[:] = -1.0e18  # expressions' switches live (a run froze them: kernel.expressions)
     isolated = _isolated_bodies(model)
     if isolated:
         names = ", ".join(f"`{n}`" for n in isolated)
@@ -247,8 +271,9 @@ def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     loop = closes_loop(model)
     has_offset = ~np.isnan(start[:, 0])
     has_vel = ~np.isnan(start[:, 2])
-    pos_use = [c for c in range(model.nclearance) if loop[c] or has_offset[c]]
-    vel_use = [c for c in range(model.nclearance) if c in pos_use or has_vel[c]]
+    revolute = revolute_clearances(model)
+    pos_use = [c for c in revolute if loop[c] or has_offset[c]]
+    vel_use = [c for c in revolute if c in pos_use or has_vel[c]]
     km, owners = assembly_kernel(model, pos_use, np.nan_to_num(start[:, :2]))
     m = len(owners)
     q = model.q0.astype(np.float64).copy()
@@ -314,15 +339,79 @@ def _change(d: np.ndarray, tol: np.ndarray, what: str) -> str:
 
 
 def constraint_report(model: Model, q: np.ndarray, t: float = 0.0) -> dict:
-    """Rank of the constraints at pose q, degrees of freedom (coordinates - rank) and the
-    joints whose rows add no rank (in declaration order: the later of two equal joints
-    is the redundant one; drivers are kept last).  For `mbs check`."""
-    km, owners = assembly_kernel(model)
+    """Rank of the ideal joints' and drivers' constraints at pose q, degrees of freedom
+    (coordinates - rank) and the joints whose rows add no rank (in declaration order: the later
+    of two equal joints is the redundant one; drivers are kept last).  Clearance joints are
+    force elements, not constraints: their rows are not counted.  A pose where the rank is lost
+    only there (a singular position: nearby poses on the constraints have full rank) is
+    reported as `singular` with the rank nearby, and no joint is called redundant.  For `mbs check`."""
+    km, owners = assembly_kernel(model, use=[], slides=False)
     m = len(owners)
     if m == 0:
-        return dict(rank=0, dof=model.ncoord, redundant=[])
+        return dict(rank=0, dof=model.ncoord, redundant=[], singular=False)
+    rank, Cq, sv = _rank(km, q, t, m)
+    if rank == m:
+        return dict(rank=rank, dof=model.ncoord - rank, redundant=[], singular=False)
+    near = _rank_nearby(km, q, t, m, model.size)
+    if near is not None and near > rank:
+        return dict(rank=rank, dof=model.ncoord - near, redundant=[], singular=True, rank_nearby=near)
+    return dict(rank=rank, dof=model.ncoord - rank, redundant=_dependent_rows(Cq, owners, sv), singular=False)
+
+
+def _rank(km: KernelModel, q, t, m):
     _, Cq, _ = _evaluate(km, q, np.zeros_like(q), t, m)
     sv = np.linalg.svd(Cq, compute_uv=False)
     tol = RANK_TOL * max(sv[0] if len(sv) else 0.0, 1.0)
-    rank = int(np.count_nonzero(sv > tol))
-    return dict(rank=rank, dof=model.ncoord - rank, redundant=_dependent_rows(Cq, owners, sv))
+    return int(np.count_nonzero(sv > tol)), Cq, sv
+
+
+def _rank_nearby(km: KernelModel, q, t, m, size: float, tries: int = 3):
+    """The largest rank of the constraints at poses near q that satisfy them: q moved by 1e-3 of
+    the mechanism's size in a random direction, then back onto C = 0 by minimum-norm Newton steps.
+    None when no such pose is found."""
+    rng = np.random.default_rng(1)
+    best = None
+    for _ in range(tries):
+        x = np.asarray(q, dtype=float) + 1e-3 * size * rng.standard_normal(len(q))
+        for _ in range(50):
+            C, Cq, _ = _evaluate(km, x, np.zeros_like(x), t, m)
+            if not np.all(np.isfinite(C)):
+                break
+            if np.abs(C).max() <= 1e-13 * size:
+                r = _rank(km, x, t, m)[0]
+                best = r if best is None else max(best, r)
+                break
+            x = x - np.linalg.lstsq(Cq, C, rcond=None)[0]
+    return best
+
+
+def start_gaps(model: Model, q: np.ndarray) -> np.ndarray:
+    """Gap of every clearance element at pose q (> 0 apart, < 0 penetrating), the penetration of
+    `kernel/contact.py` with the opposite sign, computed here without numba (for `mbs check`)."""
+    from .model import CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, PairKind
+
+    k = model.kernel
+    out = np.zeros(model.nclearance)
+    for c in range(model.nclearance):
+        p = k.clearance_param[c]
+        pts, rot = [], np.eye(2)
+        for side in (0, 1):
+            b = int(k.clearance_body[c, side])
+            s = np.asarray(k.clearance_point[c, side], dtype=float)
+            if b < 0:
+                pts.append(s)
+                continue
+            cs, sn = np.cos(q[3 * b + 2]), np.sin(q[3 * b + 2])
+            R = np.array([[cs, -sn], [sn, cs]])
+            rot = R if side == 0 else rot
+            pts.append(q[3 * b:3 * b + 2] + R @ s)
+        e = pts[1] - pts[0]
+        kind = int(p[CP_KIND])
+        if kind == PairKind.CIRCLE_ON_LINE:
+            out[c] = float(e @ (rot @ p[[CP_NX, CP_NY]])) - p[CP_R_JOURNAL]
+        elif kind == PairKind.CIRCLE_ON_CIRCLE:
+            out[c] = float(np.hypot(*e)) - p[CP_R_BEARING] - p[CP_R_JOURNAL]
+        else:
+            ratio = p[CP_BREAKDOWN] if kind == PairKind.LUBRICATED else 1.0
+            out[c] = ratio * p[CP_CLEARANCE] - float(np.hypot(*e))
+    return out

@@ -61,6 +61,7 @@ class MotionType(IntEnum):
     RAMP = 1  # speed grows linearly 0 -> p1 over p2 s, then stays: f = p0 + p1 t^2/(2 p2) | p0 + p1 (t - p2/2)
     HARMONIC = 2  # f = p0 + p1 sin(2 pi p2 t + p3)
     POLYNOMIAL = 3  # f = sum_k p_k t^k, k = 0..7
+    EXPRESSION = 4  # f = expression program p0 of t (kernel.expressions, exact f' and f'' by dual numbers)
 
 
 N_MOTION_PARAM = 8
@@ -82,7 +83,15 @@ CP_SIGMA_SUM = 7  # sigma_1 + sigma_2, sigma = (1 - nu^2)/E  [1/Pa]
 CP_FRICTION = 8  # Coulomb coefficient mu (0 = frictionless)
 CP_FRICTION_V0 = 9  # slip speed below which friction is off (Ambrosio's v0) [m/s]
 CP_FRICTION_V1 = 10  # slip speed from which full Coulomb friction acts (Ambrosio's v1) [m/s]
-N_CLEARANCE_PARAM = 12
+CP_KIND = 11  # contact geometry, a PairKind code (catalog.PAIRS)
+CP_NX = 12  # outward normal (nx, ny) of the first body's line, in its frame (CIRCLE_ON_LINE)
+CP_NY = 13
+CP_VISCOSITY = 14  # dynamic viscosity mu of the lubricant [Pa s] (LUBRICATED)
+CP_BREAKDOWN = 15  # eccentricity ratio where the film breaks down and dry contact begins (LUBRICATED)
+N_CLEARANCE_PARAM = 16
+# contact geometries of the clearance elements (catalog.PAIRS); R_i = CP_R_BEARING, R_j = CP_R_JOURNAL
+PairKind = IntEnum("PairKind", {s.enum: s.code for s in catalog.PAIRS}, module=__name__)
+PairKind.__doc__ = "Contact geometries of the clearance and contact elements (catalog.PAIRS)."
 
 # ContactLaw groups (catalog.LAW_GROUPS, contact.md): dissipative laws F = K d^n (1 + chi(ce) d'/d'(-))
 # need the impact velocity; the cylindrical laws are implicit in F and use sigma, L and the radii
@@ -93,11 +102,43 @@ CYLINDRICAL_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.cylin
 class ForceType(IntEnum):
     CONSTANT_FORCE = 0  # (p0, p1) global force at point 0 of body 0
     CONSTANT_TORQUE = 1  # p0 on body 0
-    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act)
-    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act)
+    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act, expr row + 1)
+    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act, row + 1)
+    EXPRESSION = 4  # (fx, fy) global at point 0 of body 0 and a torque: result rows p = (fx, fy, torque), -1 = none
 
 
-N_FORCE_PARAM = 4
+class ExprOp(IntEnum):
+    """Opcodes of the expression programs (`kernel.expressions`): one instruction per row of
+    ``expr_code (ninstr, 4) = (op, a, b, c)``; its result is register ``expr_reg[row]`` (one register
+    per instruction, written in order: no stack).  a, b, c are earlier rows unless noted."""
+
+    CONST = 0  # expr_const[a]
+    TIME = 1  # t
+    BODY = 2  # quantity b (BQ_*) of body a
+    ADD = 3
+    SUB = 4
+    MUL = 5
+    DIV = 6
+    NEG = 7  # -a
+    POW = 8  # a ^ expr_const[b] (a constant exponent)
+    SIN = 9
+    COS = 10
+    EXP = 11
+    SQRT = 12
+    ABS = 13
+    ATAN2 = 14  # atan2(a, b)
+    LT = 15  # 1.0 if a < b else 0.0; switching function a - b
+    LE = 16
+    IF = 17  # b if a != 0 else c
+    TABLE = 18  # table b at x = a (piecewise cubic, table_info / table_seg)
+    LOG = 19
+    TAN = 20
+
+
+BQ_X, BQ_Y, BQ_PHI, BQ_VX, BQ_VY, BQ_OMEGA = range(6)  # ExprOp.BODY quantities
+
+
+N_FORCE_PARAM = 5  # spring-dampers: p4 = 1 + the result row of an expression actuator (0: none), added to p3
 
 
 Integrator = IntEnum("Integrator", {s.enum: s.code for s in catalog.INTEGRATORS}, module=__name__)
@@ -115,10 +156,14 @@ CFG_HMAX = 5  # largest step (0 = output_step)
 CFG_OUTPUT_STEP = 6
 CFG_ALPHA = 7  # Baumgarte alpha (velocity feedback 2 alpha C')
 CFG_BETA = 8  # Baumgarte beta (position feedback beta^2 C)
-CFG_PROJECT = 9  # 1 = project q, q' onto the constraints after each accepted step
+CFG_PROJECT = 9  # 1 = project q, q' onto the constraints after each accepted step; 0 = never;
+# 2 = auto: from the first regularised factor on (a singular position or redundant joints: PROJECT_*)
 CFG_MAX_STEPS = 10
 CFG_SKIP = 11  # groups of the observation row no stored signal needs (OBS_SKIP_* bits; 0 = the whole row)
-N_CFG = 12
+CFG_SIZE = 12  # the mechanism's size (m, `Model.size`): the bounds of the constraint check scale with it
+CFG_LOST = 13  # relative bound of that check (`lost_bound`): residual / size, velocity residual / speed
+N_CFG = 14
+PROJECT_OFF, PROJECT_ON, PROJECT_AUTO = 0.0, 1.0, 2.0
 # OBS_SKIP_* bits of cfg[CFG_SKIP]: the time loop's `observe` leaves those columns NaN and skips their work.
 # Accelerations, joint reactions and driver efforts/powers take a full `accelerations` per row (its Schur
 # solve); the constraint errors need the constraint rows; the rest is cheap.  `signals.skip_bits` sets them.
@@ -140,6 +185,8 @@ class Status(IntEnum):
     CONTACT_SOLVE = 6  # an implicit contact law found no force
     BAD_INPUT = 7
     DRIFT = 8  # fixed-step RK4 left the constraints (residual above the documented bound)
+    CONSTRAINTS_LOST = 9  # an adaptive run left its constraints beyond the bound scaled to the mechanism
+    PASSAGE = 10  # a fixed RK4 step across a singular position that step halving does not confirm
 
 
 # contact state of the clearance joints, `contact` (nclearance, N_CONTACT_STATE) float64, kept across calls
@@ -168,8 +215,10 @@ JS_FX, JS_FY, JS_MOMENT = 0, 1, 2  # reaction on the joint's second body (moment
 N_JOINT_SIGNALS = 3
 CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
 CS_IN_CONTACT, CS_IMPACT_VELOCITY, CS_FRICTION, CS_SLIP = 7, 8, 9, 10
-# CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T
-N_CLEARANCE_SIGNALS = 11
+CS_POINT_X, CS_POINT_Y, CS_FILM_PRESSURE = 11, 12, 13
+# CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T;
+# CS_POINT_*: the contact point on the second body (global); CS_FILM_PRESSURE: peak film pressure (LUBRICATED)
+N_CLEARANCE_SIGNALS = 14
 SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 0, 1, 2, 3
 N_SYSTEM_SIGNALS = 4
 # indices into `observation_layout`'s tuple
@@ -191,7 +240,8 @@ def observation_layout(nbody, njoint, ndriver, nclearance):
 
 
 class KernelModel(NamedTuple):
-    """Everything the numba kernels read, as contiguous arrays (shapes in comments)."""
+    """Everything the numba kernels read, as contiguous arrays (shapes in comments).  The expression
+    and table arrays default to none (a model without `expression` loads or motions)."""
 
     body_mass: np.ndarray  # (nbody,)
     body_inertia: np.ndarray  # (nbody,)
@@ -218,6 +268,17 @@ class KernelModel(NamedTuple):
     force_body: np.ndarray  # (nforce, 2)
     force_point: np.ndarray  # (nforce, 2, 2)
     force_param: np.ndarray  # (nforce, N_FORCE_PARAM)
+    expr_code: np.ndarray = np.zeros((0, 4), dtype=np.int64)  # (ninstr, 4) int: (ExprOp, a, b, c), every program's instructions in turn
+    expr_const: np.ndarray = np.zeros(0)  # (nconst,) constants of the programs (SI)
+    expr_prog: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nprog, 2) int: first and end row of each program (result: row end - 1)
+    expr_reg: np.ndarray = np.zeros((1, 3))  # (max(ninstr, 1), 3) scratch registers: value, d/dt, d2/dt2 (written by the kernels)
+    expr_fault: np.ndarray = np.full(2, -1.0)  # (2,) scratch: [force element, t] of the first non-finite expression (-1: none)
+    expr_loads: np.ndarray = np.zeros(2, dtype=np.int64)  # first and end row of the loads' programs (together)
+    expr_mode: np.ndarray = np.zeros(0)  # (ninstr,) scratch: frozen result 0/1 of a comparison row (-1: live)
+    expr_switch: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nswitch, 2) int: comparison row, its program
+    table_info: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (ntable, 2) int: first row in table_seg and the number of knots
+    table_period: np.ndarray = np.zeros(0)  # (ntable,) period of a periodic table (0: held at its end values outside)
+    table_seg: np.ndarray = np.zeros((0, 5))  # (nknot, 5) knot x_k and y = c0 + c1 d + c2 d^2 + c3 d^3, d = x - x_k
 
 
 def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int) -> int:
@@ -234,6 +295,24 @@ class SourceRef:
     column: int
 
 
+def projection_code(value) -> float:
+    """cfg[CFG_PROJECT] of a `projection` setting: "on", "off", "auto" (True / False as on / off)."""
+    if value is True or value is False:
+        return PROJECT_ON if value else PROJECT_OFF
+    return {"on": PROJECT_ON, "off": PROJECT_OFF, "auto": PROJECT_AUTO}[str(value)]
+
+
+LOST_FLOOR = 1e-9  # the constraint check's relative bound is never below this ...
+LOST_PER_RTOL = 10.0  # ... and is this many rtol: every shipped model at rtol 1e-3, its own and 1e-8 passes the
+# check even at 1 rtol (a run keeps its residuals well below rtol); beyond, the constraints gave way
+
+
+def lost_bound(rtol: float) -> float:
+    """Relative bound of the adaptive methods' constraint check (`kernel.loop.lost_check`): a residual
+    beyond it times the mechanism's size (its velocity: times its speed) stops the run."""
+    return max(LOST_FLOOR, LOST_PER_RTOL * rtol)
+
+
 @dataclass
 class Settings:
     """The `simulate` block, resolved to SI."""
@@ -248,11 +327,13 @@ class Settings:
     output_step: float = 1e-4
     alpha: float = 5.0
     beta: float = 5.0
-    projection: bool = False
+    projection: str = "auto"  # "on", "off" (unchecked: may cross a singular position onto another branch), "auto"
     max_steps: int = 100_000_000
 
-    def cfg(self) -> np.ndarray:
+    def cfg(self, size: float = 1.0) -> np.ndarray:
+        """The time loop's settings array; `size` is the mechanism's (`Model.size`)."""
         c = np.zeros(N_CFG)
+        c[CFG_SIZE] = size
         c[CFG_METHOD] = int(self.integrator)
         c[CFG_RTOL] = self.rtol
         c[CFG_ATOL] = self.atol
@@ -262,7 +343,8 @@ class Settings:
         c[CFG_OUTPUT_STEP] = self.output_step
         c[CFG_ALPHA] = self.alpha
         c[CFG_BETA] = self.beta
-        c[CFG_PROJECT] = 1.0 if self.projection else 0.0
+        c[CFG_PROJECT] = projection_code(self.projection)
+        c[CFG_LOST] = lost_bound(self.rtol)
         c[CFG_MAX_STEPS] = self.max_steps
         return c
 
@@ -294,6 +376,10 @@ class Model:
     # (nclearance, 4) initial state of each clearance joint as written: journal offset (x, y) and
     # relative velocity (x, y) in the bearing's frame; NaN where not given (kinematics.assemble)
     clearance_start: np.ndarray | None = None
+    # per clearance element: how the assembly of the initial pose treats it: ("revolute",) the journal
+    # centred (or at its offset) when it closes a loop; ("translational", bi, bj, pi, pj, axis, phi0) on the
+    # first pair of a translational clearance joint, the block centred in its guide; ("none",) no rows
+    clearance_assembly: list = field(default_factory=list)
 
     @property
     def nbody(self) -> int:
@@ -318,6 +404,24 @@ class Model:
     @property
     def ncoord(self) -> int:
         return 3 * self.nbody
+
+    @property
+    def size(self) -> float:
+        """The mechanism's size (m): twice the longest distance from a body's centre of mass to one of
+        its joint, driver, clearance or force points (a link's length), else the extent of the initial
+        pose.  The bounds of the constraint check scale with it."""
+        k = self.kernel
+        r = 0.0
+        for pts, bodies in ((k.joint_point, k.joint_body), (k.driver_point, k.driver_body),
+                            (k.clearance_point, k.clearance_body), (k.force_point, k.force_body)):
+            pts = np.asarray(pts, dtype=float).reshape(-1, 2, 2)
+            on_body = np.asarray(bodies).reshape(-1, 2) >= 0
+            if pts.size and on_body.any():
+                r = max(r, 2.0 * float(np.hypot(pts[..., 0], pts[..., 1])[on_body].max()))
+        if not r > 0.0 and self.nbody:
+            xy = np.asarray(self.q0, dtype=float).reshape(-1, 3)[:, :2]
+            r = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0))))
+        return r if r > 0.0 else 1.0
 
     @property
     def nconstraint(self) -> int:

@@ -18,7 +18,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from .errors import ModelError, did_you_mean
 from .spec import (
-    BinOp, Call, Expr, Field, KwArg, ModelSpec, Name, Neg, Number, Pos, Statement, Vector,
+    BinOp, Call, Compare, Expr, Field, KwArg, ModelSpec, Name, Neg, Number, Pos, SignalRef, Statement, String,
+    Vector,
 )
 
 KEYWORDS = ("param", "material", "body", "joint", "driver", "force", "gravity",
@@ -241,6 +242,27 @@ class _ToSpec(Transformer):
 
     def name(self, meta, children):
         return Name(self.tok_pos(children[0]), str(children[0]))
+
+    def signal(self, meta, children):
+        return SignalRef(self.meta_pos(meta), str(children[0]), str(children[1]))
+
+    def string(self, meta, children):
+        return String(self.tok_pos(children[0]), str(children[0])[1:-1])
+
+    def _compare(self, op, meta, children):
+        return Compare(self.meta_pos(meta), op, children[0], children[1])
+
+    def lt(self, meta, children):
+        return self._compare("<", meta, children)
+
+    def le(self, meta, children):
+        return self._compare("<=", meta, children)
+
+    def gt(self, meta, children):
+        return self._compare(">", meta, children)
+
+    def ge(self, meta, children):
+        return self._compare(">=", meta, children)
 
     def _binop(self, op, meta, children):
         return BinOp(self.meta_pos(meta), op, children[0], children[1])

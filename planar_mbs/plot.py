@@ -68,6 +68,17 @@ def clearance_names(results: "Results") -> list[str]:
     return sorted(e for e, q in entities(results).items() if {"ex", "ey", "penetration"} <= q)
 
 
+def _journal(model, name: str) -> bool:
+    """Is clearance element `name` a journal in a bearing (whose orbit is a figure), rather than a contact
+    between outlines or a corner of a translational clearance joint?  True when the model is unknown."""
+    from .model import CP_KIND, PairKind
+
+    if model is None or name not in model.clearance_names:
+        return True
+    kind = int(model.kernel.clearance_param[model.clearance_names.index(name), CP_KIND])
+    return kind in (PairKind.CIRCLE_IN_CIRCLE, PairKind.LUBRICATED)
+
+
 def check_signals(results: "Results", names: Sequence[str]) -> None:
     """Raise `PlotError` (with a did-you-mean hint) for the first unknown signal."""
     for name in names:
@@ -746,7 +757,7 @@ def plot_results(
         if startup is not None and notes is not None:
             notes.append(f"a long run: the start-up (to t = {startup:.3g} s, shaded) is off the y scale of the "
                          "time plots; `--from`/`--to` draws a window")
-        orbit = clearance_names(results)
+        orbit = [c for c in clearance_names(results) if _journal(model, c)]
         slider = slider_body(results, model)
         if slider is None and notes is not None:
             notes.append("no slider in this mechanism: no slider figures and no Poincaré map; name the signals "

@@ -488,7 +488,7 @@ def _body_points(scene: _Scene) -> None:
 
 def _clearance_geometry(scene: _Scene, magnify: float) -> None:
     """Bearing and (magnified) journal centres, contact normals and drawn radii per frame."""
-    from .model import CP_CLEARANCE, CP_R_BEARING, CP_R_JOURNAL
+    from .model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, PairKind
 
     k, pose, idx = scene.model.kernel, scene.pose, scene.idx
     for c in range(scene.model.nclearance):
@@ -503,6 +503,11 @@ def _clearance_geometry(scene: _Scene, magnify: float) -> None:
         safe = np.where(elen > 0, elen, 1.0)[:, None]
         scene.normal[c] = np.where(elen[:, None] > 0, e / safe, np.array([1.0, 0.0]))
         scene.radius_j[c], scene.radius_b[c] = rj, rj + magnify * clearance
+        if int(k.clearance_param[c, CP_KIND]) in (PairKind.CIRCLE_ON_LINE, PairKind.CIRCLE_ON_CIRCLE):
+            # a contact between outlines (a corner of a translational clearance joint): drawn true to
+            # size, the second body's circle (or corner) and the first body's circle (none for a line)
+            scene.journal_c[c] = Pj
+            scene.radius_j[c], scene.radius_b[c] = rj, float(k.clearance_param[c, CP_R_BEARING])
 
 
 def _mechanism_size(scene: _Scene) -> None:

@@ -24,7 +24,11 @@ from .model import (
     CS_IN_CONTACT,
     CS_PENETRATION,
     CS_SLIP,
+    CS_FILM_PRESSURE,
+    CS_POINT_X,
+    CS_POINT_Y,
     CP_FRICTION,
+    CP_KIND,
     JS_FX,
     JS_FY,
     JS_MOMENT,
@@ -48,6 +52,7 @@ from .model import (
     SYS_VELOCITY_ERROR,
     DriverType,
     JointType,
+    PairKind,
     Model,
     observation_layout,
 )
@@ -64,6 +69,9 @@ CLEARANCE_QUANTITIES = [
     ("impact_velocity", "m/s", CS_IMPACT_VELOCITY),
 ]
 FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "m/s", CS_SLIP)]
+# the contact point on the second body (journal, circle, corner), global frame; the film's peak pressure
+POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_Y)]
+FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
 # joints whose reaction includes a moment (they lock the relative rotation; catalog.JointSpec.moment)
 MOMENT_JOINTS = tuple(JointType(s.code) for s in catalog.JOINTS if s.moment)
 
@@ -121,6 +129,9 @@ def signal_table(model: Model) -> list[Signal]:
         quantities = list(CLEARANCE_QUANTITIES)
         if k.clearance_param[c, CP_FRICTION] > 0:
             quantities += FRICTION_QUANTITIES
+        quantities += POINT_QUANTITIES
+        if int(k.clearance_param[c, CP_KIND]) == PairKind.LUBRICATED:
+            quantities += FILM_QUANTITIES
         table += [Signal(name, q, u, (col + off,)) for q, u, off in quantities]
     s = lay[OB_SYSTEM]
     table += [

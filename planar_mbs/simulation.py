@@ -142,10 +142,12 @@ def _setting(model: Model, name: str, value):
         return value if isinstance(value, Integrator) else integrator_of(value, where)
     if name == "projection":
         if isinstance(value, str):
-            if value.strip().lower() not in ("on", "off", "true", "false"):
-                raise ModelError(f"`projection` is on or off, not `{value}`", where, hint="e.g. projection=\"on\"")
-            return value.strip().lower() in ("on", "true")
-        return bool(value)
+            v = value.strip().lower()
+            if v not in ("on", "off", "auto", "true", "false"):
+                raise ModelError(f"`projection` is auto, on or off, not `{value}`", where,
+                                 hint="e.g. projection=\"on\"")
+            return {"true": "on", "false": "off"}.get(v, v)
+        return "on" if value else "off"
     if isinstance(value, str):
         try:
             if name in _TIME_SETTINGS:
@@ -232,6 +234,11 @@ def _state_name(model: Model, i: int) -> str:
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
+    fault = model.kernel.expr_fault
+    if status in (Status.NONFINITE, Status.STEP_UNDERFLOW) and 0 <= fault[0] < model.nforce:
+        return (f"the expression of force `{model.force_names[int(fault[0])]}` gave NaN or infinity at "
+                f"t = {fault[1]:.9g} s (the run stopped {at}): check it for a square root or logarithm of "
+                "a negative value, or a division by zero, along the motion")
     if status == Status.STEP_UNDERFLOW:
         touching = [n for n, mode in zip(model.clearance_names, contact[:, CT_MODE]) if int(mode) == TOUCHING]
         where = f" while clearance joint{'s' if len(touching) > 1 else ''} " + ", ".join(
@@ -253,6 +260,17 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
         return (f"the constraints drifted beyond |C| = {DRIFT_POSITION:g} or |C'| = {DRIFT_VELOCITY:g} (m, rad, "
                 f"per second for C') {at}{_row_owner(model, info)}: the fixed RK4 step is too long for this "
                 "motion, or a singular position was crossed (use a shorter step, or dopri5/dop853)")
+    if status == Status.CONSTRAINTS_LOST:
+        from .model import lost_bound
+
+        return (f"the constraints gave way {at}{_row_owner(model, info)}: a residual beyond "
+                f"{lost_bound(settings.rtol):g} of the mechanism's size ({model.size:.3g} m) or of its speed; "
+                "a driver pushed past a limit position (toggle, dead centre) the mechanism cannot pass, or the "
+                "tolerances are too loose for this motion (check the driver's motion, or tighten rtol)")
+    if status == Status.PASSAGE:
+        return (f"the fixed RK4 step cannot resolve a singular position {at} (the {_state_name(model, info)} "
+                f"differs from two half steps by more than rtol = {settings.rtol:g}, atol = {settings.atol:g}): "
+                "the motion would go on wrong (use a shorter step, or dopri5/dop853)")
     if status == Status.MAX_STEPS:
         return f"the step limit max_steps = {settings.max_steps} was reached {at}"
     if status == Status.CONTACT_SOLVE:
@@ -316,12 +334,66 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     for c, name in enumerate(model.clearance_names):
         clearance = float(model.kernel.clearance_param[c, CP_CLEARANCE])
         deepest_c = deepest.get(f"{name}.penetration", -np.inf)
-        if deepest_c > clearance:
+        if deepest_c > clearance > 0:  # (a contact between outlines has no clearance to compare with)
             warnings.append(
                 f"clearance joint `{name}`: the journal sank {deepest_c * 1e6:.3g} µm into the bearing, more than "
                 f"the clearance ({clearance * 1e6:.3g} µm); the contact is too soft for this clearance and "
                 "the results are not physical (raise the stiffness or the clearance)")
     return warnings
+
+
+def _projection_note(settings: Settings, ws) -> list[str]:
+    """`projection = auto` turned the projection on: say when (a singular position or redundant joints)."""
+    from .kernel.workspace import DN_PROJECT_FROM
+
+    t = float(ws.dense[DN_PROJECT_FROM])
+    if settings.projection != "auto" or np.isnan(t):
+        return []
+    return [f"the constraints lost rank at t = {t:.9g} s (a singular position or redundant joints): the "
+            "positions and velocities are projected onto the constraints from then on (projection = auto)"]
+
+
+ENERGY_PER_RTOL = 1e3  # a workless mechanism's energy may drift by this many rtol of its largest kinetic energy
+
+
+def _workless(model: Model) -> bool:
+    """No driver, no clearance joint, no damper or actuator: the total energy is conserved."""
+    from .model import ForceType
+
+    k = model.kernel
+    if model.ndriver or model.nclearance:
+        return False
+    for typ, p in zip(k.force_type, k.force_param):
+        if int(typ) in (ForceType.SPRING_DAMPER, ForceType.ROTATIONAL_SPRING_DAMPER) and (p[1] != 0 or p[3] != 0):
+            return False
+    return True
+
+
+def _energy_drift(table, rows: np.ndarray, track: dict[str, float]) -> None:
+    """Track the total energy's first value, its largest change and the largest kinetic energy."""
+    cols = {s.quantity: s.extract(rows) for s in table
+            if s.entity == "system" and s.quantity in ("kinetic_energy", "potential_energy")}
+    if len(cols) < 2 or not len(rows):
+        return
+    T, E = cols["kinetic_energy"], cols["kinetic_energy"] + cols["potential_energy"]
+    if not np.all(np.isfinite(E)):
+        return
+    E0 = track.setdefault("energy.first", float(E[0]))
+    track["energy.drift"] = max(track.get("energy.drift", 0.0), float(np.abs(E - E0).max()))
+    track["energy.kinetic"] = max(track.get("energy.kinetic", 0.0), float(T.max()))
+
+
+def _energy_warning(model: Model, settings: Settings, track: dict[str, float]) -> list[str]:
+    """A workless mechanism whose energy drifted by more than ENERGY_PER_RTOL rtol of its largest
+    kinetic energy: the motion is not to be trusted (a singular position crossed onto another
+    branch, a too loose tolerance)."""
+    drift, T = track.get("energy.drift", 0.0), track.get("energy.kinetic", 0.0)
+    if not _workless(model) or not T > 0 or drift <= ENERGY_PER_RTOL * settings.rtol * T:
+        return []
+    return [f"the total energy of this mechanism, which nothing drives or damps, changed by {drift:.3g} J "
+            f"({drift / T:.2g} of its largest kinetic energy, more than {ENERGY_PER_RTOL:g} rtol): the motion is "
+            "not to be trusted (tighten rtol; with projection = off, a singular position may have been crossed "
+            "onto another branch)"]
 
 
 def _deepest(table, rows: np.ndarray, deepest: dict[str, float]) -> None:
@@ -400,7 +472,7 @@ def simulate(
     q, qd = assemble(model)
     changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
     km = model.kernel
-    cfg = settings.cfg()
+    cfg = settings.cfg(model.size)
     y = np.concatenate([q, qd])
     clock = np.zeros(4)  # t, h, t0, work budget of one call (right-hand sides)
     clock[3] = FIRST_BUDGET
@@ -438,6 +510,7 @@ def simulate(
         if writer and k and not disk_full:
             block = out[:k] if cols is None else out[:k, cols]
             _deepest(table, block, deepest)
+            _energy_drift(table, block, deepest)
             try:
                 writer.append(out_t[:k], block)
             except DiskFull as exc:
@@ -475,6 +548,7 @@ def simulate(
                         chunk_t = out_t[:n].copy()
                         chunk = out[:n].copy() if cols is None else out[:n, cols]
                         _deepest(table, chunk, deepest)
+                        _energy_drift(table, chunk, deepest)
                         times.append(chunk_t)
                         blocks.append(chunk)
                 if progress:
@@ -510,7 +584,8 @@ def simulate(
                 "n_contact_events": int(stats[ST_CONTACT_EVENTS]),
                 "n_outputs": int(stats[ST_OUTPUTS]),
             }
-            run_attrs["warnings"] = _physics_warnings(model, deepest)
+            run_attrs["warnings"] = (_physics_warnings(model, deepest) + _projection_note(settings, ws)
+                                     + _energy_warning(model, settings, deepest))
             run_attrs["assembly_changes"] = changes
             if writer:
                 writer.close(run_attrs)
@@ -558,7 +633,7 @@ class Simulation:
         q, qd = assemble(model)
         self._y0 = np.concatenate([q, qd])
         self._km = model.kernel._replace(force_param=model.kernel.force_param.copy())  # set_load: this run only
-        self._cfg = self.settings.cfg()
+        self._cfg = self.settings.cfg(model.size)
         self._y = self._y0.copy()
         self._clock = np.zeros(3)
         self._contact = np.zeros((model.nclearance, 3))
@@ -656,6 +731,12 @@ class Simulation:
             self._km.force_param[k, :2] = np.asarray(value, dtype=float)
         elif kind == ForceType.CONSTANT_TORQUE:
             self._km.force_param[k, 0] = float(value)
+        elif kind == ForceType.EXPRESSION:
+            raise ModelError(f"`{name}` is an expression force: it has no value to set", "set_load",
+                             hint="write the load as a `constant`, `torque` or spring-damper to set it from Python")
+        elif self._km.force_param[k, 4] > 0:
+            raise ModelError(f"the actuator of `{name}` is an expression: it has no value to set", "set_load",
+                             hint="give the actuator a constant in the model to set it from Python")
         else:  # spring-dampers: the actuator force or torque
             self._km.force_param[k, 3] = float(value)
 

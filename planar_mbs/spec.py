@@ -1,7 +1,8 @@
 """ModelSpec: the model text as plain dataclasses, straight from the parser.
 
 Nothing here is evaluated yet: expressions stay trees (`Number`, `Name`,
-`BinOp`, `Neg`, `Vector`, `Call`) so that parameters can be overridden and
+`BinOp`, `Neg`, `Vector`, `Call`; in expressions of loads and motions also `Compare`,
+`SignalRef` and `String`) so that parameters can be overridden and
 resolved in dependency order by the compiler.  Every node keeps its `Pos`
 (file, line, column, the source line and the exact text) so any later pass can
 point back at what the user wrote.
@@ -61,6 +62,30 @@ class BinOp(Expr):
     op: str  # one of + - * / ^
     left: Expr
     right: Expr
+
+
+@dataclass(frozen=True)
+class Compare(Expr):
+    """``left op right`` with op one of < <= > >=: 1 or 0 (in expressions of loads and motions)."""
+
+    op: str
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class SignalRef(Expr):
+    """``entity.quantity``, a signal of the model (``slider.vx``), in expressions of loads and motions."""
+
+    entity: str
+    quantity: str
+
+
+@dataclass(frozen=True)
+class String(Expr):
+    """A quoted text (a table's file name)."""
+
+    value: str
 
 
 @dataclass(frozen=True)

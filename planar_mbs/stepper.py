@@ -31,7 +31,7 @@ class Stepper:
 
         self.model = model
         self.settings = run_settings(model, **settings_changes)
-        self.cfg = self.settings.cfg()
+        self.cfg = self.settings.cfg(model.size)
         q, qd = assemble(model)
         self.y = np.concatenate([q, qd])
         self.clock = np.zeros(3)  # t, current step (0 = automatic), t0 of the output grid

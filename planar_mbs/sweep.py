@@ -7,32 +7,29 @@
               [parse_param("speed=800rpm,1200rpm"), parse_param("clearance=0.1mm..0.5mm:5")],
               "sweep.h5", revolutions=60, per_rev=720)
 
-File layout (each case is laid out exactly as the file of one run, see results.py)::
+File layout (each case is laid out as the file of one run, see results.py)::
 
     /                    attrs: kind = "sweep", config (JSON: model fingerprint, --set values,
-                         settings, section options, ...), model_source, model_path, version,
+                         settings, section options, ...), model_source, model_path, model_key,
+                         model_includes (the snapshot: `ModelSnapshot`), version,
                          params (JSON: [[name, [values...]], ...] in command order)
-    /cases/<k>/time, /cases/<k>/signals/<entity>, attrs of a run
-                         + case (k), case_key, case_values (JSON)
+    /cases/<k>/time, /cases/<k>/signals/<entity>   the --keep signals (none by default)
+                         + attrs of a run, case (k), case_key, case_values (JSON)
     /cases/<k>/poincare  the Poincaré section of the case and its verdict (analysis.py)
-    /cases_table/        one row per case: index, key, status, one column per parameter (the
-                         value text), <param>_si (SI value, NaN for names), verdict, period,
-                         K, lyapunov, dimension
+    /cases/<k>/summary   min, max, RMS of every signal (sweep_store.py)
+    /cases_table/        one row per case (sweep_store.write_table)
 
 Identity and resumption: a case is identified by its parameter values (``case_key``,
 the JSON of ``{name: value text without spaces}``).  Opening an existing sweep file
-checks that the model source (the file and everything it includes), the ``--set``
+checks that the model snapshot (the file and everything it includes), the ``--set``
 values and the run settings are the same, and refuses otherwise; cases already
 finished (or failed: a failed simulation fails again) are never run twice.  Adding
 values to an axis appends the new cases.
 
-Only the parent process writes the file: a worker (`run_case`, a pure function of
-a picklable `CaseSpec`) returns its results in memory, or, in a local pool, lays its
-case out in a file of its own beside the sweep file (`run_case_stored`), and the parent
-copies or writes each case when it arrives, first under ``/incoming/<k>`` and then
-moves it to ``/cases/<k>``, so ``/cases`` only ever holds whole cases.  Any executor with the
-`concurrent.futures` interface can run the cases: a local `ProcessPoolExecutor`
-(default) or, for a cluster, ``distributed.Client(address).get_executor()``.
+Whoever runs a case writes it whole into the sweep's journal (`store_outcome`); the sweep's process
+gathers the journal into the scan file by an atomic rename (`sweep_store.gather`), so no kill loses
+a finished case.  Any executor with the `concurrent.futures` interface can run the cases: a local
+`ProcessPoolExecutor` (default) or, for a cluster, ``distributed.Client(address).get_executor()``.
 """
 from __future__ import annotations
 
@@ -56,7 +53,7 @@ import numpy as np
 from .errors import MbsError, ModelError
 from .results import WRITE_CHUNK_CACHE, DiskFull, ResultsBusy, WriteLock, open_results, release_reserve, reserve_space
 
-FINISHED, FAILED = "finished", "failed"
+FINISHED, FAILED, PENDING = "finished", "failed", "pending"
 MAX_CASES = 1_000_000  # cases of one sweep
 # atomic groups and a greedy tail: linear time on any text (no retrying of shorter digit runs)
 _NUMBER = r"[-+]?(?>\d+(?:\.\d*)?|\.\d+)(?>[eE][-+]?\d+)?"
@@ -193,64 +190,69 @@ def parameter_si(text: str) -> float:
         return float("nan")
 
 
-def _model_files(path: str | Path) -> list[tuple[Path, bytes]]:
-    """The model file and, recursively, every file it includes (resolved path, bytes); only regular
-    files are read (a pipe or a device is left to the compiler, which reports it)."""
-    files: dict[Path, bytes] = {}
+@dataclass(frozen=True)
+class ModelSnapshot:
+    """A model and every file it includes, read once and resolved by the parser itself (an include
+    anywhere on a line is found): what every case of a sweep compiles, what the sweep file stores
+    and hashes, and what dask workers receive.  Editing the files while a sweep runs changes
+    nothing of it; editing them between runs is caught on resume by `fingerprint`."""
 
-    def add(p: Path):
-        p = p.resolve()
-        if p in files or not p.is_file():
-            return
-        files[p] = text = p.read_bytes()
-        for inc in re.findall(rb'^\s*include\s+"([^"]+)"', text, re.M):
-            add(p.parent / inc.decode("utf-8", "replace"))
+    path: str  # the model file as given (messages)
+    key: str  # its absolute path, the base of the includes' keys
+    text: str
+    includes: tuple[tuple[str, str], ...]  # (absolute path, text) of every included file
 
-    add(Path(path))
-    return list(files.items())
+    @classmethod
+    def of(cls, path: str | Path) -> "ModelSnapshot":
+        import stat
+
+        from .parse import MAX_MODEL_BYTES, decode_model, parse_model
+
+        path = str(path)
+        try:
+            info = os.stat(path)
+            if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened
+                raise IsADirectoryError(0, "not a regular file: give the .mbs model file")
+            if info.st_size > MAX_MODEL_BYTES:
+                raise ModelError(f"the model file is {info.st_size / 2**20:.0f} MB; models are limited to "
+                                 f"{MAX_MODEL_BYTES // 2**20} MB", path, hint="is this really a model file?")
+            with open(path, "rb") as f:
+                text = decode_model(f.read(MAX_MODEL_BYTES + 1), path)
+        except OSError as e:
+            raise SweepError(f"cannot read the model file {path} ({getattr(e, 'strerror', None) or e})") from None
+        spec = parse_model(text, path)  # the parser itself finds and reads every include
+        return cls(path, spec.key, text, tuple(sorted(spec.includes.items())))
+
+    def fingerprint(self) -> str:
+        """sha256 of the model's text and of every include's text with its path relative to the model."""
+        h = hashlib.sha256(self.text.encode() + b"\0")
+        base = os.path.dirname(self.key)
+        for key, text in self.includes:
+            h.update(os.path.relpath(key, base).encode() + b"\0" + text.encode() + b"\0")
+        return h.hexdigest()
+
+    def compile(self, overrides: dict[str, str]):
+        """The model of one case (errors worded for `--set`, as the sweep's values are given)."""
+        from .compile import compile_text
+
+        return compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
+
+    def attrs(self) -> dict:
+        """Root attributes of a scan file (the layout of a run's file)."""
+        return {"model_source": self.text, "model_path": self.path, "model_key": self.key,
+                "model_includes": json.dumps(dict(self.includes))}
+
+    @classmethod
+    def from_attrs(cls, attrs) -> "ModelSnapshot":
+        includes = json.loads(attrs.get("model_includes", "{}") or "{}")
+        path = _text(attrs["model_path"])
+        return cls(path, _text(attrs.get("model_key", os.path.abspath(path))), _text(attrs["model_source"]),
+                   tuple(sorted(includes.items())))
 
 
 def model_fingerprint(path: str | Path) -> str:
-    """sha256 of the model file and, recursively, of every file it includes."""
-    h = hashlib.sha256()
-    for p, text in _model_files(path):
-        h.update(p.name.encode() + b"\0" + text + b"\0")
-    return h.hexdigest()
-
-
-@dataclass(frozen=True)
-class ModelSources:
-    """A model and the files it includes, as text, laid out relative to their common folder `root`:
-    what a worker on another machine (dask) compiles instead of reading our paths."""
-
-    root: str
-    files: tuple[tuple[str, bytes], ...]  # (path relative to root, bytes); the model first
-
-    @classmethod
-    def of(cls, path: str | Path) -> "ModelSources":
-        found = _model_files(path)
-        root = Path(os.path.commonpath([str(p.parent) for p, _ in found]))
-        return cls(str(root), tuple((str(p.relative_to(root)), text) for p, text in found))
-
-    def load(self, overrides: dict[str, str]):
-        """Compile the model from these texts (in a private temporary folder); errors name the
-        original files."""
-        import tempfile
-
-        from .compile import load_model  # errors worded for `--set`, as the sweep's values are given
-
-        with tempfile.TemporaryDirectory(prefix="mbs-case-") as tmp:
-            for rel, text in self.files:
-                target = Path(tmp, rel)
-                target.parent.mkdir(parents=True, exist_ok=True)
-                target.write_bytes(text)
-            try:
-                model = load_model(Path(tmp, self.files[0][0]), overrides)
-            except MbsError as err:
-                raise MbsError(str(err).replace(str(Path(tmp).resolve()), self.root).replace(tmp, self.root)) \
-                    from None
-        model.source_path = str(Path(self.root, self.files[0][0]))
-        return model
+    """sha256 of the model file and, recursively, of every file it includes (`ModelSnapshot`)."""
+    return ModelSnapshot.of(path).fingerprint()
 
 
 # ---------------------------------------------------------------- one case (runs in a worker)
@@ -267,8 +269,7 @@ class CaseSpec:
     per_rev: int | None = None  # output_step = driver period / per_rev
     keep: tuple[str, ...] | None = None  # signals stored (None: all)
     section: dict[str, Any] | None = field(default_factory=dict)  # poincare_section options; None: no section
-    sources: "ModelSources | None" = None  # the model's text, for workers that do not share our files
-
+    snapshot: ModelSnapshot | None = None  # the model's text, taken once (None: read model_path)
 
     @property
     def key(self) -> str:
@@ -286,8 +287,12 @@ class CaseOutcome:
     section: Any = None  # analysis.PoincareSection
     verdict: Any = None  # analysis.Verdict
     wall_time: float = 0.0
-    part: str | None = None  # a local pool's worker stored the case in this file (`run_case_stored`)
+    part: str | None = None  # the case's file in the journal (`run_case_stored`)
     store_error: str = ""  # ... or could not (a full disk): the sweep stops, the case is not recorded
+    summary: dict | None = None  # (min, max, RMS) of every signal (`sweep_store.signal_summary`)
+    units: dict | None = None
+    part_bytes: int = 0
+    cpu_time: float = 0.0  # CPU seconds of the case in its process (the benchmarks' serial fraction)
 
 
 def case_settings(model, spec: CaseSpec) -> dict:
@@ -328,10 +333,10 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     from .errors import SimulationError
     from .section import AnalysisError, poincare_section
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     try:
         overrides = {**spec.sets, **spec.values}
-        model = spec.sources.load(overrides) if spec.sources else load_model(spec.model_path, overrides)
+        model = spec.snapshot.compile(overrides) if spec.snapshot else load_model(spec.model_path, overrides)
         res = simulate(model, output=None, **case_settings(model, spec))
         status, message = FINISHED, res.attrs.get("message", "finished")
     except SimulationError as err:
@@ -349,15 +354,22 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
             verdict = classify(section)
         except AnalysisError as err:  # signal names were checked by `check_cases`: no KeyError here
             message += f"; no Poincaré section: {err}"
+    summary = units = None
+    if res is not None:
+        from .sweep_store import signal_summary
+
+        summary, units = signal_summary(res), dict(res.units)
     if spec.keep is not None and res is not None:
         # the run keeps every signal (the section may need others than --keep); store only the kept ones
-        kept = kept_signals(model, spec.keep)
+        kept = kept_signals(model, spec.keep) if spec.keep else set()
         res.signals = {k: v for k, v in res.signals.items() if k in kept}
         res.units = {k: v for k, v in res.units.items() if k in kept}
+        if not res.signals:
+            res.time = res.time[:0]  # no signal kept: no time axis either (replay_case rebuilds the run)
     if res is not None:
         res.attrs.update(case=spec.index, case_key=spec.key, case_values=spec.values)
     return CaseOutcome(spec.index, spec.key, dict(spec.values), status, message, res, section, verdict,
-                       time.perf_counter() - start)
+                       time.perf_counter() - start, summary=summary, units=units, cpu_time=time.process_time() - cpu)
 
 
 def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
@@ -371,19 +383,25 @@ def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
                        time.perf_counter() - start)
 
 
-def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None) -> CaseOutcome:
-    """The worker side of a local pool: `run_case`, then the case written, exactly as the sweep file
-    will hold it, into a file of its own in ``folder`` (next to the sweep file, same disk); returns
-    the outcome without its rows.  The parent then copies that group into the sweep file (HDF5 copies
-    the stored datasets as they are) instead of receiving tens of MB through a pipe and laying them
-    out itself: the workers do the writing, in parallel, and the parent stays nearly idle.  The disk
-    space the case needs is reserved before HDF5 writes a byte (a full disk is a clean `DiskFull`,
-    never an HDF5 write failing halfway), and a worker killed while writing leaves only its own file
-    broken, which nobody reads."""
+def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None, config: str = "{}") -> CaseOutcome:
+    """The worker side of a local pool (and of ``-j 1``): `run_case`, then the case written whole into
+    the sweep's journal (`store_outcome`); returns the outcome without its rows."""
+    return store_outcome(run_case(spec), folder, compression, config)
+
+
+def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | None = None,
+                  config: str = "{}") -> CaseOutcome:
+    """Write a case, exactly as the sweep file will hold it, into ``folder/case-<k>.h5``: laid out under
+    a temporary name, flushed, then renamed (`sweep_store.publish`), so a kill at any moment leaves the
+    whole case or none of it.  The disk space the case needs is reserved before HDF5 writes a byte
+    (a full disk is a clean `DiskFull`, never an HDF5 write failing halfway).  Returns the outcome
+    without its rows, naming the file (``part``), or with ``store_error``."""
     import h5py
 
-    outcome = run_case(spec)
-    part = Path(folder, f"case-{spec.index}.h5")
+    from .sweep_store import ROW_ATTR, publish
+
+    final = Path(folder, f"case-{outcome.index}.h5")
+    part = Path(folder, f".case-{outcome.index}.{os.getpid()}.tmp")
     fd = -1
     try:
         fd = os.open(part, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
@@ -393,7 +411,12 @@ def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None)
             image = image[os.write(fd, image):]
         with h5py.File(part, "r+", locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE) as f:  # "w" would free it
             _store_case(f, outcome, compression)
+            f.attrs[ROW_ATTR] = json.dumps(_row(outcome))
+            f.attrs["sweep_config"] = config  # the sweep's settings: a resume checks them
         release_reserve(fd, end)
+        os.close(fd)
+        fd = -1
+        publish(part, final)
     except (DiskFull, OSError, RuntimeError) as exc:
         part.unlink(missing_ok=True)
         message = exc.message if isinstance(exc, DiskFull) else str(exc)
@@ -401,7 +424,8 @@ def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None)
     finally:
         if fd >= 0:
             os.close(fd)
-    return dataclasses.replace(outcome, results=None, section=None, part=str(part))
+    return dataclasses.replace(outcome, results=None, section=None, part=str(final),
+                               part_bytes=final.stat().st_size)
 
 
 _EMPTY: list[bytes] = []
@@ -418,27 +442,20 @@ def _empty_hdf5() -> bytes:
     return _EMPTY[0]
 
 
-PARTS = ".cases-"  # the local pool's case files: a hidden folder ``.<sweep file name>.cases-XXXX`` beside it
-
-
-def _parts_folder(output: Path) -> str:
-    """A fresh folder for the workers' case files; folders a killed sweep left on this output are
-    removed first (the caller holds the output's write lock: no other sweep uses them)."""
-    import shutil
-    import tempfile
-
-    for old in output.parent.glob(f".{output.name}{PARTS}*"):
-        shutil.rmtree(old, ignore_errors=True)
-    return tempfile.mkdtemp(prefix=f".{output.name}{PARTS}", dir=output.parent)
-
-
 # ---------------------------------------------------------------- the sweep file
 def read_case_table(path: str | Path) -> list[dict]:
-    """Rows of ``/cases_table``: ``{"index", "key", "status", "values": {name: text}, "verdict", ...}``."""
+    """Rows of ``/cases_table``: ``{"index", "key", "status", "values": {name: text}, "verdict", ...}``,
+    and those of whole cases a killed sweep left in its journal (`sweep_store`), not yet gathered."""
     from .results import open_results
+    from .sweep_store import case_file_row, case_files, journal_folder
 
     with open_results(path) as f:
-        return _table_rows(f)
+        rows = {r["index"]: r for r in _table_rows(f)}
+    for index, part in case_files(journal_folder(path)):
+        row = case_file_row(part)
+        if row is not None:
+            rows[index] = row
+    return [rows[k] for k in sorted(rows)]
 
 
 def _text(v) -> str:
@@ -446,45 +463,12 @@ def _text(v) -> str:
 
 
 def _table_rows(f) -> list[dict]:
-    if "cases_table" not in f:
-        return []
-    t = f["cases_table"]
-    params = json.loads(t.attrs.get("params", "[]"))
-    n = len(t["index"])
-    if n > MAX_CASES or any(len(t[c]) != n for c in t):  # a crafted table: never loop over 10^12 rows
-        raise SweepError(f"{f.filename}: the table of cases is damaged ({n:,} rows, columns of unequal length)")
-    rows = []
-    for i in range(n):
-        row = {"index": int(t["index"][i]), "key": _text(t["key"][i]), "status": _text(t["status"][i]),
-               "message": _text(t["message"][i]) if "message" in t else "",
-               "values": {p: _text(t[p][i]) for p in params}}
-        for col in ("verdict",):
-            row[col] = _text(t[col][i]) if col in t else ""
-        for col in ("period", "K", "lyapunov", "dimension", "wall_time"):
-            row[col] = float(t[col][i]) if col in t else float("nan")
-        rows.append(row)
-    return rows
+    from .sweep_store import DamagedTable, table_rows
 
-
-def _write_table(f, rows: list[dict], params: list[str]) -> None:
-    import h5py
-
-    if "cases_table" in f:
-        del f["cases_table"]
-    t = f.create_group("cases_table")
-    t.attrs["params"] = json.dumps(params)
-    str_dt = h5py.string_dtype()
-    rows = sorted(rows, key=lambda r: r["index"])
-    t.create_dataset("index", data=np.array([r["index"] for r in rows], dtype=np.int64))
-    for col in ("key", "status", "message", "verdict"):
-        t.create_dataset(col, data=np.array([r.get(col, "") for r in rows], dtype=object), dtype=str_dt)
-    for p in params:
-        texts = [r["values"].get(p, "") for r in rows]
-        t.create_dataset(p, data=np.array(texts, dtype=object), dtype=str_dt)
-        t.create_dataset(f"{p}_si", data=np.array([parameter_si(x) for x in texts], dtype=float))
-    for col in ("period", "K", "lyapunov", "dimension", "wall_time"):
-        vals = [r.get(col) for r in rows]
-        t.create_dataset(col, data=np.array([np.nan if v is None else v for v in vals], dtype=float))
+    try:
+        return table_rows(f, MAX_CASES)
+    except DamagedTable as err:
+        raise SweepError(str(err)) from None
 
 
 def _row(outcome: CaseOutcome) -> dict:
@@ -507,8 +491,8 @@ class SweepSummary:
     rows: list[dict]
 
 
-def _config(model_path, sets, settings, revolutions, per_rev, keep, section) -> dict:
-    return {"model_fingerprint": model_fingerprint(model_path),
+def _config(snapshot: ModelSnapshot, sets, settings, revolutions, per_rev, keep, section) -> dict:
+    return {"model_fingerprint": snapshot.fingerprint(),
             "sets": {k: str(v).replace(" ", "") for k, v in sorted((sets or {}).items())},
             "settings": {k: settings[k] for k in sorted(settings or {})},
             "revolutions": revolutions, "per_rev": per_rev,
@@ -521,10 +505,10 @@ def _canon(obj) -> str:
 
 
 def plan(model_path, axes: Sequence[Axis], sets=None, settings=None, revolutions=None, per_rev=None,
-         keep=None, section=None) -> list[CaseSpec]:
+         keep=None, section=None, snapshot: ModelSnapshot | None = None) -> list[CaseSpec]:
     """The cases of a sweep, numbered in product order (before any resumption)."""
     return [CaseSpec(k, str(model_path), values, dict(sets or {}), dict(settings or {}), revolutions, per_rev,
-                     tuple(keep) if keep is not None else None, section)
+                     tuple(keep) if keep is not None else None, section, snapshot)
             for k, values in enumerate(expand(axes))]
 
 
@@ -561,27 +545,30 @@ def check_section(model, section: dict | None) -> None:
                          hint=did_you_mean(clock, model.body_names) or "bodies: " + ", ".join(model.body_names))
 
 
-def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, force: bool = True) -> None:
+def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, force: bool = True) -> list[int]:
     """Compile every case once in the parent, so a bad value, a misspelt `--keep` signal or a
     section signal the model lacks stops the sweep before it starts; unless ``force``, refuse a case
     beyond `output_size.MAX_ROWS` output rows (each case's rows are held in a worker's memory) or
-    cases that together do not fit on the disk holding ``output``."""
+    cases that together do not fit on the disk holding ``output``.  Returns each case's output rows
+    (the expected length of its run: the pool starts the longest first)."""
     from .compile import load_model
     from .output_size import check_output, estimate
     from .simulation import check_tolerances, run_settings
 
-    largest, total = None, 0.0
+    largest, total, rows = None, 0.0, []
     for spec in specs:
         try:
-            m = load_model(spec.model_path, {**spec.sets, **spec.values})
+            overrides = {**spec.sets, **spec.values}
+            m = spec.snapshot.compile(overrides) if spec.snapshot else load_model(spec.model_path, overrides)
             changes = case_settings(m, spec)
             settings = run_settings(m, **changes)  # e.g. an unknown integrator name
             check_tolerances(settings)
             columns = None
             if spec.keep is not None:
-                columns = len(kept_signals(m, spec.keep)) + 1
+                columns = len(kept_signals(m, spec.keep)) + 1 if spec.keep else 1
             check_section(m, spec.section)
             est = estimate(m, settings, columns)
+            rows.append(est.rows)
             total += est.bytes
             if largest is None or est.rows > largest.rows:
                 largest = est
@@ -600,6 +587,7 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
                              f"free on the disk holding {output}", str(specs[0].model_path),
                              hint="write elsewhere (-o), make room, or store fewer signals (--keep); pass --force to "
                                   "run anyway (the sweep stops cleanly when the disk is full, and resumes)")
+    return rows
 
 
 def default_executor(jobs: int | None) -> Executor:
@@ -725,13 +713,13 @@ def _cluster_watch(executor, timeout: float) -> Callable[[], None] | None:
 class _InlineFuture:
     """A case run in this process when its result is asked for (``-j 1``)."""
 
-    def __init__(self, fn, arg):
-        self.fn, self.arg = fn, arg
+    def __init__(self, fn, *args):
+        self.fn, self.args = fn, args
 
     def result(self):
         if PENDING_INTERRUPTS:  # an interrupt that Python dropped (raised inside a weakref callback)
             raise KeyboardInterrupt
-        return self.fn(self.arg)
+        return self.fn(*self.args)
 
 
 def run_sweep(
@@ -776,178 +764,221 @@ def run_sweep(
         raise SweepError(f"no model file {model_path}")
     if not Path(model_path).is_file():  # a folder, /dev/zero, a pipe: never read
         raise SweepError(f"{model_path} is not a regular file: give the .mbs model file")
+    snapshot = ModelSnapshot.of(model_path)  # read once: every case compiles this text
     keep = tuple(keep) if keep is not None else None
     section = dict(section) if section is not None else None
     if section and section.get("signals"):
         section["signals"] = list(section["signals"])
     settings = dict(settings or {})
-    specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section)
-    if executor is not None:  # workers elsewhere (dask) need not share our files or working folder
-        sources = ModelSources.of(model_path)
-        specs = [dataclasses.replace(s, sources=sources) for s in specs]
-    config = _config(model_path, sets, settings, revolutions, per_rev, keep, section)
+    specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section, snapshot)
+    config = _config(snapshot, sets, settings, revolutions, per_rev, keep, section)
     params = [a.name for a in axes]
+    _check_param_names(params)
+    from .sweep_store import clean_leftovers
 
-    # the lock first, then the table: a concurrent sweep on the same file must not be read halfway
-    existed = output.exists()
-    if not existed:
-        output.parent.mkdir(parents=True, exist_ok=True)
+    lock = _lock(output)
     try:
-        lock = WriteLock(output)
+        clean_leftovers(output)
+        state = _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force)
+    except BaseException:
+        if lock.output is not None:
+            lock.output.release()
+        lock.release(remove=True)
+        raise
+    header = {"kind": "sweep", "config": json.dumps(config, default=str), "params": json.dumps(state.merged),
+              "version": _version(), **snapshot.attrs()}
+    return _run_cases(state, lock, output, header, params, jobs, executor, compression, progress, start,
+                      worker_timeout)
+
+
+def _lock(output: Path):
+    """The sweep's `sweep_store.JournalLock` on ``output``, with the scan file's own write lock when the
+    file exists (``lock.output``): no other sweep, and no other writer of the file, while this one runs."""
+    from .sweep_store import JournalLock
+
+    output.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        lock = JournalLock(output)
     except ResultsBusy:
         raise SweepError(f"{output} is being written by another sweep; wait for it to end (or choose another -o)") \
             from None
     except OSError as exc:
         raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
     try:
-        f, rows, merged, numbered, pending, skipped = _open_sweep(
-            output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path, force)
-    except BaseException:
-        lock.release()
-        if not existed:
-            output.unlink(missing_ok=True)
-        raise
-    return _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config, params, model_path,
-                      jobs, executor, compression, progress, start, worker_timeout)
+        # none there: none made (a kill before the first gather must not leave an empty file)
+        lock.output = WriteLock(output) if output.exists() else None
+    except (ResultsBusy, OSError):
+        lock.release(remove=True)
+        raise SweepError(f"{output} is being written by another sweep or run; wait for it to end (or choose "
+                         "another -o)") from None
+    return lock
 
 
-def _open_sweep(output, lock, existed, overwrite, retry_failed, config, params, axes, specs, model_path, force):
-    """Read what the file already holds (under the lock), number and check the cases to run, and
-    open the file for writing."""
-    import h5py
+def _version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def _check_param_names(params: list[str]) -> None:
+    """A swept name is a model parameter (an identifier): never a path in the file."""
+    for p in params:
+        if not p or "/" in p or p in (".", ".."):
+            raise SweepError(f"`{p}` cannot be a parameter name")
+
+
+@dataclass
+class _Plan:
+    rows: dict  # key -> row of every case known (the file's, the journal's)
+    merged: list  # [[name, [values...]], ...]: the file's axes extended by this call's
+    numbered: list  # this call's cases, with their indices in the file
+    pending: list  # ... those to run, longest expected first
+    skipped: list  # indices already done
+    fresh: bool  # the scan file is started afresh (none yet, or --overwrite)
+
+
+def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force) -> _Plan:
+    """Read what the scan file and its journal hold (under the lock), number and check the cases to run."""
+    from .sweep_store import case_file_row, case_files, journal_folder, read_plan, write_plan
 
     rows: dict[str, dict] = {}
-    if existed and not overwrite:
-        try:
-            with open_results(output, locking=False) as f:
-                if f.attrs.get("kind") != "sweep":
-                    raise SweepError(f"{output} exists and is not a sweep file; choose another -o or pass --overwrite")
-                old = json.loads(f.attrs["config"])
-                old_params = json.loads(f.attrs.get("params", "[]"))
-                existing = _table_rows(f)
-                for r in existing:  # a case is only done if its group is there
-                    if f"cases/{r['index']}" not in f:
-                        r["status"] = "missing"
-        except OSError as exc:
-            raise SweepError(f"cannot read {output} as a sweep file ({exc}); choose another -o or pass --overwrite") \
-                from None
-        if old.get("model_fingerprint") != config["model_fingerprint"]:
-            raise SweepError(f"{output} was computed from a different model source than {model_path} "
-                             "(the model file or a file it includes changed): its cases cannot be resumed; "
-                             "choose another -o or pass --overwrite")
-        diff = [k for k in config if _canon(config[k]) != _canon(old.get(k))]
-        if diff:
-            raise SweepError(f"{output} was computed with other settings ({', '.join(diff)} differ: "
-                             f"{ {k: old.get(k) for k in diff} } in the file); choose another -o or pass --overwrite")
-        if [n for n, _ in old_params] != params:
-            raise SweepError(f"{output} sweeps {', '.join(n for n, _ in old_params)}, not {', '.join(params)}; "
-                             "choose another -o or pass --overwrite")
+    folder = journal_folder(output)
+    fresh = overwrite or not output.exists()
+    merged = [[a.name, list(a.values)] for a in axes]
+    if overwrite:
+        for _, part in case_files(folder):
+            part.unlink(missing_ok=True)
+    if not fresh:
+        old, old_params, existing = _read_scan(output)
+        _same_sweep(output, old, config, [n for n, _ in old_params], params)
         rows = {r["key"]: r for r in existing}
         merged = [[n, list(dict.fromkeys(list(vals) + list(a.values)))] for (n, vals), a in zip(old_params, axes)]
-    else:
-        merged = [[a.name, list(a.values)] for a in axes]
+    for index, part in case_files(folder):  # whole cases a killed sweep left: done, unless of another sweep
+        row, their = case_file_row(part), _case_file_config(part)
+        if row is None:
+            part.unlink(missing_ok=True)
+            continue
+        _same_sweep(output, their, config, list(row["values"]), params)
+        rows[row["key"]] = row
 
-    # number the cases: keep the file's indices, append the new ones
-    next_index = max((r["index"] for r in rows.values()), default=-1) + 1
+    plan = {} if overwrite else read_plan(folder)  # a killed sweep's numbering, before its first gather
+    plan.update({key: r["index"] for key, r in rows.items()})
+    next_index = max(plan.values(), default=-1) + 1
     numbered = []
-    for spec in specs:
-        if spec.key in rows:
-            numbered.append(dataclasses.replace(spec, index=rows[spec.key]["index"]))
-        else:
-            numbered.append(dataclasses.replace(spec, index=next_index))
+    for spec in specs:  # keep the file's indices, append the new ones
+        if spec.key not in plan:
+            plan[spec.key] = next_index
             next_index += 1
+        numbered.append(dataclasses.replace(spec, index=plan[spec.key]))
+        if spec.key not in rows:  # in the table from the first gather on: its index is kept by a resume
+            rows[spec.key] = _pending_row(numbered[-1])
+    write_plan(folder, plan)
     done_status = {FINISHED} | (set() if retry_failed else {FAILED})
     pending = [s for s in numbered if rows.get(s.key, {}).get("status") not in done_status]
     skipped = [s.index for s in numbered if s not in pending]
-    check_cases(pending, output, force)
+    expected = check_cases(pending, output, force)
+    order = sorted(range(len(pending)), key=lambda i: -expected[i])  # longest first: no core finishes alone
+    return _Plan(rows, merged, numbered, [pending[i] for i in order], skipped, fresh)
 
-    mode = "w" if overwrite or not existed else "a"
+
+def _pending_row(spec: CaseSpec) -> dict:
+    """The table's row of a case not yet run."""
+    return {"index": spec.index, "key": spec.key, "status": PENDING, "message": "", "values": dict(spec.values),
+            "verdict": "", "period": np.nan, "K": np.nan, "lyapunov": np.nan, "dimension": np.nan,
+            "wall_time": np.nan}
+
+
+def _read_scan(output: Path):
+    """(config, params, rows) of an existing scan file; a row whose case group is gone is "missing"."""
     try:
-        f = h5py.File(output, mode, locking=False, rdcc_nbytes=WRITE_CHUNK_CACHE)
+        with open_results(output, locking=False) as f:
+            if f.attrs.get("kind") != "sweep":
+                raise SweepError(f"{output} exists and is not a sweep file; choose another -o or pass --overwrite")
+            old = json.loads(f.attrs["config"])
+            old_params = json.loads(f.attrs.get("params", "[]"))
+            existing = _table_rows(f)
+            for r in existing:  # a case is only done if its group is there
+                if f"cases/{r['index']}" not in f:
+                    r["status"] = "missing"
     except OSError as exc:
-        raise SweepError(f"cannot write {output}: {exc}") from None
-    return f, rows, merged, numbered, pending, skipped
+        raise SweepError(f"cannot read {output} as a sweep file ({exc}); choose another -o or pass --overwrite") \
+            from None
+    return old, old_params, existing
 
 
-def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config, params, model_path,
-               jobs, executor, compression, progress, start, worker_timeout) -> SweepSummary:
-    """Run the pending cases and store each as it arrives; the file and the lock are closed at the end."""
-    from . import __version__
+def _case_file_config(part: Path) -> dict:
+    import h5py
 
+    with h5py.File(part, "r", locking=False) as f:
+        return json.loads(f.attrs.get("sweep_config", "{}"))
+
+
+def _same_sweep(output, old: dict, config: dict, old_params: list[str], params: list[str]) -> None:
+    """Refuse to resume cases computed from another model, other settings or other axes."""
+    if old.get("model_fingerprint") != config["model_fingerprint"]:
+        raise SweepError(f"{output} was computed from a different model source "
+                         "(the model file or a file it includes changed): its cases cannot be resumed; "
+                         "choose another -o or pass --overwrite")
+    diff = [k for k in config if _canon(config[k]) != _canon(old.get(k))]
+    if diff:
+        raise SweepError(f"{output} was computed with other settings ({', '.join(diff)} differ: "
+                         f"{ {k: old.get(k) for k in diff} } in the file); choose another -o or pass --overwrite")
+    if sorted(old_params) != sorted(params):
+        raise SweepError(f"{output} sweeps {', '.join(old_params)}, not {', '.join(params)}; "
+                         "choose another -o or pass --overwrite")
+
+
+GATHER_MIN = 1 << 20  # bytes of journal before the first gather during a sweep
+
+
+def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compression, progress, start,
+               worker_timeout) -> SweepSummary:
+    """Run the pending cases; each is written whole into the journal by whoever ran it, and gathered
+    into the scan file (`sweep_store.gather`) when the journal has grown as large as the scan file
+    and at the end, even an interrupted one.  The lock is released at the end."""
+    from .sweep_store import journal_folder
+
+    rows, pending = state.rows, state.pending
+    folder = journal_folder(output)
     ran, failed = [], []
-    reserved = 0
-    total = len(numbered)
-    done = len(skipped)
+    total, done = len(state.numbered), len(state.skipped)
     pool = None
-    parts = None  # the local pool's folder of case files
+    fresh, dirty = state.fresh, state.fresh or any(True for _ in folder.glob("case-*.h5"))
+    scan_bytes = 0 if fresh else output.stat().st_size
+    journal = 0
+    stopping = False
+    config_text = header["config"]
     try:
-        source = Path(model_path).read_text(encoding="utf-8")
-        reserved = _reserve(lock, output, 4 * len(source) + len(rows) * 2048 + (1 << 18), len(skipped))
-        f.attrs.update(kind="sweep", config=json.dumps(config, default=str), params=json.dumps(merged),
-                       model_path=model_path, model_source=source,
-                       version=__version__)
-        for s in pending:  # a case cut off while being written is redone
-            for grp in (f"cases/{s.index}", f"incoming/{s.index}"):
-                if grp in f:
-                    del f[grp]
-        _write_table(f, list(rows.values()), params)
-        f.flush()
+        if dirty:  # the file exists from the start; a killed sweep's whole cases are gathered first
+            scan_bytes = _gather(output, lock, header, rows, params, fresh)
+            fresh = dirty = False
         if progress:
             progress(done, total, None)
-        if executor is None and (jobs == 1 or len(pending) <= 1):
-            futures = [_InlineFuture(run_case, s) for s in pending]
-            results_iter = futures
-        else:
-            if executor is None:
-                from .sweep_server import started
-
-                if not started():  # the kernels loaded here once; the pool's workers are forks of this process
-                    from .sweep_worker import warm_up
-
-                    warm_up()
-                parts = _parts_folder(output)
-                pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
-                futures = [pool.submit(run_case_stored, s, parts, compression) for s in pending]
-            else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
-                pool = executor
-                futures = [pool.submit(run_case, s) for s in pending]
-            results_iter = _completed(futures, _cluster_watch(executor, worker_timeout))
+        pool, results_iter = _start(pending, str(folder), jobs, executor, compression, config_text, worker_timeout)
         for fut in results_iter:
-            try:
-                outcome = fut.result()
-            except MbsError:
-                raise
-            except Exception as exc:  # a worker killed, a cluster lost: not one case's fault
-                kept = len(skipped) + len(ran)
-                what = "the dask cluster failed" if executor is not None else "a worker process of the sweep died"
-                raise SweepStopped(f"{what} ({type(exc).__name__}: {exc}); the {kept} case(s) stored so far are "
-                                   f"kept in {output}: run the same command again to resume") from None
-            if outcome.store_error:  # a worker could not write its case file (a full disk)
-                kept = len(skipped) + len(ran)
-                raise SweepStopped(f"case {outcome.index} could not be written ({outcome.store_error}); the {kept} "
-                                   f"case(s) stored so far are kept in {output}: make room and run the same "
-                                   "command again to resume")
-            reserved = max(reserved, _reserve(lock, output, _case_bytes(outcome, len(rows) + 1),
-                                              len(skipped) + len(ran)))
+            outcome = _outcome(fut, executor, len(state.skipped) + len(ran), output)
+            if outcome.part is None and not outcome.store_error:  # from a cluster: written here
+                outcome = store_outcome(outcome, folder, compression, config_text)
+            if outcome.store_error:  # the case could not be written (a full disk)
+                raise SweepStopped(f"case {outcome.index} could not be written ({outcome.store_error}); the "
+                                   f"{len(state.skipped) + len(ran)} case(s) stored so far are kept in {output}: "
+                                   "make room and run the same command again to resume")
             rows[outcome.key] = _row(outcome)
-            try:
-                if outcome.part is not None:
-                    _store_part(f, outcome)
-                else:
-                    _store_case(f, outcome, compression)
-                _write_table(f, list(rows.values()), params)
-                f.flush()
-            except (OSError, RuntimeError) as exc:
-                raise SweepStopped(f"cannot write {output} ({exc}); run the same command again to resume") from None
-            if outcome.part is not None:
-                Path(outcome.part).unlink(missing_ok=True)
+            dirty = True
+            journal += outcome.part_bytes
+            if journal >= max(scan_bytes, GATHER_MIN):
+                scan_bytes = _gather(output, lock, header, rows, params, fresh)
+                fresh, dirty, journal = False, False, 0
             ran.append(outcome.index)
             if outcome.status != FINISHED:
                 failed.append(outcome.index)
             done += 1
             if progress:
                 progress(done, total, outcome)
+        if header["params"] != _file_params(output):
+            dirty = True
     except BaseException:
+        stopping = True  # a failed gather below must not hide why the sweep stopped
         if pool is not None and executor is None:
             pool.shutdown(wait=False, cancel_futures=True)
             pool = None
@@ -956,87 +987,112 @@ def _run_cases(f, lock, output, rows, merged, numbered, pending, skipped, config
         if pool is not None and executor is None:
             pool.shutdown(wait=True)
         try:
-            if "incoming" in f and not len(f["incoming"]):
-                del f["incoming"]
-            f.close()
+            if dirty:
+                _gather(output, lock, header, rows, params, fresh)
+        except SweepStopped:
+            if not stopping:
+                raise
         finally:
-            if parts is not None:  # a worker still running (an interrupt) cannot write here any more
-                import shutil
-
-                shutil.rmtree(parts, ignore_errors=True)
-            release_reserve(lock.fd, reserved)
-            lock.release()
-    order = {s.key: i for i, s in enumerate(numbered)}
+            if lock.output is not None:
+                lock.output.release()
+            lock.release(remove=True)
+    order = {s.key: i for i, s in enumerate(state.numbered)}
     out_rows = sorted(rows.values(), key=lambda r: order.get(r["key"], 1 << 30))
-    return SweepSummary(output, total, ran, skipped, failed, time.perf_counter() - start, out_rows)
+    return SweepSummary(output, total, ran, state.skipped, failed, time.perf_counter() - start, out_rows)
 
 
-def _reserve(lock, output: Path, nbytes: int, kept: int) -> int:
-    """Reserve disk for the next write of the sweep file; a full disk stops the sweep (`SweepStopped`)
-    before anything of that write reaches the file, so every case stored so far stays readable."""
+def _start(pending, folder: str, jobs, executor, compression, config_text, worker_timeout):
+    """(pool, the cases' futures as they finish): in this process (``-j 1``), a local pool whose workers
+    write their cases into the journal themselves, or a dask executor whose results come back here."""
+    if executor is None and (jobs == 1 or len(pending) <= 1):
+        return None, [_InlineFuture(run_case_stored, s, folder, compression, config_text) for s in pending]
+    if executor is None:
+        from .sweep_server import started
+
+        if not started():  # the kernels loaded here once; the pool's workers are forks of this process
+            from .sweep_worker import warm_up
+
+            warm_up()
+        pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
+        futures = [pool.submit(run_case_stored, s, folder, compression, config_text) for s in pending]
+    else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
+        pool = executor
+        futures = [pool.submit(run_case, s) for s in pending]
+    return pool, _completed(futures, _cluster_watch(executor, worker_timeout))
+
+
+def _file_params(output: Path) -> str | None:
     try:
-        return reserve_space(lock.fd, nbytes, output)
-    except DiskFull as exc:
-        raise SweepStopped(f"{exc.message}; the {kept} case(s) stored so far are kept in {output}: make room "
-                           "and run the same command again to resume") from None
+        with open_results(output, locking=False) as f:
+            return f.attrs.get("params")
+    except (OSError, MbsError):
+        return None
+
+
+def _gather(output, lock, header, rows, params, fresh) -> int:
+    """`sweep_store.gather` of the cases of ``rows``; a full disk or a write error stops the sweep
+    with the finished cases kept (in the old scan file and the journal)."""
+    from .sweep_store import gather
+
+    try:
+        size = gather(output, header, rows, params, parameter_si, fresh=fresh)
+        old, lock.output = lock.output, WriteLock(output)  # the new scan file, locked as the old one was
+        if old is not None:
+            old.release()
+        return size
+    except ResultsBusy:
+        raise SweepStopped(f"{output} was opened for writing by another process; the finished cases are kept: "
+                           "run the same command again to resume") from None
+    except (OSError, RuntimeError) as exc:
+        import errno
+
+        why = f"the disk holding {output} is full" if getattr(exc, "errno", None) == errno.ENOSPC else \
+            f"cannot write {output} ({exc})"
+        raise SweepStopped(f"{why}; the finished cases are kept beside it: make room and run the same command "
+                           "again to resume") from None
+
+
+def _outcome(fut, executor, kept: int, output) -> CaseOutcome:
+    """A finished case's outcome; a worker or a cluster lost stops the sweep (`SweepStopped`)."""
+    try:
+        return fut.result()
+    except MbsError:
+        raise
+    except Exception as exc:  # a worker killed, a cluster lost: not one case's fault
+        what = "the dask cluster failed" if executor is not None else "a worker process of the sweep died"
+        raise SweepStopped(f"{what} ({type(exc).__name__}: {exc}); the {kept} case(s) stored so far are "
+                           f"kept in {output}: run the same command again to resume") from None
 
 
 def _case_bytes(outcome: CaseOutcome, n_rows: int) -> int:
-    """Disk that storing a case and rewriting the table can take: its data uncompressed (what gzip
-    writes is at most that, plus headers), its section, HDF5 metadata per dataset, the table's rows."""
-    if outcome.part is not None:  # HDF5 copies the stored datasets: at most the case file's size
-        return int(os.path.getsize(outcome.part) * 1.05 + n_rows * 2048 + (1 << 18))
+    """Disk that storing a case can take: its data uncompressed (what gzip writes is at most that,
+    plus headers), its section and summary, HDF5 metadata per dataset."""
     res = outcome.results
     sec = outcome.section
     arrays = [] if res is None else [res.time, *res.signals.values()]
     arrays += [sec.time, *sec.points.values()] if sec is not None else []
-    data = sum(np.asarray(a).nbytes for a in arrays)
+    data = sum(np.asarray(a).nbytes for a in arrays) + 64 * len(outcome.summary or {})
     return int(data * 1.05 + len(arrays) * 8192 + n_rows * 2048 + (1 << 18))
 
 
 def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
-    """Write a case under /incoming/<k>, then move it to /cases/<k> (so /cases only holds whole cases)."""
+    """Write a case under /cases/<k> of an open (case) file: the run's kept signals and attributes,
+    its status, its Poincaré section and verdict, its summary statistics."""
     from .analysis import write_section
     from .results import write_results
+    from .sweep_store import write_summary
 
-    tmp = _incoming_slot(f, outcome.index)
-    write_results(f, outcome.results, tmp, compression=compression)
-    g = f[tmp]
+    group = f"cases/{outcome.index}"
+    write_results(f, outcome.results, group, compression=compression)
+    g = f[group]
     g.attrs["sweep_status"] = outcome.status
     g.attrs["sweep_message"] = outcome.message
     g.attrs["case_wall_time"] = outcome.wall_time
+    g.attrs["case_cpu_time"] = outcome.cpu_time
     if outcome.section is not None:
         write_section(g, outcome.section, outcome.verdict)
-    _publish(f, outcome.index)
-
-
-def _store_part(f, outcome: CaseOutcome) -> None:
-    """Copy a case a worker stored in its own file (`run_case_stored`) under /incoming/<k>, then move
-    it to /cases/<k>, as `_store_case` does."""
-    import h5py
-
-    tmp = _incoming_slot(f, outcome.index)
-    f.require_group("incoming")
-    with h5py.File(outcome.part, "r", locking=False) as part:
-        f.copy(part[f"cases/{outcome.index}"], tmp)
-    _publish(f, outcome.index)
-
-
-def _incoming_slot(f, index: int) -> str:
-    """/incoming/<k>, emptied: where a case is laid out before `_publish` moves it."""
-    tmp = f"incoming/{index}"
-    if tmp in f:
-        del f[tmp]
-    return tmp
-
-
-def _publish(f, index: int) -> None:
-    """Move /incoming/<k> to /cases/<k> in one step, so /cases only ever holds whole cases."""
-    final = f"cases/{index}"
-    if final in f:
-        del f[final]
-    f.require_group("cases")
-    f.move(f"incoming/{index}", final)
+    if outcome.summary is not None:
+        write_summary(g, outcome.summary, outcome.units or {})
 
 
 def sweep_sections(path: str | Path) -> list[tuple[dict, Any, Any]]:
@@ -1051,3 +1107,103 @@ def sweep_sections(path: str | Path) -> list[tuple[dict, Any, Any]]:
                 sec, verdict = read_section(g)
                 out.append((row, sec, verdict))
     return out
+
+
+# ---------------------------------------------------------------- replay and merge
+def replay_case(path: str | Path, index: int, output: str | Path | None = None, **run_options):
+    """Run case ``index`` of the scan file ``path`` again, from what the file records (the model's
+    text with its includes, the fixed ``--set`` values, the settings, the case's values): the same
+    run as `mbs run` with those settings, bit for bit, with every signal (into ``output`` if given).
+    Returns its `Results`."""
+    from . import simulate
+
+    with open_results(path) as f:
+        if f.attrs.get("kind") != "sweep":
+            raise SweepError(f"{path} is not a sweep file")
+        config = json.loads(f.attrs["config"])
+        snapshot = ModelSnapshot.from_attrs(f.attrs)
+        rows = {r["index"]: r for r in _table_rows(f)}
+    rows.update({r["index"]: r for r in read_case_table(path)})
+    if index not in rows:
+        raise SweepError(f"{path} has no case {index} (cases {min(rows, default=0)}..{max(rows, default=-1)})")
+    spec = _replay_spec(rows[index], config, snapshot)
+    model = snapshot.compile({**spec.sets, **spec.values})
+    return simulate(model, output=output, **case_settings(model, spec), **run_options)
+
+
+def _replay_spec(row: dict, config: dict, snapshot: ModelSnapshot) -> CaseSpec:
+    return CaseSpec(row["index"], snapshot.path, dict(row["values"]), dict(config.get("sets") or {}),
+                    dict(config.get("settings") or {}), config.get("revolutions"), config.get("per_rev"),
+                    None, config.get("section"), snapshot)
+
+
+def case_summary(path: str | Path, index: int) -> dict[str, tuple[float, float, float]]:
+    """The stored (min, max, RMS) of every signal of case ``index`` (`sweep_store.signal_summary`)."""
+    from .sweep_store import read_summary
+
+    with open_results(path) as f:
+        return read_summary(f[f"cases/{index}"])
+
+
+def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bool = False) -> int:
+    """Merge scan files of the same model and settings (e.g. computed on two machines) into one:
+    the first file's cases keep their indices, the others' are appended in their order; a case
+    present in two files is refused, as are files of another model, other settings or other
+    parameters.  Written beside ``output`` and renamed into place.  Returns the number of cases."""
+    import shutil
+
+    import h5py
+
+    from .sweep_store import journal_folder, case_files, publish, write_table
+
+    output = Path(output)
+    inputs = [Path(p) for p in inputs]
+    if len(inputs) < 2:
+        raise SweepError("give at least two sweep files to merge")
+    if any(output.exists() and p.exists() and os.path.samefile(p, output) for p in inputs):
+        raise SweepError(f"{output} is one of the files to merge: choose another -o")
+    if output.exists() and not overwrite:
+        raise SweepError(f"{output} exists; choose another -o or pass --overwrite")
+    heads = []
+    for p in inputs:
+        if case_files(journal_folder(p)):
+            raise SweepError(f"{p} has finished cases not yet gathered (a sweep was stopped): run its sweep "
+                             "command again first")
+        old, old_params, rows = _read_scan(p)
+        heads.append((p, old, old_params, rows))
+    first, config, params0, _ = heads[0]
+    names = [n for n, _ in params0]
+    seen: dict[str, Path] = {}
+    for p, old, old_params, rows in heads:
+        _same_sweep(p, old, config, [n for n, _ in old_params], names)
+        for r in rows:
+            if r["status"] == "missing":  # a case not run yet (pending), or its group gone
+                raise SweepError(f"{p}: case {r['index']} has not been run: run its sweep command again first")
+            if r["key"] in seen:
+                raise SweepError(f"case {r['key']} is in both {seen[r['key']]} and {p}: a merge takes each "
+                                 "case once")
+            seen[r["key"]] = p
+    tmp = output.with_name(f".{output.name}.tmp-{os.getpid()}")
+    try:
+        shutil.copyfile(first, tmp)
+        with h5py.File(tmp, "r+", locking=False) as f:
+            all_rows = list(heads[0][3])
+            merged = [[n, list(v)] for n, v in params0]
+            nxt = max((r["index"] for r in all_rows), default=-1) + 1
+            for p, _, old_params, rows in heads[1:]:
+                values = dict(old_params)
+                for m in merged:
+                    m[1] = list(dict.fromkeys(m[1] + list(values[m[0]])))
+                with h5py.File(p, "r", locking=False) as src:
+                    for r in sorted(rows, key=lambda r: r["index"]):
+                        f.copy(src[f"cases/{r['index']}"], f"cases/{nxt}")
+                        f[f"cases/{nxt}"].attrs["case"] = nxt
+                        all_rows.append(dict(r, index=nxt))
+                        nxt += 1
+            f.attrs["params"] = json.dumps(merged)
+            write_table(f, all_rows, names, parameter_si)
+        publish(tmp, output)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return len(all_rows)

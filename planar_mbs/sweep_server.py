@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
 
 _STARTED: list[bool] = []
 SERVER_ENV = "PLANAR_MBS_SWEEP_SERVER"  # set for the server only: the pid of the sweep that started it
@@ -36,6 +37,7 @@ def start() -> bool:
         return False
     os.environ[SERVER_ENV] = str(os.getpid())
     try:
+        own_temp_folder()
         mp.get_context("forkserver").set_forkserver_preload(["planar_mbs.sweep_worker"])
         from multiprocessing import forkserver
 
@@ -49,6 +51,47 @@ def start() -> bool:
         del os.environ[SERVER_ENV]
     _STARTED.append(True)
     return True
+
+
+TEMP_PREFIX = "mbs-sweep-"  # the fork server's socket folder: mbs-sweep-<pid>-XXXX in the temp folder
+
+
+def own_temp_folder() -> None:
+    """Give multiprocessing a temporary folder of ours (``mbs-sweep-<pid>-*``) instead of its own
+    ``pymp-*``: its finalizer never runs, as the command ends with ``os._exit``, and the folder of the
+    fork server's socket stayed behind after every sweep.  `remove_temp_folder` removes it at the end
+    of the sweep; folders of sweeps that were killed (their process is gone) are removed here."""
+    import shutil
+    import tempfile
+    from multiprocessing import process
+
+    for old in Path(tempfile.gettempdir()).glob(f"{TEMP_PREFIX}*"):
+        pid = old.name[len(TEMP_PREFIX):].split("-")[0]
+        if pid.isdigit() and not _alive(int(pid)) and old.stat().st_uid == os.getuid():
+            shutil.rmtree(old, ignore_errors=True)
+    config = process.current_process()._config
+    if config.get("tempdir") is None:
+        config["tempdir"] = tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{os.getpid()}-")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_temp_folder() -> None:
+    """Remove the folder `own_temp_folder` made (the server keeps running without its socket file)."""
+    import shutil
+    from multiprocessing import process
+
+    folder = process.current_process()._config.get("tempdir")
+    if folder and Path(folder).name.startswith(f"{TEMP_PREFIX}{os.getpid()}-"):
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def die_with_parent() -> bool:
@@ -110,6 +153,8 @@ def wanted(argv: list[str], cores: int | None) -> bool:
     ``cores``).  A guess from the raw arguments, before typer reads them: when it is wrong, the
     only cost is a server started for nothing (or a sweep that loads its kernels itself)."""
     jobs = None
+    if argv[:1] in (["replay"], ["merge"]) and not os.path.exists(argv[0]):  # `mbs sweep replay/merge`
+        return False
     for i, a in enumerate(argv):
         if a in ("--help", "--scheduler") or a.startswith("--scheduler="):
             return False

@@ -78,7 +78,7 @@ def test_help_text_keeps_its_defaults_and_has_no_stray_placeholders(command):
     assert r.exit_code == 0
     assert not re.search(r"\w \.(\s|$)", r.output), r.output  # what rich markup left of "[default: ...]"
     shown = {"run": ["results/<model name>.h5", "the model's simulate block, else dopri5"],
-             "sweep": ["(the number of cores)", "[default: (all)]", "(the slider's vx:ax)"],
+             "sweep": ["(the number of cores)", "[default: (none)]", "(the slider's vx:ax)"],
              "plot": ["<results>_plots/"], "view": ["<results>.rrd"], "analyze": ["[default: 1.0]"]}[command]
     for text in shown:
         assert text in r.output, text

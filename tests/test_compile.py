@@ -10,7 +10,7 @@ from planar_mbs.errors import ModelError
 from planar_mbs.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM,
     CP_STIFFNESS, JP_LENGTH, JP_PHI0, ContactLaw, DriverType, ForceType, Integrator, JointType,
-    MotionType,
+    MotionType, N_CLEARANCE_PARAM,
 )
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -71,8 +71,8 @@ def test_slider_crank_arrays():
     assert m.body_geometry[2] == {"kind": "box", "width": 0.03, "height": 0.015}
     line = next(i for i, t in enumerate(m.source_text.splitlines(), 1) if t.startswith("joint A"))
     assert m.joint_source[1].line == line and m.joint_source[1].file.endswith("slider_crank.mbs")
-    assert k.clearance_param.shape == (0, 12) and k.clearance_point.shape == (0, 2, 2)
-    assert k.force_param.shape == (0, 4) and k.force_body.shape == (0, 2)
+    assert k.clearance_param.shape == (0, N_CLEARANCE_PARAM) and k.clearance_point.shape == (0, 2, 2)
+    assert k.force_param.shape == (0, 5) and k.force_body.shape == (0, 2)
 
 
 def test_clearance_a_arrays_and_eq18_stiffness():
@@ -353,12 +353,12 @@ simulate { integrator = rk4  step = 1 us  projection = on  max_steps = 1e6  alph
                                      ForceType.SPRING_DAMPER, ForceType.ROTATIONAL_SPRING_DAMPER]
     assert k.force_body.tolist() == [[1, -1], [0, -1], [0, 1], [0, 1]]
     np.testing.assert_allclose(k.force_param[0, :2], [1, -2])
-    np.testing.assert_allclose(k.force_param[2], [100, 1, 0.12, 0])  # free length: (0.05, 0) to (0.17, 0)
-    np.testing.assert_allclose(k.force_param[3], [1, 0, 0, 0.5])
+    np.testing.assert_allclose(k.force_param[2], [100, 1, 0.12, 0, 0])  # free length: (0.05, 0) to (0.17, 0)
+    np.testing.assert_allclose(k.force_param[3], [1, 0, 0, 0.5, 0])  # p4: no expression actuator
     np.testing.assert_allclose(k.gravity, [0, -9.81])
     np.testing.assert_allclose(m.qd0[6:], [1, 0, 2 * math.pi])
     s = m.settings
-    assert (s.integrator, s.step, s.projection, s.max_steps, s.alpha, s.beta) == (Integrator.RK4, 1e-6, True,
+    assert (s.integrator, s.step, s.projection, s.max_steps, s.alpha, s.beta) == (Integrator.RK4, 1e-6, "on",
                                                                                    10 ** 6, 10, 10)
     assert m.force_names == ["f", "t2", "s", "r"]
 

@@ -34,7 +34,7 @@ override simulate {{ t_end = 5 rev / speed  h_min = 1e-6 s  rtol = 1e-10  output
 
 
 @pytest.mark.parametrize("text, status, words", [
-    (TOGGLE, "singular", ["constraint matrix became singular", "driver `motor`"]),
+    (TOGGLE, "constraints_lost", ["the constraints gave way", "limit position (toggle"]),
     (BLOW_UP, "nonfinite", ["NaN or infinite", "body `bob`"]),
     (UNDERFLOW, "step_underflow", ["step size fell below h_min", "clearance joint `A` in contact"]),
 ], ids=["singular", "nan", "underflow"])

@@ -53,9 +53,26 @@ def all_types_model():
              params=tuple(rng.uniform(-1, 1, 8))),
         dict(type=D.POSITION, bodies=(2, -1), points=(_pt(), _pt()), axis=_axis(), motion=M.RAMP,
              params=(0.0, 1.5, 0.0)),
+        dict(type=D.ANGLE, bodies=(3, 0), motion=M.EXPRESSION, params=(0.0,)),
     ]
     bodies = [(1.0 + k, 0.1 + 0.05 * k) for k in range(4)]
-    return build(bodies, joints=joints, drivers=drivers)
+    return build(bodies, joints=joints, drivers=drivers)._replace(**_motion_program())
+
+
+def _motion_program():
+    """The program of the EXPRESSION driver: functions, a quotient and a table of t, so that the
+    finite differences below check its f' and f'' (dual numbers) too."""
+    from planar_mbs.evaluate import Evaluator
+    from planar_mbs.expressions import Context, Programs
+    from planar_mbs.parse import parse_expression
+    from planar_mbs.units import ANGLE
+
+    text = ("0.3 rad * sin(2 rad/s * t + 0.4) * exp(-t / 1.5 s) + 0.2 * atan2(t, 0.7 s) + 0.1 * sqrt(1 + t^2 / 1 s^2)"
+            " + 0.05 rad * (t / 1 s)^3 / (1 + t / 1 s) + table(x = t, xs = (-1 s, 0 s, 0.5 s, 2 s, 3 s), "
+            "ys = (0.1 rad, 0 rad, 0.2 rad, -0.1 rad, 0 rad), interpolation = akima) + cos(3 rad/s * t) * log(2 + t / 1 s)")
+    progs = Programs(Evaluator({}, {}, {}, set()), Context({}, np.zeros(0), np.zeros(0), {}, {}))
+    progs.program(parse_expression(text, "test"), ANGLE, "the test motion", state=False)
+    return progs.arrays()
 
 
 KM = all_types_model()

@@ -107,12 +107,12 @@ def test_conservative_force_elements_conserve_energy():
 
 @pytest.mark.parametrize("alpha, bound", [(0.0, None), (20.0, 1e-5)])
 def test_baumgarte_keeps_constraints(alpha, bound):
-    """Loose tolerance, long run: without feedback the position error drifts; with
-    alpha = beta = 20 it stays small."""
+    """Loose tolerance, long run: without feedback the position error drifts until the
+    constraint check (10 rtol of the size) stops the run; with alpha = beta = 20 it stays small."""
     km, q0, qd0 = K.double_pendulum()
     c = K.cfg(rtol=1e-5, atol=1e-7, output_step=0.1, alpha=alpha, beta=alpha)
     st, t, rows, *_ = K.run(km, q0, qd0, c, 20.0)
-    assert st == Status.DONE
+    assert st == (Status.CONSTRAINTS_LOST if bound is None else Status.DONE)
     perr = rows[:, -2].max()
     print(f"alpha = beta = {alpha}: max |C| = {perr:.2e}, max |C'| = {rows[:, -1].max():.2e}")
     if bound is None:

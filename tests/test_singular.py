@@ -116,13 +116,15 @@ def test_shipped_parallelogram_runs_through_with_exit_0(tmp_path):
 
 
 def test_rk4_that_leaves_the_constraints_stops_with_exit_3(tmp_path):
-    """A 1 ms RK4 step, no projection: the chain leaves its constraints at a singular position."""
+    """A 1 ms RK4 step: the chain cannot pass its singular position at that step (the step in two
+    halves disagrees), or leaves its constraints there."""
     path = tmp_path / "p.mbs"
     path.write_text(chains.parallelogram_chain(1, integrator="rk4", extra="step = 1 ms "))
     res = runner.invoke(app, ["run", str(path), "-o", str(tmp_path / "p.h5")])
     assert res.exit_code == 3, res.output
     out = " ".join(res.output.split())
-    assert "constraints drifted" in out and "at t = " in out and "joint `" in out
+    assert "at t = " in out
+    assert ("constraints drifted" in out and "joint `" in out) or "cannot resolve a singular position" in out
 
 
 # ---------------------------------------------------------------- redundant joints

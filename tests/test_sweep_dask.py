@@ -20,7 +20,8 @@ pytestmark = pytest.mark.slow  # starts a scheduler and worker processes (~20 s)
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "models" / "slider_crank_clearance_a.mbs"
-ARGS = ["-P", "speed=2500rpm,5000rpm", "-P", "law=hertz,flores", "--revolutions", "3", "--per-rev", "90", "-q"]
+ARGS = ["-P", "speed=2500rpm,5000rpm", "-P", "law=hertz,flores", "--revolutions", "3", "--per-rev", "90", "-q",
+        "--keep", "all"]
 
 
 @pytest.fixture

@@ -44,6 +44,7 @@ SWEEP = ("import os, sys\n_exit = os._exit\n"
 
 def _sweep(out: Path, jobs: str):
     argv = ["mbs", "sweep", IDEAL, "-P", "speed=800rpm..1600rpm:3", "-n", "4", "--per-rev", "90", "-j", jobs,
+            "--keep", "all",
             "-q", "-o", str(out)]
     return subprocess.run([sys.executable, "-c", SWEEP.format(argv=argv)], capture_output=True, text=True,
                           timeout=600, cwd=ROOT)
@@ -145,3 +146,39 @@ def test_an_interrupted_pool_sweep_says_one_sentence_and_leaves_nothing(tmp_path
                                         "command again to resume"], err
     assert not alive, [p.cmdline() for p in alive]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
+
+
+def test_a_pool_sweep_leaves_no_temporary_folder_and_removes_those_of_killed_sweeps(tmp_path):
+    """multiprocessing's fork server keeps its socket in a temporary folder that its finalizer would
+    remove, but `mbs sweep` ends with os._exit: every pool sweep left a pymp-* folder behind.  The
+    sweep now gives it a folder of its own and removes it at its end; one a killed sweep left (its
+    process is gone) is removed by the next sweep, one of a sweep still running is not."""
+    import os
+    import shutil
+    import tempfile
+
+    temp = Path(tempfile.mkdtemp(prefix="mbs-t", dir="/tmp"))  # short: a socket's path has at most 107 bytes
+    try:
+        _leftovers(temp, tmp_path)
+    finally:
+        shutil.rmtree(temp)
+
+
+def _leftovers(temp: Path, tmp_path: Path) -> None:
+    import os
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = temp / f"mbs-sweep-{dead.pid}-abc"  # a killed sweep's (its pid is free now)
+    stale.mkdir()
+    (stale / "listener-x").write_text("")
+    alive = temp / f"mbs-sweep-{os.getpid()}-def"  # a running sweep's
+    alive.mkdir()
+    argv = ["mbs", "sweep", IDEAL, "-P", "speed=800rpm..1600rpm:3", "-n", "2", "--per-rev", "36", "-j", "2",
+            "-q", "-o", str(tmp_path / "s.h5")]
+    r = subprocess.run([sys.executable, "-c", SWEEP.format(argv=argv)], capture_output=True, text=True,
+                       timeout=600, cwd=ROOT, env=dict(os.environ, TMPDIR=str(temp)))
+    assert r.returncode == 0, r.stderr
+    assert "NO NUMBA" in r.stderr  # the pool came from the fork server
+    assert sorted(p.name for p in temp.iterdir()) == [alive.name]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]  # no journal left either

@@ -26,6 +26,7 @@ import numpy as np
 from .jit import kernel
 
 from ..model import JOINT_ROWS, DriverType, JointType, MotionType, Status
+from .expressions import expr_dual
 
 REVOLUTE = int(JointType.REVOLUTE)
 TRANSLATIONAL = int(JointType.TRANSLATIONAL)
@@ -42,6 +43,7 @@ CONSTANT_SPEED = int(MotionType.CONSTANT_SPEED)
 RAMP = int(MotionType.RAMP)
 HARMONIC = int(MotionType.HARMONIC)
 POLYNOMIAL = int(MotionType.POLYNOMIAL)
+EXPRESSION = int(MotionType.EXPRESSION)
 
 # rows per joint type (catalog.JOINTS), frozen by numba as a constant array
 _JOINT_ROWS = np.ascontiguousarray(JOINT_ROWS)
@@ -133,6 +135,16 @@ def motion(mtype, p, t):
 
 
 @kernel(inline=True)
+def driver_motion(km, d, t):
+    """f(t), f'(t), f''(t) of driver d: its motion law, or its expression program by dual numbers.
+    Inlined: a call that is not passes every array of the KernelModel (kernel/jit.py)."""
+    mtype = km.driver_motion[d]
+    if mtype == EXPRESSION:
+        return expr_dual(km, int(km.driver_motion_param[d, 0]), t)
+    return motion(mtype, km.driver_motion_param[d], t)
+
+
+@kernel(inline=True)
 def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
     """Fill C (m), the row-sparse Jacobian J (m, 2, 3), Ct (m) and gamma (m) of every
     joint and driver row; cs holds the bodies' cos/sin (`body_trig`).
@@ -212,7 +224,7 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
         r = km.driver_row[d]
         bi = km.driver_body[d, 0]
         bj = km.driver_body[d, 1]
-        f, fd, fdd = motion(km.driver_motion[d], km.driver_motion_param[d], t)
+        f, fd, fdd = driver_motion(km, d, t)
         typ = km.driver_type[d]
         if typ == ANGLE:
             _, _, phi_i, _, _, _ = body_state(q, qd, bi)

@@ -62,7 +62,12 @@ from ..model import (
     CP_FRICTION,
     CP_FRICTION_V0,
     CP_FRICTION_V1,
+    CP_BREAKDOWN,
+    CP_KIND,
     CP_LENGTH,
+    CP_NX,
+    CP_NY,
+    CP_VISCOSITY,
     CP_R_BEARING,
     CP_R_JOURNAL,
     CP_RESTITUTION,
@@ -75,6 +80,7 @@ from ..model import (
     FREE,
     TOUCHING,
     ContactLaw,
+    PairKind,
     Status,
 )
 from .constraints import point_cs, point_state
@@ -88,6 +94,10 @@ HUNT_CROSSLEY = int(ContactLaw.HUNT_CROSSLEY)
 FLORES = int(ContactLaw.FLORES)
 GONTHIER = int(ContactLaw.GONTHIER)
 N_LAWS = len(catalog.LAWS)
+CIRCLE_IN_CIRCLE = int(PairKind.CIRCLE_IN_CIRCLE)
+LUBRICATED = int(PairKind.LUBRICATED)
+CIRCLE_ON_LINE = int(PairKind.CIRCLE_ON_LINE)
+CIRCLE_ON_CIRCLE = int(PairKind.CIRCLE_ON_CIRCLE)
 # per law code: 1 = implicit cylindrical law (catalog group "cylindrical")
 CYLINDRICAL = np.array([1 if s.cylindrical else 0 for s in catalog.LAWS], dtype=np.int64)
 CONTACT_SOLVE = int(Status.CONTACT_SOLVE)
@@ -255,84 +265,235 @@ def friction_coefficient(p, vt):
 
 
 @kernel
-def _clearance_kin(km, k, Pix, Piy, vix, viy, wi, Pjx, Pjy, vjx, vjy, wj):
+def _pair_kin(km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj):
+    """(ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy) of contact pair k: relative position
+    ex, ey = P_j - P_i, its measure e, penetration delta, normal n (the force on the second body is
+    -F n), normal and slip velocities, and the arms r from the bodies' centres of mass to the
+    contact points.  ci, si: cos/sin of the first body's angle (read by the line only).
+
+    Circle in circle and lubricated (Muvengei et al. eqs. 3-12): n = e/|e| ((1, 0) at e = 0).
+    Circle on line: m = the line's outward normal, d = (P_j - P_i).m, delta = R_j - d, n = -m, contact
+    points P_j + R_j n and P_j + d n (the foot on the line).  Circles from outside: delta = R_i + R_j - |e|,
+    n = -e/|e|.  For the last two, vn and vt are the normal and tangential components of the relative
+    velocity of the material points at the contact points (vn = d delta/dt exactly)."""
     p = km.clearance_param[k]
+    kind = int(p[CP_KIND])
     ex = Pjx - Pix
     ey = Pjy - Piy
-    e = math.sqrt(ex * ex + ey * ey)
-    if e > 0.0:
-        nx = ex / e
-        ny = ey / e
+    rj = p[CP_R_JOURNAL]
+    if kind == CIRCLE_ON_LINE:
+        mx = ci * p[CP_NX] - si * p[CP_NY]
+        my = si * p[CP_NX] + ci * p[CP_NY]
+        e = ex * mx + ey * my
+        nx = -mx
+        ny = -my
+        delta = rj - e
+        cix = ex + e * nx  # the foot of P_j on the line, from P_i
+        ciy = ey + e * ny
+    elif kind == CIRCLE_ON_CIRCLE:
+        e = math.sqrt(ex * ex + ey * ey)
+        if e > 0.0:
+            nx = -ex / e
+            ny = -ey / e
+        else:
+            nx = 1.0
+            ny = 0.0
+        delta = p[CP_R_BEARING] + rj - e
+        cix = -p[CP_R_BEARING] * nx
+        ciy = -p[CP_R_BEARING] * ny
     else:
-        nx = 1.0
-        ny = 0.0
-    dvx = vjx - vix
-    dvy = vjy - viy
+        e = math.sqrt(ex * ex + ey * ey)
+        if e > 0.0:
+            nx = ex / e
+            ny = ey / e
+        else:
+            nx = 1.0
+            ny = 0.0
+        dvx = vjx - vix
+        dvy = vjy - viy
+        vn = dvx * nx + dvy * ny
+        vt = -dvx * ny + dvy * nx + wj * rj - wi * p[CP_R_BEARING]
+        rb = p[CP_R_BEARING]
+        if kind == LUBRICATED:
+            delta = e - p[CP_BREAKDOWN] * p[CP_CLEARANCE]
+        else:
+            delta = e - p[CP_CLEARANCE]
+        return ex, ey, e, delta, nx, ny, vn, vt, aix + rb * nx, aiy + rb * ny, ajx + rj * nx, ajy + rj * ny
+    cjx = rj * nx
+    cjy = rj * ny
+    # material velocities at the contact points: v + w k x r
+    dvx = (vjx - wj * cjy) - (vix - wi * ciy)
+    dvy = (vjy + wj * cjx) - (viy + wi * cix)
     vn = dvx * nx + dvy * ny
-    vt = -dvx * ny + dvy * nx + wj * p[CP_R_JOURNAL] - wi * p[CP_R_BEARING]
-    return ex, ey, e, e - p[CP_CLEARANCE], nx, ny, vn, vt
+    vt = -dvx * ny + dvy * nx
+    return ex, ey, e, delta, nx, ny, vn, vt, aix + cix, aiy + ciy, ajx + cjx, ajy + cjy
 
 
 @kernel
-def clearance_kinematics(km, k, q, qd):
-    """(ex, ey, e, delta, nx, ny, vn, vt) of clearance joint k.
+def _trig(q, b):
+    if b < 0:
+        return 1.0, 0.0
+    return math.cos(q[3 * b + 2]), math.sin(q[3 * b + 2])
 
-    At e = 0 (centred journal) the normal is undefined: n = (1, 0) is used."""
+
+@kernel
+def pair_kinematics(km, k, q, qd):
+    """`_pair_kin` of pair k at (q, q')."""
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
     Pix, Piy, aix, aiy, vix, viy, wi = point_state(q, qd, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
     Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_state(q, qd, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
-    return _clearance_kin(km, k, Pix, Piy, vix, viy, wi, Pjx, Pjy, vjx, vjy, wj)
+    ci = 1.0
+    si = 0.0
+    if int(km.clearance_param[k, CP_KIND]) == CIRCLE_ON_LINE:
+        ci, si = _trig(q, bi)
+    return _pair_kin(km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj)
+
+
+@kernel
+def clearance_kinematics(km, k, q, qd):
+    """(ex, ey, e, delta, nx, ny, vn, vt) of clearance element k (delta: the event function).
+
+    At e = 0 (centred journal) the normal is undefined: n = (1, 0) is used."""
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, q, qd)
+    return ex, ey, e, delta, nx, ny, vn, vt
+
+
+@kernel
+def film_force(p, e, vn, vtc, ws):
+    """(Fr, Ft) of the short-bearing film on the journal along n and t = perp(n) (Flores, Ambrosio,
+    Claro & Lankarani 2006, after Pinkus & Sternlicht: pi-film, wedge and squeeze terms):
+
+        Fr = -(mu R L^3 / 2c^2) [2 eps^2 |w| / (1 - eps^2)^2 + pi eps' (1 + 2 eps^2) / (1 - eps^2)^(5/2)]
+        Ft = s (mu R L^3 / 2c^2) [pi eps |w| / (2 (1 - eps^2)^(3/2)) + 4 eps eps' / (1 - eps^2)^2]
+
+    with w = w_i + w_j - 2 gamma' (gamma' the turning rate of the line of centres), s = sign(w) (the
+    positive-pressure half of the film mirrors with w).  eps = e/c is held at the breakdown ratio beyond
+    it.  vn = c eps', vtc = (P_j' - P_i').t = e gamma', ws = w_i + w_j.
+
+    The squeeze term of Ft takes s = eps w / sqrt((eps w)^2 + (2 eps')^2) instead of sign(w): the same
+    while the wedge term fixes the pi-film (|eps w| >> |2 eps'|, Flores et al.'s assumption), zero in a
+    pure squeeze (whose film is symmetric about the line of centres, so it has no cross force).  With the
+    sign a journal whirling at half speed (w = 0, where a journal released from the centre goes) met a
+    force that jumped at every crossing and the explicit integrator chattered at 1e-8 s steps."""
+    c = p[CP_CLEARANCE]
+    eb = p[CP_BREAKDOWN]
+    eps = e / c
+    if eps > eb:
+        eps = eb
+    epsd = vn / c
+    ew = eps * ws - 2.0 * vtc / c  # eps w, finite at eps = 0
+    u = 1.0 - eps * eps
+    scale = p[CP_VISCOSITY] * p[CP_R_JOURNAL] * p[CP_LENGTH] ** 3 / (2.0 * c * c)
+    Fr = -scale * (2.0 * eps * abs(ew) / (u * u) + math.pi * epsd * (1.0 + 2.0 * eps * eps) / (u * u * math.sqrt(u)))
+    r = math.sqrt(ew * ew + 4.0 * epsd * epsd)
+    s = ew / r if r > 0.0 else 0.0
+    Ft = scale * (0.5 * math.pi * ew / (u * math.sqrt(u)) + s * 4.0 * eps * epsd / (u * u))
+    return Fr, Ft
+
+
+@kernel
+def film_pressure_peak(p, e, vn, vtc, ws):
+    """Largest film pressure p(psi, z = 0) = -3 mu L^2 A / (2 h^3) over the pi-film of `film_force`,
+    A = (w/2) c eps sin(psi) - c eps' cos(psi), h = c (1 - eps cos psi) (psi from the line of centres),
+    sampled at 1/2 degree."""
+    c = p[CP_CLEARANCE]
+    eps = min(e / c, p[CP_BREAKDOWN])
+    ew = eps * ws - 2.0 * vtc / c
+    epsd = vn / c
+    sgn = 1.0 if ew >= 0.0 else -1.0
+    best = 0.0
+    L = p[CP_LENGTH]
+    for i in range(361):
+        psi = -sgn * math.pi * i / 360.0
+        h = c * (1.0 - eps * math.cos(psi))
+        A = 0.5 * ew * c * math.sin(psi) - c * epsd * math.cos(psi)
+        pr = -1.5 * p[CP_VISCOSITY] * L * L * A / (h * h * h)
+        if pr > best:
+            best = pr
+    return best
+
+
+@kernel
+def film_peak(km, k, q, qd, e, vn):
+    """Peak film pressure of element k (0 unless it is a lubricated joint)."""
+    p = km.clearance_param[k]
+    if int(p[CP_KIND]) != LUBRICATED:
+        return 0.0
+    bi = km.clearance_body[k, 0]
+    bj = km.clearance_body[k, 1]
+    Pix, Piy, aix, aiy, vix, viy, wi = point_state(q, qd, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
+    Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_state(q, qd, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
+    ex = Pjx - Pix
+    ey = Pjy - Piy
+    nx, ny = 1.0, 0.0
+    if e > 0.0:
+        nx = ex / e
+        ny = ey / e
+    vtc = -(vjx - vix) * ny + (vjy - viy) * nx
+    return film_pressure_peak(p, e, vn, vtc, wi + wj)
 
 
 @kernel
 def clearance_force(km, k, q, qd, cs, contact):
-    """(F, Ft, nx, ny, vt, status, aix, aiy, ajx, ajy) of joint k in its current mode:
-    normal force magnitude F, friction force Ft on the journal along t = (-ny, nx),
-    slip velocity vt, and the arms from the centres of mass to the bearing and
-    journal centres; cs = the bodies' cos/sin (`body_trig`)."""
+    """(F, Ft, nx, ny, vt, status, rix, riy, rjx, rjy) of element k in its current mode:
+    normal force magnitude F (the force on the second body is -F n + Ft t), friction force Ft on
+    the second body along t = (-ny, nx) (with the film's tangential force for a lubricated joint),
+    slip velocity vt, and the arms from the centres of mass to the contact points; cs = the
+    bodies' cos/sin (`body_trig`)."""
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
     Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
     Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, cs, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
-    ex, ey, e, delta, nx, ny, vn, vt = _clearance_kin(km, k, Pix, Piy, vix, viy, wi, Pjx, Pjy, vjx, vjy, wj)
-    if contact_mode(contact, k) == FREE or delta <= 0.0:
-        return 0.0, 0.0, nx, ny, vt, 0, aix, aiy, ajx, ajy
-    law = km.clearance_law[k]
     p = km.clearance_param[k]
+    kind = int(p[CP_KIND])
+    ci = 1.0
+    si = 0.0
+    if kind == CIRCLE_ON_LINE and bi >= 0:
+        ci = cs[bi, 0]
+        si = cs[bi, 1]
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = _pair_kin(
+        km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj)
+    F0 = 0.0
+    Ft0 = 0.0
+    if kind == LUBRICATED:
+        vtc = -(vjx - vix) * ny + (vjy - viy) * nx
+        Fr, Ftf = film_force(p, e, vn, vtc, wi + wj)
+        F0 = -Fr
+        Ft0 = Ftf
+    if contact_mode(contact, k) == FREE or delta <= 0.0:
+        return F0, Ft0, nx, ny, vt, 0, rix, riy, rjx, rjy
+    law = km.clearance_law[k]
     F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], contact[k, CT_LAST_FORCE])
     if st != 0:
-        return F, 0.0, nx, ny, vt, st, aix, aiy, ajx, ajy
+        return F, 0.0, nx, ny, vt, st, rix, riy, rjx, rjy
     Ft = -friction_coefficient(p, vt) * F
-    return F, Ft, nx, ny, vt, 0, aix, aiy, ajx, ajy
+    return F + F0, Ft + Ft0, nx, ny, vt, 0, rix, riy, rjx, rjy
 
 
 @kernel
 def add_clearance_forces(km, q, qd, cs, contact, Qe, stats):
-    """Qe += contact forces (normal and friction) of every clearance joint in contact mode
-    (a joint in free flight costs one comparison).  Returns 0, or a status (BAD_INPUT,
-    CONTACT_SOLVE) with stats[ST_INFO] = joint index."""
+    """Qe += contact forces (normal and friction) of every clearance element in contact mode, and
+    the film force of every lubricated joint (an element in free flight costs one comparison).
+    Returns 0, or a status (BAD_INPUT, CONTACT_SOLVE) with stats[ST_INFO] = element index."""
     nc = km.clearance_body.shape[0]
     for k in range(nc):
-        if contact_mode(contact, k) == FREE:
+        if contact_mode(contact, k) == FREE and int(km.clearance_param[k, CP_KIND]) != LUBRICATED:
             continue
-        F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, cs, contact)
+        F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, cs, contact)
         if st != 0:
             stats[ST_INFO] = k
             return st
-        if F == 0.0:
+        if F == 0.0 and Ft == 0.0:
             continue
         bi = km.clearance_body[k, 0]
         bj = km.clearance_body[k, 1]
-        p = km.clearance_param[k]
-        # force on the journal: -F n + Ft t, t = (-ny, nx); the bearing takes the opposite
+        # force on the second body: -F n + Ft t, t = (-ny, nx); the first takes the opposite
         fx = -F * nx - Ft * ny
         fy = -F * ny + Ft * nx
-        # arms from the centres of mass to the contact points (eqs. 15, 16)
-        rb = p[CP_R_BEARING]
-        rj = p[CP_R_JOURNAL]
-        add_point_force(Qe, bi, aix + rb * nx, aiy + rb * ny, -fx, -fy)
-        add_point_force(Qe, bj, ajx + rj * nx, ajy + rj * ny, fx, fy)
+        # arms from the centres of mass to the contact points (Muvengei et al. eqs. 15, 16)
+        add_point_force(Qe, bi, rix, riy, -fx, -fy)
+        add_point_force(Qe, bj, rjx, rjy, fx, fy)
     return 0
 
 
@@ -394,11 +555,9 @@ def contact_time_scale(km, k, q, qd, v_impact):
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
     p = km.clearance_param[k]
-    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
-    Pix, Piy, aix, aiy, vix, viy, wi = point_state(q, qd, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
-    Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_state(q, qd, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
-    w = _inverse_mass_along(km, bi, aix + p[CP_R_BEARING] * nx, aiy + p[CP_R_BEARING] * ny, nx, ny)
-    w += _inverse_mass_along(km, bj, ajx + p[CP_R_JOURNAL] * nx, ajy + p[CP_R_JOURNAL] * ny, nx, ny)
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, q, qd)
+    w = _inverse_mass_along(km, bi, rix, riy, nx, ny)
+    w += _inverse_mass_along(km, bj, rjx, rjy, nx, ny)
     if not (w > 0.0) or not (v_impact > 0.0):
         return math.inf
     return peak_penetration(km.clearance_law[k], p, 1.0 / w, v_impact) / v_impact

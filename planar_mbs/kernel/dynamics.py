@@ -13,7 +13,10 @@ body.  ``ws.first[r]`` is the first such row; S is stored and factored in this
 *envelope* (profile) form: an envelope Cholesky has no fill outside it, so a
 chain of N bodies (block-tridiagonal S, rows in the order of
 `planar_mbs.ordering`) costs O(N) per factorisation instead of the O(N^3) of a
-dense one, and small mechanisms lose nothing.
+dense one, and small mechanisms lose nothing.  The envelope is packed row by row
+into one array (entry (r, c) at ``ws.ptr[r] + c - first[r]``): a dense m x m array
+held the same entries one row of m apart, 7 MB at 321 bodies, and the rows'
+cache misses made the cost per right-hand side grow faster than N.
 
 S loses rank at a singular position (for an instant) and with redundant joints
 (for good).  S is factored as it is while every pivot stays above TAU of its
@@ -39,20 +42,21 @@ from ..model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
-from .workspace import FL_REG_SEEN, FL_SCHUR_REG  # REG, REFINE, TAU, RESTORE: workspace.solver_settings
+from .workspace import FL_REG_SEEN, FL_SCHUR_REG, FL_STEP_REG  # REG, REFINE, ...: workspace.solver_settings
 
 SINGULAR = 4
 DRIFT = 8
 
 
 @kernel
-def schur_assemble(minv, J, rb, first, S, sdiag, reg):
+def schur_assemble(minv, J, rb, first, ptr, S, sdiag, reg):
     """S = Cq M^-1 Cq^T from the row-sparse Jacobian J (bodies rb) inside the
-    envelope (lower triangle, rows r: columns first[r]..r), its diagonal kept in
-    sdiag, then S_rr *= 1 + reg.  (Arrays, not the workspace, as arguments: a
+    envelope (lower triangle, rows r: columns first[r]..r, packed: (r, c) at
+    ptr[r] + c - first[r]), its diagonal kept in sdiag, then S_rr *= 1 + reg.  (Arrays, not the workspace, as arguments: a
     call that numba does not inline passes every array of a tuple.)"""
     for r in range(J.shape[0]):
         s = 0.0
+        br = ptr[r] - first[r]
         for c in range(first[r], r + 1):
             s = 0.0
             for a1 in range(2):
@@ -64,33 +68,35 @@ def schur_assemble(minv, J, rb, first, S, sdiag, reg):
                         k = 3 * b
                         s += (J[r, a1, 0] * minv[k] * J[c, a2, 0] + J[r, a1, 1] * minv[k + 1] * J[c, a2, 1]
                               + J[r, a1, 2] * minv[k + 2] * J[c, a2, 2])
-            S[r, c] = s
+            S[br + c] = s
         sdiag[r] = s
-        S[r, r] = s * (1.0 + reg)
+        S[br + r] = s * (1.0 + reg)
 
 
 @kernel
-def cholesky(S, first, lastrow, sdiag, tau):
-    """Envelope Cholesky of S in place (no fill outside the envelope).
+def cholesky(S, first, ptr, lastrow, sdiag, tau):
+    """Envelope Cholesky of the packed S in place (no fill outside the envelope).
     Returns -1, or the first row j whose pivot is not above tau * sdiag[j]
     (the factor is then incomplete)."""
-    for j in range(S.shape[0]):
+    for j in range(first.shape[0]):
         fj = first[j]
-        d = S[j, j]
+        bj = ptr[j] - fj
+        d = S[bj + j]
         for k in range(fj, j):
-            d -= S[j, k] * S[j, k]
+            d -= S[bj + k] * S[bj + k]
         if not (d > tau * sdiag[j]) or not (sdiag[j] > 0.0):
             return j
         d = math.sqrt(d)
-        S[j, j] = d
+        S[bj + j] = d
         for i in range(j + 1, lastrow[j] + 1):
             fi = first[i]
             if fi > j:
                 continue
-            s = S[i, j]
+            bi = ptr[i] - fi
+            s = S[bi + j]
             for k in range(max(fi, fj), j):
-                s -= S[i, k] * S[j, k]
-            S[i, j] = s / d
+                s -= S[bi + k] * S[bj + k]
+            S[bi + j] = s / d
     return -1
 
 
@@ -102,34 +108,37 @@ def schur_factor(km, ws, stats):
     In an eigendirection of relative size s the regularised answer is off by
     (REG / (s + REG))^(REFINE + 1), below rounding for s > TAU: switching is seamless.
     Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
-    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.S, ws.sdiag, 0.0)
-    if cholesky(ws.S, ws.first, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
+    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
+    if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
         ws.flags[FL_SCHUR_REG] = 0
         return 0
-    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.S, ws.sdiag, ws.solver[0])
-    j = cholesky(ws.S, ws.first, ws.lastrow, ws.sdiag, 0.0)
+    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0])
+    j = cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, 0.0)
     if j >= 0:
         stats[ST_INFO] = j
         return SINGULAR
     ws.flags[FL_SCHUR_REG] = 1
     ws.flags[FL_REG_SEEN] = 1
+    ws.flags[FL_STEP_REG] = 1
     return 0
 
 
 @kernel
-def schur_solve(L, first, x):
-    """Solve L L^T x = x in place with the envelope factor L of `cholesky`."""
+def schur_solve(L, first, ptr, x):
+    """Solve L L^T x = x in place with the packed envelope factor L of `cholesky`."""
     m = x.shape[0]
     for i in range(m):
+        bi = ptr[i] - first[i]
         s = x[i]
         for k in range(first[i], i):
-            s -= L[i, k] * x[k]
-        x[i] = s / L[i, i]
+            s -= L[bi + k] * x[k]
+        x[i] = s / L[bi + i]
     for i in range(m - 1, -1, -1):
-        xi = x[i] / L[i, i]
+        bi = ptr[i] - first[i]
+        xi = x[i] / L[bi + i]
         x[i] = xi
         for k in range(first[i], i):
-            x[k] -= L[i, k] * xi
+            x[k] -= L[bi + k] * xi
 
 
 @kernel(inline=True)
@@ -143,21 +152,26 @@ def multipliers(km, ws, x):
     dependent rows); directions with eigenvalue below ~REG D stay damped (a singular
     position)."""
     if ws.flags[FL_SCHUR_REG] == 0:
-        schur_solve(ws.S, ws.first, x)
+        schur_solve(ws.S, ws.first, ws.ptr, x)
     else:
         refine(km, ws, x)
 
 
 @kernel
 def refine(km, ws, x):
-    """The iterated Tikhonov solve of `multipliers` (ws.b, ws.res, ws.v as scratch)."""
+    """The iterated Tikhonov solve of `multipliers` (ws.b, ws.res, ws.v as scratch): REFINE
+    sweeps, then more while each shrinks the residual by at least RATE (up to 64).  A
+    direction of relative eigenvalue s converges by REG / (s + REG) per sweep: those that keep
+    their rank, however small the mass ratio makes them, converge to rounding (the residual
+    then stalls); only those with s below ~REG / RATE (a singular position) stay damped."""
     m = x.shape[0]
     minv = km.minv
     bnorm = 0.0
     for r in range(m):
         ws.b[r] = x[r]
         bnorm = max(bnorm, abs(x[r]) / math.sqrt(ws.sdiag[r]))
-    schur_solve(ws.S, ws.first, x)
+    schur_solve(ws.S, ws.first, ws.ptr, x)
+    rold = math.inf
     for it in range(64):
         for k in range(ws.v.shape[0]):
             ws.v[k] = 0.0
@@ -172,9 +186,10 @@ def refine(km, ws, x):
         for r in range(m):
             ws.res[r] = ws.b[r] - jac_dot(ws, r, ws.v)
             rnorm = max(rnorm, abs(ws.res[r]) / math.sqrt(ws.sdiag[r]))
-        if not (rnorm > ws.solver[2] * bnorm) or it >= ws.solver[1]:
+        if not (rnorm > ws.solver[2] * bnorm) or (it >= ws.solver[1] and not (rnorm <= ws.solver[5] * rold)):
             break
-        schur_solve(ws.S, ws.first, ws.res)
+        rold = rnorm
+        schur_solve(ws.S, ws.first, ws.ptr, ws.res)
         for r in range(m):
             x[r] += ws.res[r]
 
@@ -209,7 +224,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
 
     Returns a Status code: 0, SINGULAR (stats[ST_INFO] = row), BAD_INPUT."""
     body_trig(q, ws.cs)
-    st = applied_forces(km, q, qd, ws.cs, ws.Qe)
+    st = applied_forces(km, t, q, qd, ws.cs, ws.Qe)
     if st != 0:
         return st
     if km.clearance_body.shape[0] > 0:
@@ -346,8 +361,6 @@ def project(km, t, y, ws, stats):
 
 DRIFT_POSITION = 1e-6  # m or rad: bound on |C_r| for fixed-step RK4
 DRIFT_VELOCITY = 1e-4  # m/s or rad/s: bound on |Cq q' + Ct|_r for fixed-step RK4
-LOST_POSITION = 1e-2  # m or rad: the adaptive methods' bound (constraints that cannot be kept)
-LOST_VELOCITY = 1.0  # m/s or rad/s
 
 
 @kernel
@@ -356,9 +369,7 @@ def drift_check(ws, qd, stats, pbound, vbound):
     DRIFT (stats[ST_INFO] = row) when a position residual exceeds pbound or a velocity
     residual vbound.  Fixed-step RK4 (DRIFT_*) has no error control: this stops a run
     that has left its constraints (a too long step) instead of returning wrong results.
-    The adaptive methods (LOST_*) keep the residuals near rtol; beyond LOST_* the
-    constraints cannot be kept at all (a driver pushing through a toggle, where the
-    regularised solve gives way)."""
+    (The adaptive methods' check, scaled to the mechanism, is `loop.lost_check`.)"""
     for r in range(ws.C.shape[0]):
         if not (abs(ws.C[r]) <= pbound) or not (abs(ws.Ct[r] + jac_dot(ws, r, qd)) <= vbound):
             stats[ST_INFO] = r

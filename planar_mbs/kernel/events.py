@@ -16,6 +16,10 @@ at the deepest point (or at the step end), the crossing before it is refined
 by the same method to about 1e-12 relative time; the step is cut at the
 bracket end on the new side, and the earliest crossing over all joints wins
 (cf. SciPy ``_ivp/ivp.py``: sign change, root on the dense output).
+
+The comparisons of expressions (`kernel.expressions`) are switches of the same kind: `locate_switch`
+finds the earliest one whose live value differs from its frozen value at the step's end, by
+bisection on the dense output to the same relative time ROOT_RTOL.
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ from .contact import contact_mode
 from ..model import ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
 from .integrators import dense_eval
+from .expressions import live_switch
 from .workspace import DN_H, DN_TA
 
 ROOT_RTOL = 1e-12
@@ -234,7 +239,7 @@ def locate_event(km, ws, contact):
         if hi > 1.0 and g1 > 0.0:
             hi = 1.0
             fhi = g1
-        if hi > 1.0 or hi >= best:
+        if hi > 1.0 or lo >= best:  # (the crossing lies in [lo, hi]: it may precede `best` even when hi does not)
             continue
         if g0 > 0.0:  # already on the new side at the step start (roundoff at a switch)
             hi = 0.0
@@ -274,3 +279,35 @@ def init_modes(km, y, contact):
             contact[k, CT_IMPACT_VELOCITY] = vn
         if contact_mode(contact, k) == TOUCHING and contact[k, CT_IMPACT_VELOCITY] < IMPACT_VELOCITY_FLOOR:
             contact[k, CT_IMPACT_VELOCITY] = IMPACT_VELOCITY_FLOOR
+
+
+@kernel
+def locate_switch(km, ws, best):
+    """Earliest comparison of an expression that changes inside the last step before step fraction
+    ``best`` (an earlier event's).  Returns (s, theta): its index (-1: none) and the step fraction
+    of the bracket end on its new side."""
+    ns = km.expr_switch.shape[0]
+    ta = ws.dense[DN_TA]
+    h = ws.dense[DN_H]
+    n = ws.yb.shape[0] // 2
+    tol = ROOT_RTOL * max(abs(ta), h) / h
+    sbest = -1
+    for s in range(ns):
+        frozen = km.expr_mode[km.expr_switch[s, 0]]
+        if live_switch(km, s, ta + h, ws.yb[:n], ws.yb[n:]) == frozen:
+            continue
+        lo = 0.0
+        hi = 1.0
+        for _ in range(MAX_ROOT_ITER):  # the switch lies in (lo, hi]
+            if hi - lo <= tol:
+                break
+            mid = 0.5 * (lo + hi)
+            dense_eval(ws, mid, ws.yt)
+            if live_switch(km, s, ta + mid * h, ws.yt[:n], ws.yt[n:]) == frozen:
+                lo = mid
+            else:
+                hi = mid
+        if hi < best:
+            best = hi
+            sbest = s
+    return sbest, best

@@ -8,11 +8,15 @@ Force elements (model.ForceType; ``force_body (nforce, 2)``, ``force_point
   ``Q_phi = (A s) x F``; energy ``-F.P``;
 * CONSTANT_TORQUE ``T = p0`` on body 0; energy ``-T phi``;
 * SPRING_DAMPER between P_i (point 0 of body 0) and P_j (point 1 of body 1):
-  tension ``f = k (l - l0) + c l' + f_act`` pulls the points together
+  tension ``f = k (l - l0) + c l' + f_act`` pulls the points together (f_act: p3 plus, when
+  ``p4 > 0``, the expression whose result row is p4 - 1)
   (``+f u`` on i, ``-f u`` on j, ``u = (P_j - P_i)/l``); energy ``k (l - l0)^2 / 2``;
 * ROTATIONAL_SPRING_DAMPER on ``a = phi_j - phi_i``: torque
   ``T = k (a - a0) + c a' + t_act``, ``-T`` on j and ``+T`` on i;
-  energy ``k (a - a0)^2 / 2``.
+  energy ``k (a - a0)^2 / 2``;
+* EXPRESSION: result rows ``p = (fx, fy, torque)`` (-1: none) of programs (`kernel.expressions`) of (t, q, q'):
+  the global force (fx, fy) at point 0 of body 0 and a torque on it; no potential.  A value that is
+  not finite is recorded in ``km.expr_fault`` (element, t), so a failing run names its expression.
 """
 from __future__ import annotations
 
@@ -22,6 +26,7 @@ from .jit import kernel
 
 from ..model import ForceType, Status
 from .constraints import body_state, point_cs, point_state
+from .expressions import run_rows
 
 BAD_INPUT = int(Status.BAD_INPUT)
 
@@ -29,6 +34,7 @@ CONSTANT_FORCE = int(ForceType.CONSTANT_FORCE)
 CONSTANT_TORQUE = int(ForceType.CONSTANT_TORQUE)
 SPRING_DAMPER = int(ForceType.SPRING_DAMPER)
 ROTATIONAL_SPRING_DAMPER = int(ForceType.ROTATIONAL_SPRING_DAMPER)
+EXPRESSION = int(ForceType.EXPRESSION)
 
 
 @kernel
@@ -43,8 +49,8 @@ def add_point_force(Qe, b, ax, ay, fx, fy):
 
 
 @kernel(inline=True)
-def applied_forces(km, q, qd, cs, Qe):
-    """Qe = gravity + force elements (overwrites Qe); cs: bodies' cos/sin (`body_trig`).
+def applied_forces(km, t, q, qd, cs, Qe):
+    """Qe = gravity + force elements at time t (overwrites Qe); cs: bodies' cos/sin (`body_trig`).
     Returns 0 or 7 (bad code)."""
     nb = km.body_mass.shape[0]
     gx = km.gravity[0]
@@ -53,6 +59,9 @@ def applied_forces(km, q, qd, cs, Qe):
         Qe[3 * b] = km.body_mass[b] * gx
         Qe[3 * b + 1] = km.body_mass[b] * gy
         Qe[3 * b + 2] = 0.0
+    if km.expr_loads[1] > km.expr_loads[0]:  # every expression load's rows, in one call
+        run_rows(km.expr_code, km.expr_const, km.expr_reg, km.expr_mode, km.table_info, km.table_period,
+                 km.table_seg, km.expr_loads[0], km.expr_loads[1], t, q, qd)
     nf = km.force_type.shape[0]
     for e in range(nf):
         typ = km.force_type[e]
@@ -76,20 +85,50 @@ def applied_forces(km, q, qd, cs, Qe):
             ux = dx / l
             uy = dy / l
             ld = ux * (vjx - vix) + uy * (vjy - viy)
-            f = p[0] * (l - p[2]) + p[1] * ld + p[3]
+            f = p[0] * (l - p[2]) + p[1] * ld + p[3] + _load_value(km, e, int(p[4]) - 1, t)
             add_point_force(Qe, bi, aix, aiy, f * ux, f * uy)
             add_point_force(Qe, bj, ajx, ajy, -f * ux, -f * uy)
         elif typ == ROTATIONAL_SPRING_DAMPER:
             _, _, phi_i, _, _, w_i = body_state(q, qd, bi)
             _, _, phi_j, _, _, w_j = body_state(q, qd, bj)
-            T = p[0] * (phi_j - phi_i - p[2]) + p[1] * (w_j - w_i) + p[3]
+            T = p[0] * (phi_j - phi_i - p[2]) + p[1] * (w_j - w_i) + p[3] + _load_value(km, e, int(p[4]) - 1, t)
             if bj >= 0:
                 Qe[3 * bj + 2] -= T
             if bi >= 0:
                 Qe[3 * bi + 2] += T
+        elif typ == EXPRESSION:
+            expression_load(km, e, t, q, qd, cs, Qe)
         else:
             return BAD_INPUT
     return 0
+
+
+@kernel(inline=True)
+def _load_value(km, e, k, t):
+    """The value of result row k of force element e (0 for none; `applied_forces` has run the rows);
+    a non-finite value is recorded."""
+    if k < 0:
+        return 0.0
+    v = km.expr_reg[k, 0]
+    if not math.isfinite(v):
+        km.expr_fault[0] = e
+        km.expr_fault[1] = t
+    return v
+
+
+@kernel(inline=True)
+def expression_load(km, e, t, q, qd, cs, Qe):
+    """Qe += the force (fx, fy) and torque of expression element e: its result rows, which
+    `applied_forces` has just evaluated."""
+    bi = km.force_body[e, 0]
+    p = km.force_param[e]
+    fx = _load_value(km, e, int(p[0]), t)
+    fy = _load_value(km, e, int(p[1]), t)
+    tq = _load_value(km, e, int(p[2]), t)
+    Px, Py, ax, ay, vx, vy, w = point_cs(q, qd, cs, bi, km.force_point[e, 0, 0], km.force_point[e, 0, 1])
+    add_point_force(Qe, bi, ax, ay, fx, fy)
+    if bi >= 0:
+        Qe[3 * bi + 2] += tq
 
 
 @kernel

@@ -30,17 +30,22 @@ import math
 from .jit import kernel
 from ..model import CT_IMPACT_VELOCITY, TOUCHING
 from .contact import contact_mode
-from .workspace import DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PENDING_OUTPUTS, FL_SWITCH_JOINT
+from .workspace import (
+    DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_PROJECT_FROM, DN_SPEED, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_PASSAGE,
+    FL_PENDING_OUTPUTS, FL_PROJECTING, FL_REG_SEEN, FL_STEP_REG, FL_SWITCH_EXPR, FL_SWITCH_JOINT,
+)
 
 from ..model import (
     CFG_ATOL,
     CFG_HMAX,
     CFG_HMIN,
+    CFG_LOST,
     CFG_MAX_STEPS,
     CFG_METHOD,
     CFG_OUTPUT_STEP,
     CFG_PROJECT,
     CFG_RTOL,
+    CFG_SIZE,
     CFG_SKIP,
     CFG_STEP,
     CS_E,
@@ -53,6 +58,9 @@ from ..model import (
     CS_IMPACT_VELOCITY,
     CS_IN_CONTACT,
     CS_PENETRATION,
+    CS_FILM_PRESSURE,
+    CS_POINT_X,
+    CS_POINT_Y,
     CS_SLIP,
     JS_FX,
     JS_FY,
@@ -85,12 +93,15 @@ from ..model import (
     Integrator,
     Status,
 )
-from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, motion, point_cs
-from .contact import clearance_force, clearance_kinematics, contact_energy, contact_time_scale, law_supported
-from .dynamics import (
-    DRIFT_POSITION, DRIFT_VELOCITY, LOST_POSITION, LOST_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
+from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, driver_motion, point_cs
+from .contact import (
+    clearance_force, clearance_kinematics, contact_energy, contact_time_scale, film_peak, law_supported,
 )
-from .events import event_possible, init_modes, locate_event, switch_mode
+from .dynamics import (
+    DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
+)
+from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
+from .expressions import flip_switch, init_switches
 from .forces import force_potential
 from .integrators import (
     ERROR_EXPONENT,
@@ -108,6 +119,8 @@ MAX_STEPS = int(Status.MAX_STEPS)
 BAD_INPUT = int(Status.BAD_INPUT)
 CONTACT_SOLVE = int(Status.CONTACT_SOLVE)
 SINGULAR = int(Status.SINGULAR)
+CONSTRAINTS_LOST = int(Status.CONSTRAINTS_LOST)
+PASSAGE = int(Status.PASSAGE)
 RK4 = RK4_CODE  # method codes: catalog.INTEGRATORS
 DOPRI5 = DOPRI5_CODE
 DOP853 = DOP853_CODE
@@ -183,7 +196,7 @@ def observe(km, cfg, t, y, contact, ws, row):
     if (skip & OBS_SKIP_CLEARANCE) == 0:
         for k in range(nc):
             ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
-            F, Ft, nx, ny, vt, st, aix, aiy, ajx, ajy = clearance_force(km, k, q, qd, ws.cs, contact)
+            F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact)
             col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
             row[col + CS_EX] = ex
             row[col + CS_EY] = ey
@@ -196,6 +209,10 @@ def observe(km, cfg, t, y, contact, ws, row):
             row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
             row[col + CS_FRICTION] = Ft
             row[col + CS_SLIP] = vt
+            bj = km.clearance_body[k, 1]
+            row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
+            row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
+            row[col + CS_FILM_PRESSURE] = film_peak(km, k, q, qd, e, vn)
     else:
         for i in range(lay[OB_CLEARANCE], lay[OB_SYSTEM]):
             row[i] = math.nan
@@ -265,7 +282,7 @@ def _observe_dynamics(km, t, q, qd, ws, row, cqdd, cjoint, ceffort, cpower):
         r = km.driver_row[d]
         bi = km.driver_body[d, 0]
         bj = km.driver_body[d, 1]
-        f, fd, fdd = motion(km.driver_motion[d], km.driver_motion_param[d], t)
+        f, fd, fdd = driver_motion(km, d, t)
         eff = 0.0
         if bj >= 0:
             if km.driver_type[d] == ANGLE:
@@ -338,6 +355,10 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     (ONSET_STEP of the contact's time scale), inf otherwise."""
     restart = False
     hcap = math.inf
+    if ws.flags[FL_SWITCH_EXPR] >= 0:
+        flip_switch(km, ws.flags[FL_SWITCH_EXPR], t, y)
+        ws.flags[FL_SWITCH_EXPR] = -1
+        restart = True
     k = ws.flags[FL_SWITCH_JOINT]
     if k >= 0:
         switch_mode(km, k, y, contact, stats)
@@ -346,12 +367,82 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
         if contact_mode(contact, k) == TOUCHING:
             n = y.shape[0] // 2
             hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:], contact[k, CT_IMPACT_VELOCITY])
-    if cfg[CFG_PROJECT] != 0.0:
+    if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:
+        ws.flags[FL_PROJECTING] = 1  # `projection = auto`: a singular position or redundant joints
+        ws.dense[DN_PROJECT_FROM] = t
+    if cfg[CFG_PROJECT] == 1.0 or (cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 1):
         st = project(km, t, y, ws, stats)
         if st != 0:
             return st, True, hcap
         restart = True
     return 0, restart, hcap
+
+
+@kernel
+def lost_check(cfg, ws, qd, stats):
+    """The adaptive methods' constraint check at the state of the last right-hand side (ws.C, ws.J,
+    ws.Ct): CONSTRAINTS_LOST (stats[ST_INFO] = row) when a row's residual, as a distance (|C_r| over
+    its Jacobian's norm, angles weighted by the size L), exceeds cfg[CFG_LOST] times L, or its velocity
+    residual that times the largest speed seen (|v| + L |omega| of a body, ws.dense[DN_SPEED]).  The
+    methods keep the residuals near rtol; far beyond, the constraints gave way (a driver pushing past a
+    limit position): bounds scaled to the mechanism, so a 5 mm link has its own."""
+    L = cfg[CFG_SIZE]
+    rel = cfg[CFG_LOST]
+    floor = 1e3 * cfg[CFG_ATOL]
+    vs = ws.dense[DN_SPEED]
+    for b in range(qd.shape[0] // 3):
+        vs = max(vs, math.hypot(qd[3 * b], qd[3 * b + 1]) + L * abs(qd[3 * b + 2]))
+    ws.dense[DN_SPEED] = vs
+    for r in range(ws.C.shape[0]):
+        g = 0.0
+        for a in range(2):
+            if ws.rowbody[r, a] >= 0:
+                g += ws.J[r, a, 0] ** 2 + ws.J[r, a, 1] ** 2 + (ws.J[r, a, 2] / L) ** 2
+        g = math.sqrt(g)
+        if not (g > 0.0):
+            continue
+        if (not (abs(ws.C[r]) / g <= rel * L + floor)
+                or not (abs(ws.Ct[r] + jac_dot(ws, r, qd)) / g <= rel * vs + floor)):
+            stats[ST_INFO] = r
+            return CONSTRAINTS_LOST
+    return 0
+
+
+@kernel
+def rk4_passage_check(km, cfg, t, y, h, contact, ws, stats):
+    """After a fixed RK4 step in which a factor was regularised (a singular position; ws.yb, ws.K hold
+    the step): the same step in two halves.  The positions' difference over 15 (Richardson) is the error of
+    the step; beyond rtol / atol the step cannot resolve the passage and the run stops (PASSAGE)
+    instead of going on wrong, as the adaptive methods' error estimate would shorten the step.
+    Leaves the full step in ws.yb, ws.K as before (ws.F rows as scratch).  Returns a Status code."""
+    N = y.shape[0]
+    F = ws.F
+    for i in range(N):
+        F[0, i] = ws.f[i]
+        F[1, i] = ws.yb[i]
+    st = rk4_step(km, cfg, t, y, 0.5 * h, contact, ws, stats)
+    if st == 0:
+        for i in range(N):
+            F[2, i] = ws.yb[i]
+            ws.f[i] = ws.K[4, i]
+        st = rk4_step(km, cfg, t + 0.5 * h, F[2], 0.5 * h, contact, ws, stats)
+    err = 0.0
+    if st == 0:
+        rtol = cfg[CFG_RTOL]
+        atol = cfg[CFG_ATOL]
+        for i in range(N // 2):  # positions: a velocity's noise at the passage itself is not an error of the motion
+            e = abs(ws.yb[i] - F[1, i]) / 15.0 / (atol + rtol * max(abs(y[i]), abs(ws.yb[i])))
+            if e > err:
+                err = e
+                stats[ST_INFO] = i
+    for i in range(N):
+        ws.f[i] = F[0, i]
+    st2 = rk4_step(km, cfg, t, y, h, contact, ws, stats)
+    if st != 0:
+        return st
+    if st2 != 0:
+        return st2
+    return PASSAGE if err > 1.0 else 0
 
 
 @kernel
@@ -431,6 +522,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         clock[1] = min(clock[1], hcap)
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
+        init_switches(km, t, y)
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
             return st, 0
@@ -473,9 +565,12 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             if t + hh >= t_stop - STRETCH * hh:
                 hh = t_stop - t
                 last = True
+            ws.flags[FL_STEP_REG] = 0
             st = rk4_step(km, cfg, t, y, hh, contact, ws, stats)
             if st == 0:
                 st = drift_check(ws, ws.yb[n:], stats, DRIFT_POSITION, DRIFT_VELOCITY)  # no error control
+            if st == 0 and ws.flags[FL_STEP_REG] == 1:
+                st = rk4_passage_check(km, cfg, t, y, hh, contact, ws, stats)
             if st != 0:
                 clock[0] = t
                 return st, nw
@@ -497,9 +592,18 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                     return STEP_UNDERFLOW, nw
                 hh = h
                 last = False
+                cut = False
                 if t + hh >= t_stop - STRETCH * hh:
                     hh = t_stop - t
                     last = True
+                elif ws.flags[FL_PASSAGE] == 1:
+                    # the last step passed near a singular position, where the dense output is not
+                    # controlled: a grid output inside this step gets a step of its own
+                    tk = t0 + stats[ST_OUTPUTS] * dto
+                    if t + GRID_TOL * dto < tk < t + hh:
+                        hh = tk - t
+                        cut = True
+                ws.flags[FL_STEP_REG] = 0
                 if method == DOPRI5:
                     st, err = dopri5_attempt(km, cfg, t, y, hh, contact, ws, stats)
                 else:
@@ -528,8 +632,8 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                     if rejected:
                         fac = min(fac, 1.0)
                     hnew = hh * fac
-                    if last and hnew < h and fac >= 1.0:
-                        hnew = h  # a step shortened to land on t_stop says nothing against h
+                    if (last or cut) and hnew < h and fac >= 1.0:
+                        hnew = h  # a step shortened to land on t_stop or an output says nothing against h
                     h = min(hnew, hmax)
                     break
                 stats[ST_REJECTED] += 1
@@ -538,9 +642,10 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
                 fac = FAC_MIN if nonfinite else max(FAC_MIN, SAFETY * err ** -expo)
                 h = hh * min(fac, 1.0)
             ws.flags[FL_DENSE_METHOD] = method
-            if drift_check(ws, ws.yb[n:], stats, LOST_POSITION, LOST_VELOCITY) != 0:
-                clock[0] = t  # the constraints gave way: a toggle or locked position
-                return SINGULAR, nw
+            ws.flags[FL_PASSAGE] = ws.flags[FL_STEP_REG]
+            if lost_check(cfg, ws, ws.yb[n:], stats) != 0:
+                clock[0] = t  # the constraints gave way: a driver past a limit position
+                return CONSTRAINTS_LOST, nw
         stats[ST_STEPS] += 1
         tnew = t_stop if last else t + hh
         for i in range(N):
@@ -567,7 +672,25 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
             elif kev >= 0:
                 for i in range(N):
                     y[i] = ws.yb[i]
-        if kev < 0:
+        sev = -1
+        if km.expr_switch.shape[0] > 0:
+            if method == DOP853:
+                st = dop853_dense_prepare(km, cfg, contact, ws, stats)
+                if st != 0:
+                    clock[0] = t
+                    return st, nw
+            sev, ths = locate_switch(km, ws, th if kev >= 0 else 1.0 + 1e-9)
+            if sev >= 0:  # a comparison switches first: the step ends there, a later contact event waits
+                kev = -1
+                if ths < 1.0:
+                    tnew = t + ths * hh
+                    dense_eval(ws, ths, y)
+                else:
+                    for i in range(N):
+                        y[i] = ws.yb[i]
+                ws.dense[DN_T_END] = tnew
+        ws.flags[FL_SWITCH_EXPR] = sev
+        if kev < 0 and sev < 0:
             for i in range(N):
                 y[i] = ws.yb[i]
         ws.flags[FL_SWITCH_JOINT] = kev

@@ -21,13 +21,19 @@ FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: DOP853's dense output of the last step is prepared (ws.F)
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
 FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
-N_FLAGS = 8
+FL_PROJECTING = 6  # 1: `projection = auto` has turned the projection on (at the first regularised factor)
+FL_STEP_REG = 7  # 1: a factor of the current step was regularised (a singular position or redundant rows)
+FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its successor lands on the next output)
+FL_SWITCH_EXPR = 9  # comparison of an expression that switches at the end of the last step (-1: none)
+N_FLAGS = 10
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
 DN_H = 1  # its size
 DN_T_END = 2  # end of its kept part (an event cuts it)
 DN_FINAL_SAMPLE = 3  # time of the last off-grid final sample (NaN: none)
 DN_ERR_OLD = 4  # error of the last accepted step (PI controller)
+DN_PROJECT_FROM = 5  # time at which `projection = auto` turned the projection on (NaN: never)
+DN_SPEED = 6  # largest speed |v| + L |omega| of a body seen by the constraint check (`loop.lost_check`)
 N_DENSE = 8
 
 
@@ -40,7 +46,8 @@ class Workspace(NamedTuple):
     cs: np.ndarray  # (nbody, 2) cos, sin of every body angle at the current rhs
     Ct: np.ndarray  # (m,) dC/dt
     gam: np.ndarray  # (m,) gamma
-    S: np.ndarray  # (m, m) Schur complement Cq M^-1 Cq^T (envelope only), factored in place
+    S: np.ndarray  # (profile,) Schur complement Cq M^-1 Cq^T, its envelope packed by rows, factored in place
+    ptr: np.ndarray  # (m,) int: where row r's envelope (columns first[r]..r) starts in S
     sdiag: np.ndarray  # (m,) diagonal of S before factoring
     lam: np.ndarray  # (m,) Lagrange multipliers
     b: np.ndarray  # (m,) right side of the Schur system during `multipliers`
@@ -60,7 +67,7 @@ class Workspace(NamedTuple):
     res: np.ndarray  # (m,) residual of the multiplier refinement
     dl: np.ndarray  # (m,) projection corrections
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
-    solver: np.ndarray  # (5,) [REG, REFINE, REFINE_TOL, TAU, RESTORE] (`solver_settings`)
+    solver: np.ndarray  # (6,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] (`solver_settings`)
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -113,21 +120,25 @@ def envelope(rowbody: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 REG = 1e-8  # Tikhonov weight: S + REG diag(S) is factored (`dynamics` module docstring)
-REFINE = 2  # refinement sweeps of the regularised solve (2: convergence orders and contact runs as exact)
+REFINE = 2  # refinement sweeps the regularised solve always makes
+RATE = 0.03  # ... then more while each sweep shrinks the residual at least this much (`dynamics.refine`):
+# directions of S that keep their rank (a light cart under a heavy pendulum: relative eigenvalue 1e-6)
+# converge to rounding; only those below ~REG / RATE (a singular position) stay damped (0.01 left the
+# light cart inexact, 0.1 made the singular passages of the parallelogram chain stiffer: 1.7x the steps)
 TAU = 1e-3  # relative pivot (d_j / S_jj) below which S is refactored regularised
 REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
 # (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
 RESTORE = 1.0  # 1: the projection keeps the kinetic energy a withheld constraint force would have kept
-# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE] so that experiments need no recompilation)
+# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] so that experiments need no recompilation)
 
 
 def solver_settings() -> np.ndarray:
-    """[REG, REFINE, REFINE_TOL, TAU, RESTORE] of the multiplier solve (`dynamics.schur_factor`,
+    """[REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] of the multiplier solve (`dynamics.schur_factor`,
     `dynamics.multipliers`) and the velocity projection (`dynamics.project`)."""
     import os
 
-    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore"
-    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE])
+    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore,rate"
+    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE, RATE])
     if env:  # the values given replace the first ones, the rest keep their defaults
         given = [float(v) for v in env.split(",")][: settings.size]
         settings[: len(given)] = given
@@ -142,14 +153,17 @@ def make_workspace(km: KernelModel) -> Workspace:
     N = 2 * n
     rowbody = row_bodies(km)
     first, lastrow = envelope(rowbody)
+    ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
     flags[FL_SWITCH_JOINT] = -1
+    flags[FL_SWITCH_EXPR] = -1
     dense = np.zeros(N_DENSE)
     dense[DN_FINAL_SAMPLE] = np.nan
+    dense[DN_PROJECT_FROM] = np.nan
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
-        S=np.zeros((m, m)), sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
+        S=np.zeros(int(np.sum(np.arange(m) - first + 1))), ptr=ptr, sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
         Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),

@@ -20,7 +20,7 @@ pytestmark = pytest.mark.slow  # real scheduler and worker processes
 
 ROOT = Path(__file__).resolve().parents[2]
 MBS = str(Path(sys.executable).parent / "mbs")
-LONG = ["-P", "speed=600rpm..1400rpm:4", "-n", "300", "--per-rev", "360", "-q", "--no-section"]
+LONG = ["-P", "speed=600rpm..1400rpm:4", "-n", "300", "--per-rev", "360", "-q", "--no-section", "--keep", "all"]
 
 
 class Cluster:
@@ -105,7 +105,7 @@ def test_relative_model_path_with_an_include_runs_on_remote_workers(tmp_path, cl
     cluster.start_worker(2)
     work = _user_folder(tmp_path)
     r = subprocess.run([MBS, "sweep", "m.mbs", "-P", "speed=600rpm,900rpm", "-n", "3", "--per-rev", "36", "-q",
-                        "-o", "s.h5", "--scheduler", cluster.address], cwd=work, capture_output=True, text=True,
+                        "--keep", "all", "-o", "s.h5", "--scheduler", cluster.address], cwd=work, capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "2 case(s) run" in r.stdout and "Traceback" not in r.stdout + r.stderr
@@ -114,7 +114,7 @@ def test_relative_model_path_with_an_include_runs_on_remote_workers(tmp_path, cl
         assert all(f[f"cases/{k}"].attrs["complete"] for k in f["cases"])
     # the same cases run locally give the same numbers (the model text sent is the model)
     local = subprocess.run([MBS, "sweep", "m.mbs", "-P", "speed=600rpm,900rpm", "-n", "3", "--per-rev", "36", "-q",
-                            "-o", "local.h5", "-j", "1"], cwd=work, capture_output=True, text=True, timeout=300)
+                            "--keep", "all", "-o", "local.h5", "-j", "1"], cwd=work, capture_output=True, text=True, timeout=300)
     assert local.returncode == 0, local.stderr
     with h5py.File(work / "s.h5", "r") as a, h5py.File(work / "local.h5", "r") as b:
         for k in ("0", "1"):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +18,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+
+from planar_mbs.sweep import read_case_table
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "models" / "slider_crank_clearance_a.mbs"
@@ -96,7 +99,7 @@ def test_full_disk_before_the_first_row_is_a_clean_error(tmp_path):
 
 
 SWEEP = ["-P", "speed=2500rpm,5000rpm,1200rpm,800rpm", "--revolutions", "2", "--per-rev", "180", "-j", "1",
-         "--no-section", "-q"]
+         "--no-section", "-q", "--keep", "all"]
 
 
 def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
@@ -127,14 +130,15 @@ def test_sweep_stops_cleanly_keeps_finished_cases_and_resumes(tmp_path):
         assert len(f["cases"]) == 4
 
 
-@pytest.mark.parametrize("size", ["400k", "1600k"])  # full at the first case / after some cases
+@pytest.mark.parametrize("size", ["400k", "600k"])  # full at the first case / after some cases
 def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size):
     """With a pool, the workers write their cases into files of their own on the same disk: the disk
     that fills under a worker's file stops the sweep as it does under the sweep file (exit 3, the
-    disk named, whole cases only, no case file left behind), and the sweep resumes with room."""
+    disk named, whole cases only: in the sweep file or in its journal beside it, no half-written
+    file), and the sweep resumes with room."""
     disk = tmp_path / "disk"
     args = ["-P", "speed=2500rpm,5000rpm,1200rpm,800rpm", "--revolutions", "2", "--per-rev", "180", "-j", "2",
-            "--no-section", "-q"]
+            "--no-section", "-q", "--keep", "all"]
     with small_disk(disk, size) as mounted:
         if not mounted:
             pytest.skip("needs a size-limited tmpfs (mount): the workers' files are not reserved")
@@ -143,15 +147,23 @@ def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size)
         text = r.stdout + r.stderr
         assert r.returncode == 3, text
         assert "Traceback" not in text and "is full" in text and "resume" in text, text
+        from planar_mbs.sweep_store import case_files, journal_folder
+
+        done = [r for r in read_case_table(out) if r["status"] == "finished"]
         with h5py.File(out, "r") as f:
-            done = sorted(f["cases"]) if "cases" in f else []
-            for k in done:
+            for k in (f["cases"] if "cases" in f else []):
                 g = f[f"cases/{k}"]
                 assert g["time"].shape == g["signals/slider"].shape and g["time"].shape[0] > 0
+        for _, part in case_files(journal_folder(out)):
+            with h5py.File(part, "r") as f:  # whole
+                assert len(f["cases"]) == 1
         assert len(done) < 4
-        assert sorted(p.name for p in disk.iterdir()) == ["s.h5"]
+        assert set(p.name for p in disk.iterdir()) <= {"s.h5", ".s.h5.cases"}
+        assert not list(journal_folder(out).glob(".case-*"))  # no half-written case
         big = tmp_path / "big.h5"
         big.write_bytes(out.read_bytes())
+        if journal_folder(out).exists():
+            shutil.copytree(journal_folder(out), journal_folder(big))
     r = _mbs("sweep", MODEL, *args, "-o", big)
     assert r.returncode == 0, r.stdout + r.stderr
     assert f"{4 - len(done)} case(s) run, {len(done)} already in the file" in r.stdout

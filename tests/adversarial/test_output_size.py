@@ -151,7 +151,7 @@ def test_run_larger_than_the_free_disk_is_refused(small_disk):
 
 def test_sweep_larger_than_the_free_disk_is_refused(small_disk):
     out = small_disk / "s.h5"
-    r = _cli("sweep", MODEL, "-P", "speed=2500rpm,5000rpm", "-n", "10", "-o", out, "-q")
+    r = _cli("sweep", MODEL, "-P", "speed=2500rpm,5000rpm", "-n", "10", "-o", out, "-q", "--keep", "all")
     assert r.exit_code == 2, r.output
     assert "free on the disk" in r.output and not out.exists()
     with h5py.File(small_disk / "other.h5", "w"):

@@ -71,7 +71,7 @@ def test_included_fifo_or_device_is_refused(target, tmp_path):
 def test_case_that_cannot_be_assembled_is_a_failed_case_and_the_sweep_goes_on(tmp_path):
     out = tmp_path / "s.h5"
     args = ["sweep", FOUR_BAR, "-P", "coupler=80mm,1mm,200mm,81mm", "-n", "2", "--per-rev", "36", "-j", "1",
-            "--no-section", "-q", "-o", out]
+            "--no-section", "-q", "-o", out, "--keep", "all"]
     text = _clean(_mbs(*args), 3)
     assert "2 failed" in text
     assert "case 1 (coupler=1mm) failed" in text and "cannot be assembled" in text
@@ -96,7 +96,8 @@ def test_case_that_cannot_be_assembled_in_a_pool(tmp_path):
 
 
 # ---------------------------------------------------------------- two sweeps on one file
-LONG = ["-P", "speed=600rpm..1400rpm:4", "-n", "400", "--per-rev", "360", "-j", "1", "-q", "--no-section"]
+LONG = ["-P", "speed=600rpm..1400rpm:4", "-n", "400", "--per-rev", "360", "-j", "1", "-q", "--no-section",
+        "--keep", "all"]
 
 
 def _wait_for_case(out: Path, proc, deadline=120):
@@ -212,7 +213,7 @@ def test_a_killed_pool_worker_stops_the_sweep_cleanly_and_it_resumes(tmp_path):
 
     out = tmp_path / "s.h5"
     cmd = [MBS, "sweep", str(IDEAL), "-P", "speed=600rpm..1400rpm:6", "-n", "300", "--per-rev", "360", "-j", "2",
-           "-q", "--no-section", "-o", str(out)]
+           "-q", "--no-section", "--keep", "all", "-o", str(out)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert _wait_for_case(out, proc), "the sweep stored no case"
