@@ -40,17 +40,27 @@ def announce_if_cold() -> None:
 
 def _index_files() -> list:
     """numba's index files of `kernel.loop.advance`: in the package (``__pycache__``), under
-    ``NUMBA_CACHE_DIR`` or the user's cache folder (``<folder>_<hash>/`` subfolders)."""
+    ``NUMBA_CACHE_DIR`` or the user's cache folder (``<folder>_<hash>/`` subfolders), and in the other
+    folders `kernel/jit.py` may choose (docs/install.md)."""
     import glob
     import os
 
     chosen = os.environ.get("NUMBA_CACHE_DIR")  # numba then looks nowhere else
     if chosen:
-        roots = [os.path.join(glob.escape(chosen), "kernel_*")]
+        roots = [os.path.join(glob.escape(chosen), "kernel_*"),
+                 os.path.join(glob.escape(chosen), "planar_mbs-*", "kernel_*")]  # jit.py's public cache
     else:
+        import tempfile
+
         user = os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "numba")
         roots = [os.path.join(os.path.dirname(os.path.abspath(__file__)), "kernel", "__pycache__"),
-                 os.path.join(glob.escape(user), "kernel_*")]
+                 os.path.join(glob.escape(user), "kernel_*"),
+                 os.path.join(glob.escape(user), "planar_mbs-*", "kernel_*")]  # jit.py's public cache
+        try:  # a read-only install's private cache (jit.py), public or not
+            private = os.path.join(glob.escape(tempfile.gettempdir()), f"planar_mbs-numba-{os.getuid()}")
+            roots += [os.path.join(private, "kernel_*"), os.path.join(private, "planar_mbs-*", "kernel_*")]
+        except (OSError, AttributeError):  # no temporary folder; no user ids (Windows)
+            pass
     return [f for root in roots for f in glob.glob(os.path.join(root, "loop.advance-*.nbi"))]
 
 

@@ -44,19 +44,35 @@
 * A cached kernel's library loads without parsing its linking bitcode (`_unserialize`), which numba
   needs only to compile another function against it; its defined symbols are read from the object
   file's symbol table: 40-60 ms of a warm `mbs run` (the time loop's library is 0.8 MB of bitcode).
+* The two loading shortcuts and the source-hash stamp use numba's private caching classes, read
+  against and tested on numba `CHECKED_NUMBA` (docs/install.md).  Where numba is outside that range
+  or lacks one of them (`fast_path_problem`), or `PLANAR_MBS_PUBLIC_CACHE=1`, the kernels go
+  through numba's public ``cache=True`` instead, in a cache folder named after `SOURCE_HASH` (the
+  stamp by another route), with one line on stderr: same results, slower start-up.
+* Where no cache folder can be written (a read-only install, no writable ``~/.cache``, a read-only
+  ``NUMBA_CACHE_DIR``), the kernels are cached in a folder of the temporary directory only this user
+  can write (numba's cache files are pickles), else compiled in each process; one line says which.
 """
 from __future__ import annotations
 
 import hashlib
+import os
+import stat
+import sys
+import tempfile
 from pathlib import Path
 
+import numba
 from numba import njit
-from numba.core import caching
 
 _HERE = Path(__file__).resolve().parent
 # every file a kernel is compiled from: the kernel modules, the model's codes and layouts, and
 # the catalog the kernels' constants (law count, rows per joint type, stage buffers) come from
 KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "model.py", _HERE.parent / "catalog.py")
+# the numba releases whose private caching code the fast path was read against and tested on: the
+# same code in every release between them (0.61 had other class names)
+CHECKED_NUMBA = ((0, 62), (0, 68))
+PUBLIC_CACHE_ENV = "PLANAR_MBS_PUBLIC_CACHE"  # set to 1: numba's public cache, as where its internals differ
 
 
 def source_hash(paths=KERNEL_SOURCES) -> str:
@@ -69,36 +85,98 @@ def source_hash(paths=KERNEL_SOURCES) -> str:
 
 
 SOURCE_HASH = source_hash()
+_NOTED: set[str] = set()
 
 
-_WRITABLE: set[str] = set()  # cache folders found writable in this process
+def _note(text: str) -> None:
+    """One line on stderr, once per process."""
+    if text not in _NOTED:
+        _NOTED.add(text)
+        print(f"note: {text}", file=sys.stderr, flush=True)
 
 
-class _Stamped:
-    """A numba cache locator whose source stamp also holds SOURCE_HASH: a cached
-    kernel whose index was written with other kernel sources is not loaded.  Its folder
-    is made and tried for writing once per process, not once per kernel."""
-
-    def get_source_stamp(self):
-        return (super().get_source_stamp(), SOURCE_HASH)
-
-    def ensure_cache_path(self):
-        path = self.get_cache_path()
-        if path not in _WRITABLE:
-            super().ensure_cache_path()
-            _WRITABLE.add(path)
+def _writable(path: str) -> bool:
+    """Whether `path` is (or can be made) a folder this process can create files in."""
+    try:
+        os.makedirs(path, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError:
+        return False
+    return True
 
 
-class _UserProvided(_Stamped, caching.UserProvidedCacheLocator):
-    pass
+_PRIVATE: list[str | None] = []
 
 
-class _InTree(_Stamped, caching.InTreeCacheLocator):
-    pass
+def private_cache_dir() -> str | None:
+    """A cache folder in the temporary directory that only this user can write, or None.  Numba's
+    cache index is a pickle, so a folder another user made first (in a shared /tmp), a symbolic
+    link or one others can write is never used: a fresh `mkdtemp` folder instead."""
+    if _PRIVATE:
+        return _PRIVATE[0]
+    path = None
+    try:
+        base = tempfile.gettempdir()
+        if hasattr(os, "getuid"):
+            mine = os.path.join(base, f"planar_mbs-numba-{os.getuid()}")
+            try:
+                os.mkdir(mine, 0o700)
+            except FileExistsError:
+                pass
+            st = os.lstat(mine)
+            if stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o022:
+                path = mine
+        if path is None or not _writable(path):
+            path = tempfile.mkdtemp(prefix="planar_mbs-numba-")
+    except OSError:
+        path = None
+    _PRIVATE.append(path)
+    return path
 
 
-class _UserWide(_Stamped, caching.UserWideCacheLocator):
-    pass
+_FALLBACK = ("kernels load through numba's public cache instead (same results, slower start-up)")
+_UNCACHED = ("no writable cache folder (the package's, NUMBA_CACHE_DIR, the user cache, the temporary "
+             "folder): the kernels are compiled in this process, uncached (about a minute)")
+
+
+def _private_note(path: str) -> None:
+    _note(f"no writable cache folder (the package's, NUMBA_CACHE_DIR, the user cache): compiled kernels "
+          f"are kept in {path}")
+
+
+def fast_path_problem() -> str | None:
+    """Why the fast loading (numba's private caching classes) cannot be used here, or None."""
+    if os.environ.get(PUBLIC_CACHE_ENV, "") not in ("", "0"):
+        return f"{PUBLIC_CACHE_ENV} is set"
+    try:
+        version = tuple(int(x) for x in numba.__version__.split(".")[:2])
+    except ValueError:
+        version = None
+    (lo, hi), seen = CHECKED_NUMBA, numba.__version__
+    if version is None or not lo <= version <= hi:
+        return f"numba {seen} is outside the releases planar_mbs's fast loading was checked on " \
+               f"({lo[0]}.{lo[1]} to {hi[0]}.{hi[1]})"
+    needed = {"numba.core.caching": ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator",
+                                     "CompileResultCacheImpl", "FunctionCache", "Cache._load_overload",
+                                     "Cache._guard_against_spurious_io_errors", "CacheImpl._locator_classes",
+                                     "_CacheLocator.ensure_cache_path"),
+              "numba.core.codegen": ("CPUCodeLibrary._unserialize", "CPUCodeLibrary._set_compiled_object",
+                                     "CPUCodeLibrary._finalize_final_module",
+                                     "CPUCodeLibrary._get_module_for_linking", "JitEngine._load_defined_symbols"),
+              "llvmlite.binding": ("ObjectFileRef.from_data", "parse_bitcode")}
+    import importlib
+
+    for module, names in needed.items():
+        for name in names:
+            try:
+                obj = importlib.import_module(module)
+                for part in name.split("."):
+                    obj = getattr(obj, part)
+            except (ImportError, AttributeError):
+                return f"no {module}.{name} (numba {seen}), which planar_mbs's fast loading uses"
+    if not hasattr(njit(lambda: 0), "_cache"):
+        return f"numba {seen}'s dispatchers have no _cache, which planar_mbs's fast loading replaces"
+    return None
 
 
 def defined_symbols(object_code: bytes) -> set[str] | None:
@@ -131,8 +209,8 @@ def _unserialize(codegen, state):
 
     name, kind, data = state
     symbols = defined_symbols(data[0]) if kind == "object" else None
-    if symbols is None:
-        return codegen._library_class._unserialize(codegen, state)
+    if symbols is None or not isinstance(getattr(getattr(codegen, "_engine", None), "_defined_symbols", None), set):
+        return codegen._library_class._unserialize(codegen, state)  # numba's own
     object_code, linking_bitcode = data
     library = codegen.create_library(name)
     library.enable_object_caching()
@@ -153,40 +231,138 @@ def _module_for_linking(library, linking_bitcode):
     return library._shared_module
 
 
-class _Impl(caching.CompileResultCacheImpl):
-    _locator_classes = [_UserProvided, _InTree, _UserWide]
+def _fast_cache_class():
+    """numba's `FunctionCache` with the source-hash stamp, the two loading shortcuts and, last, a
+    locator for `private_cache_dir`; built here, not at import, because it subclasses numba's private
+    classes, which `fast_path_problem` checks first."""
+    from numba.core import caching
 
-    def rebuild(self, target_context, payload):
-        """numba's rebuild with `_unserialize` for the library."""
-        codegen = target_context.codegen()
-        codegen.unserialize_library = lambda state: _unserialize(codegen, state)
+    class _Stamped:
+        """A locator whose source stamp also holds SOURCE_HASH: a cached kernel whose index was written
+        with other kernel sources is not loaded.  Its folder is made and tried for writing once per
+        process, not once per kernel."""
+
+        def get_source_stamp(self):
+            return (super().get_source_stamp(), SOURCE_HASH)
+
+        def ensure_cache_path(self):
+            path = self.get_cache_path()
+            if path not in _WRITABLE:
+                super().ensure_cache_path()
+                _WRITABLE.add(path)
+
+    class _UserProvided(_Stamped, caching.UserProvidedCacheLocator):
+        pass
+
+    class _InTree(_Stamped, caching.InTreeCacheLocator):
+        pass
+
+    class _UserWide(_Stamped, caching.UserWideCacheLocator):
+        pass
+
+    class _Private(_Stamped, caching.UserProvidedCacheLocator):
+        """The last resort: `private_cache_dir`, where no other folder can be written."""
+
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            self._cache_path = os.path.join(private_cache_dir(), self.get_suitable_cache_subpath(py_file))
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if private_cache_dir() is None:
+                return None
+            locator = super(caching.UserProvidedCacheLocator, cls).from_function(py_func, py_file)
+            if locator is not None:
+                _private_note(private_cache_dir())
+            return locator
+
+    class _Impl(caching.CompileResultCacheImpl):
+        _locator_classes = [_UserProvided, _InTree, _UserWide, _Private]
+
+        def rebuild(self, target_context, payload):
+            """numba's rebuild with `_unserialize` for the library."""
+            codegen = target_context.codegen()
+            codegen.unserialize_library = lambda state: _unserialize(codegen, state)
+            try:
+                return super().rebuild(target_context, payload)
+            finally:
+                del codegen.unserialize_library
+
+    class _FunctionCache(caching.FunctionCache):
+        _impl_class = _Impl
+
+        def load_overload(self, sig, target_context):
+            """numba's ``load_overload`` without its first step, ``target_context.refresh()``, which
+            imports and registers every implementation numba has (arrays, strings, lists, random, ...)
+            and compiles its reference-counting runtime: about 0.25 s of a warm `mbs run`.  A cached
+            kernel is machine code that calls only numba's C helpers and Python's own functions,
+            which the target context installs when it is created; a kernel that has to be compiled
+            (a cache miss) goes through numba's compiler, which refreshes the context itself."""
+            with self._guard_against_spurious_io_errors():
+                return self._load_overload(sig, target_context)
+            return None  # the guard swallowed an error: compile, as numba does
+
+    return _FunctionCache
+
+
+_WRITABLE: set[str] = set()  # cache folders found writable in this process
+
+
+def _public_cache_dir() -> str | None:
+    """The folder of numba's public cache where the fast path is off: named after SOURCE_HASH (a
+    kernel compiled from other sources is never found there), in NUMBA_CACHE_DIR, else the user cache
+    folder, else `private_cache_dir`; None where none can be written."""
+    name = f"planar_mbs-{SOURCE_HASH[:16]}"
+    if sys.platform == "win32":
+        user = os.environ.get("LOCALAPPDATA", "")
+    elif sys.platform == "darwin":
+        user = os.path.expanduser("~/Library/Caches")
+    else:
+        user = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+    for root in (os.environ.get("NUMBA_CACHE_DIR"), user and os.path.join(user, "numba")):
+        if root and _writable(os.path.join(root, name)):
+            return os.path.join(root, name)
+    private = private_cache_dir()
+    if private is not None and _writable(os.path.join(private, name)):
+        _private_note(private)
+        return os.path.join(private, name)
+    return None
+
+
+def _public_kernel(func, inline: bool):
+    """`func` through numba's public ``cache=True`` in `_public_cache_dir`: numba's user-provided
+    cache folder (``numba.config.CACHE_DIR``) set to it while the dispatcher chooses its folder."""
+    folder = _public_cache_dir() if hasattr(numba.config, "CACHE_DIR") else None
+    options = dict(error_model="numpy", _nrt=False, **({"inline": "always"} if inline else {}))
+    if folder is None:
+        _note(_UNCACHED)
+        return njit(**options)(func)
+    saved = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = folder
+    try:
+        return njit(cache=True, **options)(func)
+    except RuntimeError:  # numba found no folder after all: uncached
+        _note(_UNCACHED)
+        return njit(**options)(func)
+    finally:
+        numba.config.CACHE_DIR = saved
+
+
+def _choose_cache():
+    """The fast path's cache class, or None (and the line saying why) for numba's public cache."""
+    problem = fast_path_problem()
+    if problem is None:
         try:
-            return super().rebuild(target_context, payload)
-        finally:
-            del codegen.unserialize_library
+            return _fast_cache_class()
+        except (AttributeError, TypeError) as exc:
+            problem = f"numba {numba.__version__}'s caching classes differ ({exc})"
+    _note(f"{problem}; {_FALLBACK}")
+    return None
 
 
-class _FunctionCache(caching.FunctionCache):
-    _impl_class = _Impl
-
-    def load_overload(self, sig, target_context):
-        """numba's ``load_overload`` without its first step, ``target_context.refresh()``, which
-        imports and registers every implementation numba has (arrays, strings, lists, random, ...)
-        and compiles its reference-counting runtime: about 0.25 s of a warm `mbs run`.  A cached
-        kernel is machine code that calls only numba's C helpers and Python's own functions, which
-        the target context installs when it is created; a kernel that has to be compiled (a cache
-        miss) goes through numba's compiler, which refreshes the context itself."""
-        guard = getattr(self, "_guard_against_spurious_io_errors", None)
-        if guard is None or not hasattr(self, "_load_overload"):
-            return super().load_overload(sig, target_context)
-        with guard():
-            return self._load_overload(sig, target_context)
-        return None  # the guard swallowed an error: compile, as numba does
-
-
+_PLAIN = bool(getattr(numba.config, "DISABLE_JIT", False))  # NUMBA_DISABLE_JIT=1: the Python functions
+_CACHE_CLASS = None if _PLAIN else _choose_cache()
 _njit = njit(error_model="numpy", _nrt=False)  # cache=True would make numba's own cache, replaced at once
-
-
 _njit_inline = njit(error_model="numpy", _nrt=False, inline="always")  # the same, inlined into callers by numba
 
 
@@ -195,6 +371,13 @@ def kernel(func=None, *, inline=False):
     ``@kernel(inline=True)``: inlined into its callers by numba (IR level)."""
     if func is None:
         return lambda f: kernel(f, inline=inline)
+    if _PLAIN:
+        return func
+    if _CACHE_CLASS is None:
+        return _public_kernel(func, inline)
     dispatcher = (_njit_inline if inline else _njit)(func)
-    dispatcher._cache = _FunctionCache(func)
+    try:
+        dispatcher._cache = _CACHE_CLASS(func)
+    except RuntimeError:  # numba's "cannot cache function": no folder at all can be written
+        _note(_UNCACHED)
     return dispatcher
