@@ -63,8 +63,8 @@ def rhs_times(n=100_000, rounds=21) -> dict:
 
     from planar_mbs.kernel import make_workspace
     from planar_mbs.kernel.dynamics import rhs
-    from planar_mbs.kinematics import assemble
-    from planar_mbs.model import N_STATS
+    from planar_mbs.mechanism.kinematics import assemble
+    from planar_mbs.mechanism.model import N_STATS
 
     @njit(cache=False)
     def loop(km, cfg, y, contact, ws, stats, ydot, n):

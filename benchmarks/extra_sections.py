@@ -57,7 +57,7 @@ import numpy; lap("python + numpy")
 import planar_mbs as mbs
 from planar_mbs import parse; parse.parser(); lap("lark parser")
 m = mbs.load_model(%r); lap("rest of load_model (units from our table: no pint)")
-from planar_mbs.kinematics import assemble; assemble(m); lap("assembly (constraint kernels as plain Python)")
+from planar_mbs.mechanism.kinematics import assemble; assemble(m); lap("assembly (constraint kernels as plain Python)")
 import numba; lap("numba import")
 from planar_mbs import kernel; lap("kernel modules (dispatchers, not yet loaded)")
 r = mbs.simulate(m, output=%r); lap("simulate: first compiled call (numba target + cache load), time loop, HDF5")
@@ -135,7 +135,7 @@ def chain(N, L=0.1, m=0.1):
     """N-link pendulum: uniform bars hinged in series at the origin, released horizontal."""
     sys.path.insert(0, str(ROOT / "tests"))
     import kernel_models as K
-    from planar_mbs.model import JointType
+    from planar_mbs.mechanism.model import JointType
 
     bodies = [(m, m * L * L / 12)] * N
     joints = [dict(type=JointType.REVOLUTE, bodies=(-1, 0), points=((0, 0), (-L / 2, 0)))]
@@ -151,7 +151,7 @@ def section_scaling() -> dict:
 
     from planar_mbs.kernel import make_workspace
     from planar_mbs.kernel.dynamics import rhs
-    from planar_mbs.model import N_STATS
+    from planar_mbs.mechanism.model import N_STATS
     sys.path.insert(0, str(ROOT / "tests"))
     import kernel_models as K
 

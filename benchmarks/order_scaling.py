@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import chains  # noqa: E402
 import planar_mbs as mbs  # noqa: E402
-from planar_mbs.compile import compile_text  # noqa: E402
+from planar_mbs.mechanism.compile import compile_text  # noqa: E402
 
 
 def per_step(text: str) -> float:
@@ -46,8 +46,8 @@ def per_rhs(text: str) -> float:
 
     from planar_mbs.kernel import make_workspace
     from planar_mbs.kernel.dynamics import rhs
-    from planar_mbs.kinematics import assemble
-    from planar_mbs.model import N_STATS
+    from planar_mbs.mechanism.kinematics import assemble
+    from planar_mbs.mechanism.model import N_STATS
 
     global _loop
     if "_loop" not in globals():

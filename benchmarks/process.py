@@ -84,7 +84,7 @@ def scipy_problem(tmp: Path) -> Path:
     out = subprocess.run([PY, "-c", f"""
 import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r})
 import numpy as np, planar_mbs as mbs, slider_crank_equations as E
-from planar_mbs.kinematics import assemble
+from planar_mbs.mechanism.kinematics import assemble
 m = mbs.load_model({str(MODELS / 'slider_crank_clearance_a.mbs')!r})
 q, qd = assemble(m)
 np.savez({str(tmp / 'problem.npz')!r}, p=E.parameters(m), y0=np.concatenate([q, qd]))
@@ -101,8 +101,7 @@ def byte_compile() -> None:
     (`mbs check`: 1.57× a bare ``import numpy`` instead of 1.29×, docs/benchmarks.md)."""
     import compileall
 
-    for folder in ("planar_mbs", "cli", "grammar"):
-        compileall.compile_dir(str(ROOT / folder), quiet=1)
+    compileall.compile_dir(str(ROOT / "planar_mbs"), quiet=1)
 
 
 def startup(tmp: Path, rounds: int = 7) -> dict:
@@ -202,7 +201,7 @@ def loop_vs_scipy(rounds: int = 5) -> dict:
     import planar_mbs as mbs
     import scipy_baseline
     import slider_crank_equations as E
-    from planar_mbs.kinematics import assemble
+    from planar_mbs.mechanism.kinematics import assemble
 
     model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
     t_end, dt = 5 * REV, 10e-6
@@ -305,7 +304,7 @@ import planar_mbs as mbs
 from planar_mbs import simulation, results, kernel
 lap("start-up (imports)")
 m = mbs.load_model(sys.argv[1])
-from planar_mbs.kinematics import assemble
+from planar_mbs.mechanism.kinematics import assemble
 assemble(m)
 lap("compile (parse, compile, assemble)")
 r = mbs.simulate(m)

@@ -323,7 +323,7 @@ What the start-up work changed (issue "fast as a whole process"): `mbs check` lo
 initial pose is assembled by the constraint kernels' source run as plain Python, `planar_mbs.pykernel`), nor
 pint (units from a table of our own, each entry tested against pint; pint only for other unit names), nor typer
 (a plain `mbs check MODEL [--set ...]` bypasses it: typer's argument handling imports pydantic); a plain
-`mbs run MODEL [OPTIONS]` bypasses typer too (`cli/run_command.py`; any other command line still goes to typer).
+`mbs run MODEL [OPTIONS]` bypasses typer too (`planar_mbs/cli/run_command.py`; any other command line still goes to typer).
 A cached kernel loads without numba's target-context refresh, which imported every implementation numba has
 (scipy.linalg among them) and compiled its reference-counting runtime, none of which the kernels' machine code
 calls (`kernel/jit.py`), and without parsing its linking bitcode (0.8 MB for the time loop, 40–60 ms), which numba
@@ -336,7 +336,7 @@ install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process
 chain: 83 HDF5 objects instead of 568 groups and datasets).
 
 Sweeps: `mbs sweep` on several cores starts multiprocessing's fork server at its first line, preloaded with
-numba and the kernels (`planar_mbs.sweep_server`, `planar_mbs.sweep_worker`), so they load on the other core
+numba and the kernels (`planar_mbs.sweep.server`, `planar_mbs.sweep.worker`), so they load on the other core
 while the command line is read and the cases are checked; the pool's workers are forks of that server, and the
 sweep's own process never loads numba (from Python, `run_sweep` loads them itself and forks its workers from
 itself).  Each worker writes its case in a file of its own beside the sweep file, into disk
@@ -534,7 +534,7 @@ Cholesky (O(N³)).
 ORDER_TEXT = """The IFToMM "N four-bar" chain (`tests/chains.py`: 2N + 1 bars, 3N + 1 revolute joints, closed loops)
 with the same joints written along the chain, reversed, grouped by kind (all ground pins first) and shuffled.
 The constraint rows are placed at compile time by reverse Cuthill-McKee on the body-joint graph
-(`planar_mbs/ordering.py`), so the four texts compile to the same row order and the same envelope: at N = 40
+(`planar_mbs/mechanism/ordering.py`), so the four texts compile to the same row order and the same envelope: at N = 40
 the slowest text costs 1.01 times the fastest (target ≤ 1.3), and the cost per right-hand side grows linearly
 from 41 to 321 bodies, closed loops included (target: within 1.5 times linear). Measured on two idle cores; in
 brackets the previous measurement (every multiplier solve regularised with refinement sweeps, the machine

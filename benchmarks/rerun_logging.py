@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 
 import planar_mbs as mbs
-from planar_mbs import rerun_log
+from planar_mbs.outputs import rerun_log
 
 MODEL = Path(__file__).resolve().parents[1] / "models" / "slider_crank_clearance_a.mbs"
 

@@ -26,8 +26,8 @@ def section_rhs() -> dict:
 
     from planar_mbs.kernel import make_workspace
     from planar_mbs.kernel.dynamics import rhs
-    from planar_mbs.kinematics import assemble
-    from planar_mbs.model import N_STATS
+    from planar_mbs.mechanism.kinematics import assemble
+    from planar_mbs.mechanism.model import N_STATS
 
     model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
     km, cfg = model.kernel, model.settings.cfg()

@@ -138,7 +138,7 @@ simulate { t_end = 10 s  rtol = 1e-10  atol = 1e-12  output_step = 10 ms }
 
 
 def section_wp_pendulum() -> dict:
-    from planar_mbs.compile import compile_text
+    from planar_mbs.mechanism.compile import compile_text
 
     model = compile_text(DOUBLE_PENDULUM, "double_pendulum.mbs")
     t_end = 10.0
@@ -215,7 +215,7 @@ def section_wp_clearance() -> dict:
 
     # scipy baseline
     p = E.parameters(model)
-    from planar_mbs.kinematics import assemble
+    from planar_mbs.mechanism.kinematics import assemble
 
     q, qd = assemble(model)
     y0 = np.concatenate([q, qd])

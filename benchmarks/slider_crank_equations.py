@@ -36,7 +36,7 @@ from slider_crank_numpy import (  # noqa: F401 - re-exported: the numpy baseline
 
 def parameters(model) -> np.ndarray:
     """The parameter vector of a compiled clearance slider-crank (read from its arrays)."""
-    from planar_mbs.model import CP_CLEARANCE, CP_EXPONENT, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_STIFFNESS
+    from planar_mbs.mechanism.model import CP_CLEARANCE, CP_EXPONENT, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_STIFFNESS
 
     k = model.kernel
     p = np.zeros(NPAR)

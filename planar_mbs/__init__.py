@@ -43,7 +43,7 @@ def _python_error(err, overrides: dict, func: str):
 def load_model(path, **overrides):
     """Parse and compile a `.mbs` file; keyword arguments override its `param`s
     (values are text with units, e.g. ``speed="2500 rpm"``, ``law="hertz"``)."""
-    from .compile import load_model as _load
+    from .mechanism.compile import load_model as _load
     from .errors import ModelError
 
     overrides = {k: str(v) for k, v in overrides.items()}
@@ -56,12 +56,12 @@ def load_model(path, **overrides):
 def compile_text(text, path="<string>", **overrides):
     """Parse and compile model text held in a string (``path`` names it in error messages and
     resolves its includes); keyword arguments override its `param`s, as in `load_model`."""
-    from .compile import compile_text as _compile
+    from .mechanism.compile import compile_text as _compile
     from .errors import ModelError
 
     overrides = {k: str(v) for k, v in overrides.items()}
     if isinstance(text, (bytes, bytearray)):  # the bytes of a file: decoded as a model file is
-        from .parse import decode_model
+        from .language.parse import decode_model
 
         text = decode_model(bytes(text), str(path))
     elif not isinstance(text, str):
@@ -82,22 +82,22 @@ def simulate(model, output=None, progress=None, signals=None, **settings):
     writes an HDF5 file as the run goes; ``signals`` keeps only the named signals or entities
     (and the time loop computes only what they read: no accelerations, reactions or driver efforts
     asked for, no `accelerations` call per output row); ``progress(t, t_end)`` is called after each
-    chunk.  See `planar_mbs.simulation.simulate`."""
-    from .simulation import simulate as _simulate
+    chunk.  See `planar_mbs.run.simulation.simulate`."""
+    from .run.simulation import simulate as _simulate
 
     return _simulate(model, output=output, progress=progress, signals=signals, **settings)
 
 
 def read_results(path):
     """Load an HDF5 results file written by `simulate` or `mbs run`."""
-    from .results import read_results as _read
+    from .results.hdf5 import read_results as _read
 
     return _read(path)
 
 
 def __getattr__(name):  # Simulation loads the numba kernels: only on first use
     if name == "Simulation":
-        from .simulation import Simulation
+        from .run.simulation import Simulation
 
         return Simulation
     raise AttributeError(f"module 'planar_mbs' has no attribute {name!r}")

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from planar_mbs.kernel import kernel_model
-from planar_mbs.model import (
+from planar_mbs.mechanism.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS,
     CP_LENGTH, JOINT_ROWS, N_CLEARANCE_PARAM, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM,
     ContactLaw, DriverType, ForceType, JointType, KernelModel, MotionType, Settings, Integrator,
@@ -182,7 +182,7 @@ def free_journal(m=1.0, I=1e-3, clearance=1e-4, RB=5e-3, K=1e9, n=1.5, law=Conta
 def run(km, q0, qd0, c, t_end, cap=100_000, t0=0.0, contact=None):
     """Run `advance` to t_end in buffer-sized chunks; returns (status, times, rows, y, stats, contact)."""
     from planar_mbs.kernel import advance, make_workspace, nobs
-    from planar_mbs.model import N_STATS, Status
+    from planar_mbs.mechanism.model import N_STATS, Status
 
     ws = make_workspace(km)
     y = np.concatenate([q0, qd0]).astype(float)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from planar_mbs.model import (
+from planar_mbs.mechanism.model import (
     CP_CLEARANCE,
     CP_EXPONENT,
     CP_LENGTH,
@@ -31,8 +31,8 @@ from planar_mbs.model import (
     Settings,
     observation_size,
 )
-from planar_mbs.results import ResultsWriter
-from planar_mbs.signals import signal_table
+from planar_mbs.results.hdf5 import ResultsWriter
+from planar_mbs.results.signals import signal_table
 
 CRANK = 0.05  # crank length O-A [m]
 ROD = 0.12  # rod length A-B [m]

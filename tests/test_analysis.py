@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from planar_mbs.analysis import (
+from planar_mbs.results.analysis import (
     classify,
     correlation_dimension,
     nearest_neighbour_growth,
@@ -26,7 +26,7 @@ from planar_mbs.analysis import (
     write_section,
     zero_one_test,
 )
-from planar_mbs.results import Results
+from planar_mbs.results.hdf5 import Results
 
 OMEGA = 1.2
 T = 2 * math.pi / OMEGA
@@ -160,14 +160,14 @@ def test_a_section_is_not_stored_in_a_file_another_process_writes(tmp_path):
     import subprocess
     import sys
 
-    from planar_mbs.analysis import store_section
+    from planar_mbs.results.analysis import store_section
     from planar_mbs.errors import MbsError
 
     path = tmp_path / "r.h5"
     with h5py.File(path, "w") as f:
         f.create_dataset("time", data=np.arange(3.0))
     sec = poincare_section(fake_run(0.012, 36, 40), ("slider.vx", "slider.ax"), period=0.012)
-    holder = subprocess.Popen([sys.executable, "-c", "import sys\nfrom planar_mbs.results import WriteLock\n"
+    holder = subprocess.Popen([sys.executable, "-c", "import sys\nfrom planar_mbs.results.hdf5 import WriteLock\n"
                                f"lock = WriteLock(__import__('pathlib').Path({str(path)!r}))\n"
                                "print('locked', flush=True)\nsys.stdin.read()"],
                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
@@ -210,8 +210,8 @@ def test_a_verdict_with_numpy_scalars_is_stored_as_json():
     serializable").  `as_dict` gives plain values, and a case's row is written whatever the verdict holds."""
     import json
 
-    from planar_mbs.analysis import Verdict
-    from planar_mbs.sweep import CaseOutcome, _plain, _row
+    from planar_mbs.results.analysis import Verdict
+    from planar_mbs.sweep.scan import CaseOutcome, _plain, _row
 
     v = Verdict("periodic", 2, np.float64(0.01), float("nan"), 0.0, np.float64(1e-9), 40, np.bool_(False))
     d = json.loads(json.dumps(v.as_dict()))

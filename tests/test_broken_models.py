@@ -16,9 +16,9 @@ import pytest
 from typer.testing import CliRunner
 
 from planar_mbs.cli.app import app
-from planar_mbs.compile import compile_text, load_model
+from planar_mbs.mechanism.compile import compile_text, load_model
 from planar_mbs.errors import ModelError
-from planar_mbs.kinematics import assemble
+from planar_mbs.mechanism.kinematics import assemble
 
 CORPUS = Path(__file__).resolve().parent / "broken_models"
 FILES = sorted(CORPUS.glob("*.mbs"))

@@ -21,13 +21,13 @@ import pytest
 
 from planar_mbs import catalog
 from planar_mbs.errors import ModelError
-from planar_mbs.compile import compile_text, JOINT_FIELDS, JOINT_TYPES, LAW_SETTINGS, LAWS, SIM_FIELDS
+from planar_mbs.mechanism.compile import compile_text, JOINT_FIELDS, JOINT_TYPES, LAW_SETTINGS, LAWS, SIM_FIELDS
 from planar_mbs.kernel import contact, integrators, workspace
 from planar_mbs.kernel.constraints import _JOINT_ROWS
-from planar_mbs.model import (
+from planar_mbs.mechanism.model import (
     CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, JOINT_ROWS, ContactLaw, Integrator, JointType,
 )
-from planar_mbs.signals import MOMENT_JOINTS
+from planar_mbs.results.signals import MOMENT_JOINTS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -72,7 +72,7 @@ def test_unknown_names_are_refused_with_the_choices():
 
 def test_the_library_refuses_an_unknown_integrator_with_the_choices(tmp_path):
     import planar_mbs as mbs
-    from planar_mbs.sweep import parse_param, run_sweep
+    from planar_mbs.sweep.scan import parse_param, run_sweep
 
     model = mbs.load_model(ROOT / "models" / "slider_crank.mbs")
     with pytest.raises(ModelError, match="unknown integrator `dopri4`") as info:
@@ -126,8 +126,6 @@ def extended(tmp_path_factory):
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc")
     pkg = tmp / "planar_mbs"
     shutil.copytree(ROOT / "planar_mbs", pkg, ignore=ignore)
-    shutil.copytree(ROOT / "cli", pkg / "cli", ignore=ignore)
-    shutil.copytree(ROOT / "grammar", pkg / "grammar", ignore=ignore)
     (tmp / "docs").mkdir()
     shutil.copy(ROOT / "docs" / "language.md", tmp / "docs" / "language.md")
     cat = (pkg / "catalog.py").read_text(encoding="utf-8")
@@ -212,7 +210,7 @@ def test_an_added_integrator_runs_end_to_end(extended):
     closed form, in the many steps of a 2nd-order method (h ~ sqrt(2 tol / |phi''|) ~ 1.4e-4 s: several
     thousand over 1 s, where DOPRI5 takes a few dozen); the added method without dense output is refused
     with the reason (exit 3), never run with another method's interpolant."""
-    from planar_mbs.results import read_results
+    from planar_mbs.results.hdf5 import read_results
 
     r = _mbs(extended, "run", "oscillator.mbs", "-o", "osc.h5", "-q")
     assert r.returncode == 0, r.stderr + r.stdout

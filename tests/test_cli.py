@@ -92,7 +92,7 @@ def _wait_for_samples(path, proc, timeout=120.0):
 
     import h5py
 
-    from planar_mbs.results import part_beside
+    from planar_mbs.results.hdf5 import part_beside
 
     start = time.monotonic()
     while time.monotonic() - start < timeout:

@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 import planar_mbs
 from planar_mbs import read_results
 from planar_mbs.cli.app import app
-from planar_mbs.sweep import read_case_table
+from planar_mbs.sweep.scan import read_case_table
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
@@ -145,7 +145,7 @@ def test_sweep_started_with_sigint_ignored_can_still_be_interrupted(tmp_path):
            "-P", "speed=600rpm..1400rpm:6", "-n", "500", "--per-rev", "360", "-o", str(out), "-j", "2", "-q"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
-    from planar_mbs.sweep_store import journal_folder
+    from planar_mbs.sweep.store import journal_folder
 
     deadline = time.time() + 120
     while time.time() < deadline:  # wait for the first finished case (in the sweep's journal)

@@ -1,13 +1,13 @@
-"""The compiler: arrays of the shipped models, every class of user error, overrides (planar_mbs.compile)."""
+"""The compiler: arrays of the shipped models, every class of user error, overrides (planar_mbs.mechanism.compile)."""
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from planar_mbs.compile import compile_text, load_model
+from planar_mbs.mechanism.compile import compile_text, load_model
 from planar_mbs.errors import ModelError
-from planar_mbs.model import (
+from planar_mbs.mechanism.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM,
     CP_STIFFNESS, JP_LENGTH, JP_PHI0, ContactLaw, DriverType, ForceType, Integrator, JointType,
     MotionType, N_CLEARANCE_PARAM,
@@ -53,7 +53,7 @@ def test_slider_crank_arrays():
     np.testing.assert_allclose(k.minv, [1 / .3, 1 / .3, 1e5, 1 / .21, 1 / .21, 4e3, 1 / .14, 1 / .14, 1e4])
     assert k.joint_type.tolist() == [JointType.REVOLUTE] * 3 + [JointType.TRANSLATIONAL]
     assert k.joint_body.tolist() == [[-1, 0], [0, 1], [1, 2], [-1, 2]]
-    # rows in the fill-reducing order (planar_mbs.ordering): two per joint, one for the driver, all used once
+    # rows in the fill-reducing order (planar_mbs.mechanism.ordering): two per joint, one for the driver, all used once
     rows = sorted(k.joint_row.tolist() + (k.joint_row + 1).tolist() + k.driver_row.tolist())
     assert rows == list(range(9))
     np.testing.assert_allclose(k.joint_point[1], [[0.025, 0], [-0.06, 0]])
@@ -285,7 +285,7 @@ def test_clearance_joint_errors(fields, law, words):
 
 
 def test_all_law_names_are_known():
-    from planar_mbs.model import CONTACT_LAW_NAMES
+    from planar_mbs.mechanism.model import CONTACT_LAW_NAMES
 
     for law, name in CONTACT_LAW_NAMES.items():
         m = compile_text(BASE + clearance("clearance = 0.3 mm  bearing_radius = 5 mm  length = 20 mm"

@@ -25,7 +25,7 @@ from scipy.optimize import brentq
 
 import kernel_models as K
 from planar_mbs.kernel.contact import cylinder_scales, damping_factor, elastic_energy, normal_force
-from planar_mbs.model import (
+from planar_mbs.mechanism.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_FRICTION, CP_FRICTION_V0, CP_FRICTION_V1, CP_LENGTH, CP_R_BEARING,
     CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS, CS_FN, CS_FRICTION, CS_PENETRATION, CS_SLIP,
     CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, N_CLEARANCE_PARAM, ContactLaw, Integrator, Status,

@@ -94,7 +94,7 @@ def test_film_force_wedge_and_squeeze_terms_are_the_pi_film_integral(eps, epsd):
     the whole wedge-plus-squeeze term A, integrated over the pi-film the wedge fixes (psi in (-pi, 0)),
     while the wedge dominates (|eps w| = 100 |eps'|, where the kernel's s is within 1e-4 of 1)."""
     from planar_mbs.kernel.contact import film_force
-    from planar_mbs.model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_LENGTH, CP_R_JOURNAL, CP_VISCOSITY,
+    from planar_mbs.mechanism.model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_LENGTH, CP_R_JOURNAL, CP_VISCOSITY,
                                   N_CLEARANCE_PARAM, PairKind)
 
     w = 100 * abs(epsd) / eps

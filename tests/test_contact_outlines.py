@@ -141,7 +141,7 @@ def test_cam_follower_follows_the_lift_and_leaves_at_the_closed_form_speed():
 def test_check_reports_what_touches_at_the_start():
     """`mbs check`'s gaps (kinematics.start_gaps, without numba) against the geometry: a disc 3 mm above
     the floor, a ball pressed 2 um into a socket's wall, two circles 1 mm apart."""
-    from planar_mbs.kinematics import assemble, start_gaps
+    from planar_mbs.mechanism.kinematics import assemble, start_gaps
 
     text = """
 body disc { mass = 1 kg  inertia = 1e-3 kg*m^2  position = (0.01, 0.053)  angle = 30 deg }

@@ -88,7 +88,7 @@ def test_the_block_closing_a_loop_starts_centred_and_aligned():
     """In the slider-crank the assembly treats the joint as an ideal sliding joint: the slider starts on
     the guide's centre line, aligned, every corner 0.15 mm from its surface."""
     from planar_mbs import load_model
-    from planar_mbs.kinematics import assemble, start_gaps
+    from planar_mbs.mechanism.kinematics import assemble, start_gaps
     from pathlib import Path
 
     m = load_model(Path(__file__).resolve().parent.parent / "models" / "slider_crank_clearance_s.mbs")

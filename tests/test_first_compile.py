@@ -1,5 +1,5 @@
 """The first run on a machine says at once that it compiles the solver, and a second process
-compiles the kernels the time loop's typing reaches last (`planar_mbs.first_compile`)."""
+compiles the kernels the time loop's typing reaches last (`planar_mbs.run.first_compile`)."""
 from __future__ import annotations
 
 import importlib
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from planar_mbs import first_compile as F
+from planar_mbs.run import first_compile as F
 
 
 class _FakeIndex:
@@ -82,7 +82,7 @@ def test_the_helper_compiles_the_signatures_the_time_loop_uses():
     """Each kernel the helper compiles, with the argument types `_signature` gives it, is one the
     time loop's own compilation put in numba's cache (else the helper's work would be wasted)."""
     import planar_mbs as mbs
-    from planar_mbs.compile import compile_text
+    from planar_mbs.mechanism.compile import compile_text
     from planar_mbs.kernel import make_workspace
 
     text = F._TINY + "simulate { t_end = 10 ms  output_step = 1 ms }\n"
@@ -120,7 +120,7 @@ def test_a_cold_mbs_run_says_so_first_and_the_helper_does_part_of_the_work(tmp_p
 def test_mbs_run_announces_before_reading_the_model(stderr, monkeypatch, tmp_path):
     """With no cached time loop, `mbs run` says it will compile before it even reads the model (the
     first line within a fraction of a second, whatever the model costs to load)."""
-    from planar_mbs import compile as C
+    from planar_mbs.mechanism import compile as C
     from planar_mbs.cli.run_command import run_model
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))

@@ -19,9 +19,9 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from planar_mbs import catalog
-from planar_mbs.compile import compile_text
+from planar_mbs.mechanism.compile import compile_text
 from planar_mbs.errors import ModelError
-from planar_mbs.kinematics import assemble
+from planar_mbs.mechanism.kinematics import assemble
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 SHIPPED = {p.name: p.read_text(encoding="utf-8") for p in sorted(MODELS.glob("*.mbs"))}
@@ -161,7 +161,7 @@ def test_shipped_models_pass_the_same_check():
 @given(st.binary(max_size=120), st.sampled_from(sorted(SHIPPED)))
 def test_bytes_spliced_into_a_model_give_only_model_errors(junk, name):
     """Arbitrary bytes (not necessarily UTF-8) spliced into a shipped model, as `load_model` reads them."""
-    from planar_mbs.parse import decode_model
+    from planar_mbs.language.parse import decode_model
 
     data = SHIPPED[name].encode()
     cut = len(junk) * 7 % (len(data) + 1)

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 
 import kernel_models as K
 from planar_mbs import catalog
-from planar_mbs.model import ContactLaw, Integrator, Status
+from planar_mbs.mechanism.model import ContactLaw, Integrator, Status
 
 # every adaptive integrator of the catalog (no hand list): each locates contact events on its dense output
 ADAPTIVE = [Integrator(s.code) for s in catalog.INTEGRATORS if s.adaptive]

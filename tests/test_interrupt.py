@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from planar_mbs.results import read_results
+from planar_mbs.results.hdf5 import read_results
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 # DOP853 at rtol 1e-13 with one output every 2 s: before, the loop returned only at outputs
@@ -29,7 +29,7 @@ def test_a_grinding_run_stops_within_a_second(tmp_path, sig, code):
                              str(model), "-o", str(out), "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
     start = time.monotonic()
-    from planar_mbs.results import part_beside
+    from planar_mbs.results.hdf5 import part_beside
 
     while not part_beside(out).exists():  # written beside its name once the time loop starts (after compiling)
         assert proc.poll() is None, proc.stderr.read()

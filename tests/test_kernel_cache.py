@@ -18,7 +18,7 @@ import kernel_models as K
 import planar_mbs
 from planar_mbs.kernel import make_workspace, nobs
 from planar_mbs.kernel.loop import observe
-from planar_mbs.model import ContactLaw
+from planar_mbs.mechanism.model import ContactLaw
 
 TESTS = Path(__file__).resolve().parent
 # the contact force over K delta^n of a penetrating Hertz journal, read from `observe` (loop.py)
@@ -26,7 +26,7 @@ PROBE = """
 import json, numpy as np, kernel_models as K
 from planar_mbs.kernel import make_workspace, nobs
 from planar_mbs.kernel.loop import observe
-from planar_mbs.model import CP_EXPONENT, CP_STIFFNESS, ContactLaw
+from planar_mbs.mechanism.model import CP_EXPONENT, CP_STIFFNESS, ContactLaw
 km, q0, qd0 = K.free_journal(law=ContactLaw.HERTZ, offset=(1.01e-4, 0.0))
 row = np.zeros(nobs(km))
 contact = np.array([[1.0, 1.0, 0.0]])

@@ -15,7 +15,7 @@ import pytest
 
 from kernel_models import build
 from planar_mbs.kernel import constraint_eval, constraint_rows
-from planar_mbs.model import DriverType, JointType, MotionType
+from planar_mbs.mechanism.model import DriverType, JointType, MotionType
 
 rng = np.random.default_rng(1234)
 
@@ -62,10 +62,10 @@ def all_types_model():
 def _motion_program():
     """The program of the EXPRESSION driver: functions, a quotient and a table of t, so that the
     finite differences below check its f' and f'' (dual numbers) too."""
-    from planar_mbs.evaluate import Evaluator
-    from planar_mbs.expressions import Context, Programs
-    from planar_mbs.parse import parse_expression
-    from planar_mbs.units import ANGLE
+    from planar_mbs.language.evaluate import Evaluator
+    from planar_mbs.language.expressions import Context, Programs
+    from planar_mbs.language.parse import parse_expression
+    from planar_mbs.language.units import ANGLE
 
     text = ("0.3 rad * sin(2 rad/s * t + 0.4) * exp(-t / 1.5 s) + 0.2 * atan2(t, 0.7 s) + 0.1 * sqrt(1 + t^2 / 1 s^2)"
             " + 0.05 rad * (t / 1 s)^3 / (1 + t / 1 s) + table(x = t, xs = (-1 s, 0 s, 0.5 s, 2 s, 3 s), "

@@ -14,7 +14,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import kernel_models as K
-from planar_mbs.model import (
+from planar_mbs.mechanism.model import (
     CS_FN, CS_FX, CS_FY, CS_IMPACT_VELOCITY, CS_IN_CONTACT, CS_PENETRATION, ContactLaw, Status,
 )
 
@@ -101,7 +101,7 @@ def test_lankarani_nikravesh_rebound_matches_1d_integration(ce):
 
 def test_rk4_fixed_step_impact():
     """Muvengei et al.'s way (fixed RK4 steps) with events: rebound speed close to impact speed."""
-    from planar_mbs.model import Integrator
+    from planar_mbs.mechanism.model import Integrator
 
     c = K.cfg(integrator=Integrator.RK4, step=2e-7, output_step=1e-6)
     t, rows, y, stats, contact, d = simulate(ContactLaw.HERTZ, method_cfg=c)

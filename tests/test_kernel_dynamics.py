@@ -8,7 +8,7 @@ import pytest
 
 import kernel_models as K
 from planar_mbs.kernel import accelerations, make_workspace, nobs, observe
-from planar_mbs.model import N_STATS, ForceType, JointType, Status
+from planar_mbs.mechanism.model import N_STATS, ForceType, JointType, Status
 
 STATS = np.zeros(N_STATS, np.int64)
 

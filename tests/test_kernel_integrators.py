@@ -15,7 +15,7 @@ from planar_mbs.kernel import integrators as I
 from planar_mbs.kernel import make_workspace
 from planar_mbs import catalog
 from planar_mbs.kernel.integrators import dense_eval
-from planar_mbs.model import CFG_METHOD, ST_INFO, Integrator, Status
+from planar_mbs.mechanism.model import CFG_METHOD, ST_INFO, Integrator, Status
 
 
 def order_conditions(A, b, c):

@@ -6,7 +6,7 @@ import pytest
 
 import kernel_models as K
 from planar_mbs.kernel import advance, make_workspace, nobs
-from planar_mbs.model import N_STATS, ContactLaw, Integrator, Status
+from planar_mbs.mechanism.model import N_STATS, ContactLaw, Integrator, Status
 
 
 @pytest.mark.parametrize("cap", [1, 7, 1000])

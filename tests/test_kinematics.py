@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
-from planar_mbs.compile import compile_text
+from planar_mbs.mechanism.compile import compile_text
 from planar_mbs.errors import ModelError
-from planar_mbs.kinematics import assemble, assembly_changes
+from planar_mbs.mechanism.kinematics import assemble, assembly_changes
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 OMEGA = 5000 * 2 * np.pi / 60
@@ -80,7 +80,7 @@ def test_plain_python_constraints_match_the_compiled_kernel(name):
 
     from planar_mbs import load_model
     from planar_mbs.kernel import constraint_eval as compiled
-    from planar_mbs.kinematics import assembly_kernel
+    from planar_mbs.mechanism.kinematics import assembly_kernel
     from planar_mbs.pykernel.constraints import constraint_eval as plain
 
     model = load_model(Path(__file__).resolve().parents[1] / "models" / name)

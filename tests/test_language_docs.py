@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from planar_mbs import catalog
-from planar_mbs.compile import compile_text
-from planar_mbs.parse import parse_statements
+from planar_mbs.mechanism.compile import compile_text
+from planar_mbs.language.parse import parse_statements
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "language.md"

@@ -1,4 +1,4 @@
-"""Benettin's method (planar_mbs.lyapunov.benettin) against known largest Lyapunov exponents:
+"""Benettin's method (planar_mbs.results.lyapunov.benettin) against known largest Lyapunov exponents:
 the Hénon map (a = 1.4, b = 0.3): 0.419 per iteration; the Lorenz system (σ = 10, ρ = 28,
 β = 8/3): 0.906 per unit time (Sprott, "Chaos and Time-Series Analysis", 2003, table A.1)."""
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planar_mbs.lyapunov import benettin
+from planar_mbs.results.lyapunov import benettin
 
 
 def _euclid(a, b):

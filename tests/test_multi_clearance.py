@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
-from planar_mbs.model import CONTACT_LAW_NAMES, ContactLaw
+from planar_mbs.mechanism.model import CONTACT_LAW_NAMES, ContactLaw
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 # shipped clearance models: (file, clearance joints, short t_end covering the first impacts)
@@ -129,7 +129,7 @@ override joint O4 = clearance_revolute(ground (frame, 0), rocker_link (-rocker /
     clearance = 0.15 mm  bearing_radius = 4 mm  length = 10 mm  material = steel
     law = gonthier  restitution = 0.7  friction = 0.05 }
 """
-    from planar_mbs.compile import compile_text
+    from planar_mbs.mechanism.compile import compile_text
 
     model = compile_text(text, str(MODELS / "three.mbs"))
     assert model.clearance_names == ["A", "B", "O4"] and model.dof == 9 - 3

@@ -1,9 +1,9 @@
-"""The grammar and parser: every construct, positions, friendly syntax errors (planar_mbs.parse)."""
+"""The grammar and parser: every construct, positions, friendly syntax errors (planar_mbs.language.parse)."""
 import pytest
 
 from planar_mbs.errors import ModelError
-from planar_mbs.parse import parse_expression, parse_model, parse_statements, parser
-from planar_mbs.spec import BinOp, Call, Name, Neg, Number, Vector
+from planar_mbs.language.parse import parse_expression, parse_model, parse_statements, parser
+from planar_mbs.language.spec import BinOp, Call, Name, Neg, Number, Vector
 
 
 def one(text):
@@ -188,14 +188,14 @@ def test_override_value_errors_point_at_set():
 
 
 def test_a_text_parsed_again_comes_from_the_cache_and_still_takes_each_override():
-    """A sweep compiles one model text per case: the parse is kept (planar_mbs.parse._parsed), the
+    """A sweep compiles one model text per case: the parse is kept (planar_mbs.language.parse._parsed), the
     overrides are the compiler's, so each case still gets its own value (a crank period of 60 s / rpm);
     a text that does not parse is not kept and fails again."""
     from pathlib import Path
 
-    from planar_mbs import parse
-    from planar_mbs.compile import compile_text
-    from planar_mbs.section import driver_period
+    from planar_mbs.language import parse
+    from planar_mbs.mechanism.compile import compile_text
+    from planar_mbs.results.section import driver_period
 
     text = (Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs").read_text()
     parse._parsed.clear()

@@ -7,9 +7,9 @@ import typer
 from PIL import Image
 from typer.testing import CliRunner
 
-from planar_mbs import plot as P
+from planar_mbs.outputs import plot as P
 from planar_mbs.cli.plot_commands import plot, view
-from planar_mbs.results import read_results
+from planar_mbs.results.hdf5 import read_results
 from plot_fixtures import CLEARANCE, slider_crank_model, write_run, write_sweep
 
 runner = CliRunner()
@@ -238,7 +238,7 @@ def test_plot_module_imports_no_matplotlib():
     import subprocess
     import sys
 
-    code = "import sys, planar_mbs.plot, planar_mbs.rerun_log, planar_mbs.cli.plot_commands; " \
+    code = "import sys, planar_mbs.outputs.plot, planar_mbs.outputs.rerun_log, planar_mbs.cli.plot_commands; " \
            "print('matplotlib' in sys.modules, 'rerun' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planar_mbs import plot as P
-from planar_mbs.results import read_results
+from planar_mbs.outputs import plot as P
+from planar_mbs.results.hdf5 import read_results
 from plot_fixtures import write_run
 
 LONG = {"speed": "5000 rpm", "clearance": "0.3 mm", "law": "lankarani_nikravesh", "rod_l": "150 mm",

@@ -9,8 +9,8 @@ import pytest
 from plot_fixtures import write_run
 from typer.testing import CliRunner
 
-from planar_mbs.plot import orbit_figure, orbit_resolution_warning, poincare_figure, series_figure, time_window
-from planar_mbs.results import Results, read_results
+from planar_mbs.outputs.plot import orbit_figure, orbit_resolution_warning, poincare_figure, series_figure, time_window
+from planar_mbs.results.hdf5 import Results, read_results
 
 RPM = 2500.0
 T = 60.0 / RPM  # one crank revolution
@@ -79,7 +79,7 @@ def test_coarse_orbit_warns_and_fine_one_does_not():
 
 def test_cli_prints_the_orbit_warning(tmp_path):
     from planar_mbs.cli.app import app
-    from planar_mbs.results import write_results
+    from planar_mbs.results.hdf5 import write_results
 
     path = tmp_path / "coarse.h5"
     write_results(path, wall_orbit(40.0))

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from planar_mbs.analysis import classify
+from planar_mbs.results.analysis import classify
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -8,10 +8,10 @@ from typer.testing import CliRunner
 
 os.environ["RERUN_TELEMETRY_ENABLED"] = "false"
 
-from planar_mbs import rerun_log as R  # noqa: E402
+from planar_mbs.outputs import rerun_log as R  # noqa: E402
 from planar_mbs.cli.plot_commands import record_run as cli_record_run  # noqa: E402
 from planar_mbs.cli.plot_commands import view  # noqa: E402
-from planar_mbs.results import read_results  # noqa: E402
+from planar_mbs.results.hdf5 import read_results  # noqa: E402
 from plot_fixtures import write_run  # noqa: E402
 
 runner = CliRunner()
@@ -171,7 +171,7 @@ def test_clearance_is_magnified(recorded):
 
 def test_contact_onsets_and_poincare(recorded):
     results, model, info, rrd = recorded
-    from planar_mbs.plot import contact_onsets, poincare
+    from planar_mbs.outputs.plot import contact_onsets, poincare
 
     onsets = contact_onsets(results, "A")
     log = rrd["events/contact"]
@@ -220,7 +220,7 @@ def test_cli_view_signals_only_and_bad_file(tmp_path):
 
 
 def test_model_from_results_with_compiler(tmp_path):
-    pytest.importorskip("planar_mbs.compile")
+    pytest.importorskip("planar_mbs.mechanism.compile")
     from pathlib import Path
 
     models = Path(__file__).resolve().parents[1] / "models"
@@ -228,7 +228,7 @@ def test_model_from_results_with_compiler(tmp_path):
     if not path.exists():
         pytest.skip("shipped clearance model not there yet")
     from planar_mbs import load_model
-    from planar_mbs.results import Results
+    from planar_mbs.results.hdf5 import Results
 
     model = load_model(path)
     res = Results(time=np.zeros(0), signals={}, attrs={
@@ -274,7 +274,7 @@ def _real_app_has(command: str, option: str | None = None) -> bool:
 
 def test_mbs_view_and_plot_are_registered(tmp_path):
     if not (_real_app_has("plot") and _real_app_has("view")):
-        pytest.skip("`plot` and `view` not registered in cli/app.py yet")
+        pytest.skip("`plot` and `view` not registered in planar_mbs/cli/app.py yet")
     from planar_mbs.cli.app import app as real
 
     h5 = tmp_path / "r.h5"
@@ -287,7 +287,7 @@ def test_mbs_view_and_plot_are_registered(tmp_path):
 
 def test_mbs_run_rerun(tmp_path):
     if not _real_app_has("run", "rerun"):
-        pytest.skip("`mbs run --rerun` not wired in cli/app.py yet")
+        pytest.skip("`mbs run --rerun` not wired in planar_mbs/cli/app.py yet")
     from pathlib import Path
 
     from planar_mbs.cli.app import app as real

@@ -2,8 +2,8 @@
 import h5py
 import numpy as np
 
-from planar_mbs.results import ResultsWriter, read_results
-from planar_mbs.signals import Signal
+from planar_mbs.results.hdf5 import ResultsWriter, read_results
+from planar_mbs.results.signals import Signal
 
 TABLE = [
     Signal("slider", "x", "m", (0,)),
@@ -77,7 +77,7 @@ def test_files_of_the_earlier_layout_are_still_read(tmp_path):
 def test_file_readable_while_unfinished(tmp_path):
     """A run that dies mid-way leaves the earlier file at its name untouched, and what it computed
     in a readable part file beside it, marked incomplete."""
-    from planar_mbs.results import ResultsFileError, part_beside
+    from planar_mbs.results.hdf5 import ResultsFileError, part_beside
 
     path = tmp_path / "partial.h5"
     w = ResultsWriter(path, TABLE, {})
@@ -101,13 +101,13 @@ def test_a_file_another_process_writes_is_refused_by_name(tmp_path, monkeypatch)
 
     import pytest
 
-    from planar_mbs.results import ResultsFileError
+    from planar_mbs.results.hdf5 import ResultsFileError
 
     path = tmp_path / "r.h5"
     w = ResultsWriter(path, TABLE, {})
     w.append(np.array([0.0, 0.1]), np.ones((2, 3)))
     w.close()
-    writer = subprocess.Popen([sys.executable, "-c", "import pathlib, sys\nfrom planar_mbs.results import WriteLock\n"
+    writer = subprocess.Popen([sys.executable, "-c", "import pathlib, sys\nfrom planar_mbs.results.hdf5 import WriteLock\n"
                                f"lock = WriteLock(pathlib.Path({str(path)!r}))\nprint('writing', flush=True)\n"
                                "sys.stdin.read()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
@@ -191,7 +191,7 @@ def test_a_run_streamed_to_a_file_equals_the_run_in_memory(tmp_path, monkeypatch
     from pathlib import Path
 
     import planar_mbs as mbs
-    from planar_mbs import simulation
+    from planar_mbs.run import simulation
 
     model = mbs.load_model(Path(__file__).resolve().parents[1] / "models" / "slider_crank_clearance_a.mbs")
     ref = mbs.simulate(model, t_end=0.01)

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 import chains
 import planar_mbs as mbs
 from planar_mbs.cli.app import app
-from planar_mbs.compile import compile_text
+from planar_mbs.mechanism.compile import compile_text
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 G = 9.81

@@ -1,4 +1,4 @@
-"""The one Poincaré section (planar_mbs.section): crossings, the clock and slider rules."""
+"""The one Poincaré section (planar_mbs.results.section): crossings, the clock and slider rules."""
 from __future__ import annotations
 
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from planar_mbs.results import Results
-from planar_mbs.section import AnalysisError, clock_body, crossings, default_signals, poincare_section, slider_body
+from planar_mbs.results.hdf5 import Results
+from planar_mbs.results.section import AnalysisError, clock_body, crossings, default_signals, poincare_section, slider_body
 
 
 def test_every_level_crossed_between_two_samples_counts():

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from planar_mbs.analysis import classify
-from planar_mbs.results import Results, write_results
-from planar_mbs.section import poincare_section, settling
+from planar_mbs.results.analysis import classify
+from planar_mbs.results.hdf5 import Results, write_results
+from planar_mbs.results.section import poincare_section, settling
 
 
 def logistic(n: int, x0: float = 0.1234) -> np.ndarray:
@@ -165,7 +165,7 @@ def test_the_sweep_table_carries_the_verdicts_doubts():
     """The sweep table's verdict column is `Verdict.headline`: a drift that never settles reads
     "... (not settled)", too few points "undetermined (too few points ...)"; a settled periodic
     orbit has no doubt."""
-    from planar_mbs.sweep import CaseOutcome, _row
+    from planar_mbs.sweep.scan import CaseOutcome, _row
 
     n = np.arange(600)
     drift = classify(np.column_stack([n / 600.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)]))
@@ -196,7 +196,7 @@ def test_mbs_analyze_on_too_few_points_says_so(tmp_path):
 
 def test_a_short_classified_part_is_a_doubt():
     """30 points that do not settle: the last half (15 points) is classified, fewer than MIN_POINTS."""
-    from planar_mbs.analysis import MIN_POINTS
+    from planar_mbs.results.analysis import MIN_POINTS
 
     n = np.arange(30)
     v = classify(np.column_stack([n / 30.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)]))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
-from planar_mbs.compile import compile_text
+from planar_mbs.mechanism.compile import compile_text
 from planar_mbs.errors import SimulationError
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
@@ -223,9 +223,9 @@ def test_signals_without_dynamics_skip_accelerations_and_match_the_closed_form(i
     import h5py
     import pandas as pd
 
-    from planar_mbs.model import OBS_SKIP_DYNAMICS, OBS_SKIP_ERRORS
-    from planar_mbs.signals import signal_table, skip_bits
-    from planar_mbs.simulation import select_signals
+    from planar_mbs.mechanism.model import OBS_SKIP_DYNAMICS, OBS_SKIP_ERRORS
+    from planar_mbs.results.signals import signal_table, skip_bits
+    from planar_mbs.run.simulation import select_signals
 
     model = mbs.load_model(MODELS / "slider_crank.mbs")
     wanted = ["slider.x", "slider.vx", "crank.phi", "system.kinetic_energy"]
@@ -257,8 +257,8 @@ def test_skipped_columns_of_the_observation_row_are_nan_and_the_rest_unchanged()
     """The kernel's own row: with every OBS_SKIP_* bit set only q and q' are computed, the other
     columns are NaN; q and q' are those of the full row; each bit alone blanks only its group."""
     from planar_mbs.kernel import make_workspace, observe
-    from planar_mbs.kinematics import assemble
-    from planar_mbs.model import (CFG_SKIP, OB_CLEARANCE, OB_QDD, OB_SYSTEM, OBS_SKIP_CLEARANCE,
+    from planar_mbs.mechanism.kinematics import assemble
+    from planar_mbs.mechanism.model import (CFG_SKIP, OB_CLEARANCE, OB_QDD, OB_SYSTEM, OBS_SKIP_CLEARANCE,
                                   OBS_SKIP_DYNAMICS, OBS_SKIP_ENERGY, OBS_SKIP_ERRORS, observation_layout,
                                   observation_size)
 

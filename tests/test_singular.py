@@ -16,8 +16,8 @@ from typer.testing import CliRunner
 import chains
 import planar_mbs as mbs
 from planar_mbs.cli.app import app
-from planar_mbs.compile import compile_text
-from planar_mbs.ordering import profile
+from planar_mbs.mechanism.compile import compile_text
+from planar_mbs.mechanism.ordering import profile
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 runner = CliRunner()

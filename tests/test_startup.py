@@ -53,8 +53,8 @@ def test_fast_check_prints_and_exits_as_the_typer_command(argv):
 
 
 def test_sweep_workers_start_with_the_kernels_loaded():
-    from planar_mbs.sweep import default_executor
-    from planar_mbs.sweep_server import kernels_loaded
+    from planar_mbs.sweep.scan import default_executor
+    from planar_mbs.sweep.server import kernels_loaded
 
     with default_executor(1) as ex:
         assert ex.submit(kernels_loaded).result(timeout=600)
@@ -75,7 +75,7 @@ def test_run_through_the_executable_skips_teardown_but_keeps_code_output_and_fil
     assert res.returncode == 0, res.stderr
     assert "TEARDOWN" not in res.stderr
     assert "time-loop wall time" in res.stdout
-    from planar_mbs.results import read_results
+    from planar_mbs.results.hdf5 import read_results
 
     assert read_results(out).time[-1] == pytest.approx(1e-3)
 
@@ -216,6 +216,6 @@ def test_warm_kernels_load_without_numba_s_implementations_and_run_the_same(tmp_
 def test_the_grammar_is_read_from_the_package_folder_as_importlib_resources_reads_it():
     from importlib import resources
 
-    from planar_mbs.parse import _grammar_text
+    from planar_mbs.language.parse import _grammar_text
 
-    assert _grammar_text() == resources.files("planar_mbs.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
+    assert _grammar_text() == resources.files("planar_mbs.language.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
-from planar_mbs.compile import compile_text
+from planar_mbs.mechanism.compile import compile_text
 from planar_mbs.errors import SimulationError
 
 MODELS = Path(__file__).resolve().parents[1] / "models"

@@ -17,7 +17,7 @@ import typer
 from typer.testing import CliRunner
 
 from planar_mbs import read_results
-from planar_mbs.sweep import (
+from planar_mbs.sweep.scan import (
     SweepError,
     case_key,
     expand,
@@ -189,7 +189,7 @@ def test_keep_restricts_the_stored_signals(tmp_path):
 def test_keep_expands_an_entity_and_refuses_a_typo(tmp_path):
     from planar_mbs import load_model
     from planar_mbs.errors import ModelError
-    from planar_mbs.signals import signal_table
+    from planar_mbs.results.signals import signal_table
 
     out = tmp_path / "s.h5"
     run_sweep(IDEAL, [parse_param("speed=600rpm")], out, revolutions=3, per_rev=12, jobs=1,
@@ -274,7 +274,7 @@ def test_an_interrupt_python_dropped_stops_a_one_process_sweep_before_its_next_c
     import weakref
 
     from planar_mbs.cli.sweep_commands import _interruptible
-    from planar_mbs.sweep import PENDING_INTERRUPTS
+    from planar_mbs.sweep.scan import PENDING_INTERRUPTS
 
     class Thing:
         pass
@@ -301,7 +301,7 @@ def _raise_interrupt():
 
 
 def test_bifurcation_figure_from_a_sweep(tmp_path):
-    from planar_mbs.plot import verdict_bifurcation_figure as bifurcation_figure
+    from planar_mbs.outputs.plot import verdict_bifurcation_figure as bifurcation_figure
 
     out = tmp_path / "s.h5"
     run_sweep(IDEAL, SPEEDS, out, **OPTS)
@@ -316,7 +316,7 @@ def test_bifurcation_figure_from_a_sweep(tmp_path):
 def test_stored_verdict_and_mbs_plot_bifurcation_use_the_same_section_points(tmp_path):
     """One Poincaré section: the points a sweep stores with its verdict are the points
     `mbs plot`'s bifurcation diagram draws from the same file."""
-    from planar_mbs import plot as P
+    from planar_mbs.outputs import plot as P
 
     out = tmp_path / "s.h5"
     run_sweep(IDEAL, SPEEDS, out, **{**OPTS, "keep": None})

@@ -15,15 +15,15 @@ from pathlib import Path
 import h5py
 import pytest
 
-from planar_mbs.sweep import parse_param, read_case_table, run_sweep
-from planar_mbs.sweep_store import case_file_row, case_files, journal_folder
+from planar_mbs.sweep.scan import parse_param, read_case_table, run_sweep
+from planar_mbs.sweep.store import case_file_row, case_files, journal_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 IDEAL = ROOT / "models" / "slider_crank.mbs"
 SPEEDS = "speed=600rpm..1800rpm:12"
 OPTS = dict(revolutions=6, per_rev=24, section={})
 KILLS = 210  # across both -j values
-SCRIPT = ("import sys; from planar_mbs.sweep import parse_param, run_sweep; "
+SCRIPT = ("import sys; from planar_mbs.sweep.scan import parse_param, run_sweep; "
           f"run_sweep({str(IDEAL)!r}, [parse_param({SPEEDS!r})], sys.argv[1], jobs=int(sys.argv[2]), "
           f"keep=('slider.vx',), **{OPTS!r})")
 

@@ -12,11 +12,11 @@ import pytest
 from typer.testing import CliRunner
 
 from planar_mbs import read_results
-from planar_mbs.analysis import classify
-from planar_mbs.section import poincare_section
-from planar_mbs.sweep import (SweepError, case_summary, merge_sweeps, parse_param, read_case_table, replay_case,
+from planar_mbs.results.analysis import classify
+from planar_mbs.results.section import poincare_section
+from planar_mbs.sweep.scan import (SweepError, case_summary, merge_sweeps, parse_param, read_case_table, replay_case,
                               run_sweep, sweep_sections)
-from planar_mbs.sweep_store import journal_folder, signal_summary
+from planar_mbs.sweep.store import journal_folder, signal_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 IDEAL = ROOT / "models" / "slider_crank.mbs"
@@ -236,7 +236,7 @@ def test_a_sweep_killed_before_its_first_gather_keeps_its_numbering(tmp_path):
     """The last case finished first (a pool) and the sweep was killed before it gathered anything:
     its journal holds that case and the plan of the numbering, so the resumed scan numbers every
     case as the uninterrupted one does (not the unfinished cases after the finished one)."""
-    from planar_mbs.sweep_store import write_plan
+    from planar_mbs.sweep.store import write_plan
 
     speeds = [parse_param("speed=600rpm,900rpm,1200rpm")]
     whole, out = tmp_path / "whole.h5", tmp_path / "s.h5"

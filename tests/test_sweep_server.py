@@ -1,4 +1,4 @@
-"""The fork server that `mbs sweep` starts at its first line (planar_mbs/sweep_server.py): when it
+"""The fork server that `mbs sweep` starts at its first line (planar_mbs/sweep/server.py): when it
 starts, and that a sweep run through it stores what a sweep in one process stores."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
-from planar_mbs.sweep_server import wanted
+from planar_mbs.sweep.server import wanted
 
 ROOT = Path(__file__).resolve().parents[1]
 IDEAL = str(ROOT / "models" / "slider_crank.mbs")

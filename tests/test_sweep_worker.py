@@ -1,5 +1,5 @@
 """What a local sweep's worker process is set up with before its first case
-(planar_mbs/sweep_worker.py, through the pool's initializer `sweep.start_worker`): freed memory
+(planar_mbs/sweep/worker.py, through the pool's initializer `sweep.start_worker`): freed memory
 kept for the next case."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from planar_mbs import sweep_worker
+from planar_mbs.sweep import worker as sweep_worker
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # the worker's peak memory after it.
 FAULTS = """
 import os, resource, sys
-from planar_mbs.sweep import default_executor, parse_param, plan, run_case_stored
+from planar_mbs.sweep.scan import default_executor, parse_param, plan, run_case_stored
 
 def faults(spec, folder):
     before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt

@@ -1,10 +1,10 @@
-"""Units: conversions to SI, dimension checks, the plain-number-is-SI rule (planar_mbs.units)."""
+"""Units: conversions to SI, dimension checks, the plain-number-is-SI rule (planar_mbs.language.units)."""
 import math
 
 import pytest
 from hypothesis import given, strategies as st
 
-from planar_mbs import units as U
+from planar_mbs.language import units as U
 
 
 @pytest.mark.parametrize("value, unit, dim, si", [

@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from planar_mbs import catalog  # noqa: E402
-from planar_mbs.compile import compile_text  # noqa: E402
+from planar_mbs.mechanism.compile import compile_text  # noqa: E402
 from planar_mbs.kernel.contact import damping_factor  # noqa: E402
-from planar_mbs.model import CONTACT_LAW_NAMES, ContactLaw  # noqa: E402
+from planar_mbs.mechanism.model import CONTACT_LAW_NAMES, ContactLaw  # noqa: E402
 
 V0 = 0.5
 MODEL = """
@@ -74,8 +74,8 @@ def run_free(model):
     assemble the initial state with every clearance joint closed, as Muvengei et al. starts its
     mechanisms, which stops a free journal; here the journal must fly into the wall.)"""
     from planar_mbs.kernel import advance, make_workspace, nobs
-    from planar_mbs.model import N_STATS, ST_CONTACT_EVENTS, Status
-    from planar_mbs.signals import signal_table
+    from planar_mbs.mechanism.model import N_STATS, ST_CONTACT_EVENTS, Status
+    from planar_mbs.results.signals import signal_table
 
     km, s = model.kernel, model.settings
     cfg = s.cfg()

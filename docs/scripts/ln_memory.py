@@ -27,7 +27,7 @@ SETTINGS = {"rtol": 1e-8, "atol": 1e-11}
 
 def start_state(path: Path | None):
     from planar_mbs import load_model
-    from planar_mbs.study import long_run
+    from planar_mbs.run.study import long_run
 
     model = load_model(ROOT / "models" / "slider_crank_clearance_a.mbs")
     if path and path.exists():
@@ -39,8 +39,8 @@ def start_state(path: Path | None):
 
 
 def main(state: Path | None) -> dict:
-    from planar_mbs.section import driver_period
-    from planar_mbs.stepper import Stepper
+    from planar_mbs.results.section import driver_period
+    from planar_mbs.run.stepper import Stepper
 
     model, y, contact, t0 = start_state(state)
     T = driver_period(model)[0]

@@ -11,7 +11,7 @@ are checked on long runs (docs/scripts/replication_runs.py: 1000 crank revolutio
 cached in ``--work``, default build/replication/): the verdict on the settled part of the
 run, the settling revolution, Benettin's Lyapunov exponent from 5 perturbed states, and the
 verdict at a tighter tolerance.  The figures of revolutions 2–5 come from short, finely
-sampled sweeps (`planar_mbs.sweep.run_sweep`).  Figures go to docs/images/replication_*.png;
+sampled sweeps (`planar_mbs.sweep.scan.run_sweep`).  Figures go to docs/images/replication_*.png;
 the tables between ``<!-- BEGIN generated:... -->`` / ``<!-- END generated:... -->`` markers of
 docs/replication.md are rewritten; the numbers to docs/replication_data.json.
 """
@@ -33,10 +33,10 @@ sys.path.insert(0, str(ROOT / "docs" / "scripts"))
 
 import replication_runs as R  # noqa: E402
 from planar_mbs import read_results  # noqa: E402
-from planar_mbs.analysis import VERDICT_COLOURS, classify  # noqa: E402
-from planar_mbs.results import Results  # noqa: E402
-from planar_mbs.section import poincare_section  # noqa: E402
-from planar_mbs.sweep import Axis, read_case_table, run_sweep  # noqa: E402,F401
+from planar_mbs.results.analysis import VERDICT_COLOURS, classify  # noqa: E402
+from planar_mbs.results.hdf5 import Results  # noqa: E402
+from planar_mbs.results.section import poincare_section  # noqa: E402
+from planar_mbs.sweep.scan import Axis, read_case_table, run_sweep  # noqa: E402,F401
 
 IMAGES = ROOT / "docs" / "images"
 PAGE = ROOT / "docs" / "replication.md"

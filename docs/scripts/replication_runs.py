@@ -46,7 +46,7 @@ def run_long(work: Path, kind: str, joint: str, modulus: str, speed: str, revolu
     "tight" (``settings``, e.g. a tighter rtol)."""
     from planar_mbs import load_model
     from planar_mbs.errors import SimulationError
-    from planar_mbs.study import long_run
+    from planar_mbs.run.study import long_run
 
     work.mkdir(parents=True, exist_ok=True)
     name = job_name(kind, joint, modulus, speed, law)
@@ -94,8 +94,8 @@ def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "l
     (d0 = LYAP_D0), one more at d0/100 to show whether the estimate depends on d0."""
     from planar_mbs import load_model
     from planar_mbs.errors import SimulationError
-    from planar_mbs.lyapunov import mechanism_exponent
-    from planar_mbs.stepper import Stepper
+    from planar_mbs.results.lyapunov import mechanism_exponent
+    from planar_mbs.run.stepper import Stepper
 
     name = job_name("lyap", joint, modulus, speed, law)
     out = work / f"{name}.json"
@@ -140,7 +140,7 @@ def continue_run(work: Path, kind: str, joint: str, modulus: str, speed: str, mo
     """Continue a finished long run from its saved state by ``more`` revolutions, with the same
     settings; writes <name>_cont.npz (read back after the run by replicate.load_run)."""
     from planar_mbs import load_model
-    from planar_mbs.stepper import Stepper
+    from planar_mbs.run.stepper import Stepper
 
     name = job_name(kind, joint, modulus, speed, law)
     src, out = work / f"{name}.npz", work / f"{name}_cont.npz"

@@ -28,7 +28,7 @@ def run(integrator: str, restore: bool):
     """(time, crank-tip error, total energy - its start) of one 20 s run."""
     import chains
     from planar_mbs import simulate
-    from planar_mbs.compile import compile_text
+    from planar_mbs.mechanism.compile import compile_text
 
     if restore:
         os.environ.pop("PLANAR_MBS_SOLVER", None)

@@ -30,7 +30,7 @@ RTOLS = [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
 
 def one(model_file: str, signal: str, speed: str | None, rtol: float, atol: float, integrator="dopri5"):
     from planar_mbs import load_model, simulate
-    from planar_mbs.section import driver_period
+    from planar_mbs.results.section import driver_period
 
     m = load_model(ROOT / "models" / model_file, **({"speed": speed} if speed else {}))
     T = driver_period(m)[0]

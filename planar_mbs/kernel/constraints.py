@@ -25,7 +25,7 @@ import math
 import numpy as np
 from .jit import kernel
 
-from ..model import JOINT_ROWS, DriverType, JointType, MotionType, Status
+from ..mechanism.model import JOINT_ROWS, DriverType, JointType, MotionType, Status
 from .expressions import expr_dual
 
 REVOLUTE = int(JointType.REVOLUTE)

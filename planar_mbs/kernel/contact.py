@@ -56,7 +56,7 @@ import numpy as np
 from .. import catalog
 from .jit import kernel
 
-from ..model import (
+from ..mechanism.model import (
     CP_CLEARANCE,
     CP_EXPONENT,
     CP_FRICTION,

@@ -12,7 +12,7 @@ in ``ws.rowbody``), so ``S[r, c]`` is non-zero only when rows r and c share a
 body.  ``ws.first[r]`` is the first such row; S is stored and factored in this
 *envelope* (profile) form: an envelope Cholesky has no fill outside it, so a
 chain of N bodies (block-tridiagonal S, rows in the order of
-`planar_mbs.ordering`) costs O(N) per factorisation instead of the O(N^3) of a
+`planar_mbs.mechanism.ordering`) costs O(N) per factorisation instead of the O(N^3) of a
 dense one, and small mechanisms lose nothing.  The envelope is packed row by row
 into one array (entry (r, c) at ``ws.ptr[r] + c - first[r]``): a dense m x m array
 held the same entries one row of m apart, 7 MB at 321 bodies, and the rows'
@@ -38,7 +38,7 @@ import math
 
 from .jit import kernel
 
-from ..model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
+from ..mechanism.model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces

@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from ..model import CT_IMPACT_VELOCITY, CT_MODE, FREE, TOUCHING
+from ..mechanism.model import CT_IMPACT_VELOCITY, CT_MODE, FREE, TOUCHING
 from .contact import contact_mode
 
-from ..model import ST_CONTACT_EVENTS
+from ..mechanism.model import ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
 from .integrators import dense_eval
 from .expressions import live_switch

@@ -24,7 +24,7 @@ import math
 
 from .jit import kernel
 
-from ..model import ForceType, Status
+from ..mechanism.model import ForceType, Status
 from .constraints import body_state, point_cs, point_state
 from .expressions import run_rows
 

@@ -30,7 +30,7 @@ import numpy as np
 from .jit import kernel
 
 from .. import catalog
-from ..model import CFG_ATOL, CFG_RTOL, Status
+from ..mechanism.model import CFG_ATOL, CFG_RTOL, Status
 from .dynamics import rhs, rhs_inlined
 from .workspace import DN_H, DN_TA, FL_DENSE_METHOD, FL_DENSE_READY, N_DENSE_ROWS, N_STAGES
 

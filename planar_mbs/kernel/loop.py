@@ -28,14 +28,28 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from ..model import CT_IMPACT_VELOCITY, TOUCHING
+from ..mechanism.model import CT_IMPACT_VELOCITY, TOUCHING
 from .contact import contact_mode
 from .workspace import (
-    DN_ERR_OLD, DN_FINAL_SAMPLE, DN_H, DN_PROJECT_FROM, DN_SPEED, DN_TA, DN_T_END, FL_DENSE_METHOD, FL_DENSE_READY,
-    FL_PASSAGE, FL_PENDING_OUTPUTS, FL_PROJECTING, FL_REG_SEEN, FL_STEP_REG, FL_SWITCH_EXPR, FL_SWITCH_JOINT,
+    DN_ERR_OLD,
+    DN_FINAL_SAMPLE,
+    DN_H,
+    DN_PROJECT_FROM,
+    DN_SPEED,
+    DN_TA,
+    DN_T_END,
+    FL_DENSE_METHOD,
+    FL_DENSE_READY,
+    FL_PASSAGE,
+    FL_PENDING_OUTPUTS,
+    FL_PROJECTING,
+    FL_REG_SEEN,
+    FL_STEP_REG,
+    FL_SWITCH_EXPR,
+    FL_SWITCH_JOINT,
 )
 
-from ..model import (
+from ..mechanism.model import (
     CFG_ATOL,
     CFG_HMAX,
     CFG_HMIN,
@@ -95,17 +109,37 @@ from ..model import (
 )
 from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, driver_motion, point_cs
 from .contact import (
-    clearance_force, clearance_kinematics, contact_energy, contact_time_scale, film_peak, law_supported,
+    clearance_force,
+    clearance_kinematics,
+    contact_energy,
+    contact_time_scale,
+    film_peak,
+    law_supported,
 )
-from .dynamics import (
-    DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs,
-)
+from .dynamics import DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs
 from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
 from .expressions import flip_switch, init_switches
 from .forces import force_potential
 from .integrators import (
-    ADAPTIVE, BAD_METHOD, END_STAGE, ERROR_EXPONENT, EXTRA_STAGES, FAC_MAX, FAC_MIN, METHOD_ORDER, RICHARDSON,
-    SAFETY, dense_eval, dense_pending, dense_prepare, end_stage, fixed_step, initial_step, method_ok, rk_trial, scaled_error,
+    ADAPTIVE,
+    BAD_METHOD,
+    END_STAGE,
+    ERROR_EXPONENT,
+    EXTRA_STAGES,
+    FAC_MAX,
+    FAC_MIN,
+    METHOD_ORDER,
+    RICHARDSON,
+    SAFETY,
+    dense_eval,
+    dense_pending,
+    dense_prepare,
+    end_stage,
+    fixed_step,
+    initial_step,
+    method_ok,
+    rk_trial,
+    scaled_error,
 )
 
 DONE = int(Status.DONE)

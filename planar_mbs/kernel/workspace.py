@@ -6,7 +6,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import catalog
-from ..model import JOINT_ROWS, N_STATS, KernelModel, observation_size
+from ..mechanism.model import JOINT_ROWS, N_STATS, KernelModel, observation_size
 
 
 # stage and dense-output buffer rows: the most any integrator uses (catalog.INTEGRATORS)

@@ -79,7 +79,7 @@ def test_no_parser_pickle_in_the_temporary_folder(tmp_path):
     tmp.mkdir()
     planted = tmp / ".lark_cache_planted.tmp"
     planted.write_bytes(b"not a pickle")
-    code = ("from planar_mbs.parse import parse_model; "
+    code = ("from planar_mbs.language.parse import parse_model; "
             "parse_model('param a = 1 mm', 'x.mbs'); print('ok')")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           env=dict(os.environ, TMPDIR=str(tmp), TEMP=str(tmp), TMP=str(tmp)))
@@ -88,7 +88,7 @@ def test_no_parser_pickle_in_the_temporary_folder(tmp_path):
 
 
 def test_parser_is_not_built_with_a_cache():
-    from planar_mbs.parse import parser
+    from planar_mbs.language.parse import parser
 
     assert not parser().options.cache
 
@@ -125,7 +125,7 @@ def test_planted_parser_tables_are_never_loaded(tmp_path, plant):
     mode 0700, is loaded; the control case shows the pickle does run when it is."""
     import pickle
 
-    from planar_mbs.parse import tables_name
+    from planar_mbs.language.parse import tables_name
 
     cache = tmp_path / "cache"
     folder = cache / "planar_mbs"
@@ -153,7 +153,7 @@ def test_planted_parser_tables_are_never_loaded(tmp_path, plant):
         os.chmod(target, 0o664)
     if plant == "open-folder":
         os.chmod(folder, 0o777)
-    code = "from planar_mbs.parse import parse_model; parse_model('param a = 1 mm', 'x.mbs'); print('ok')"
+    code = "from planar_mbs.language.parse import parse_model; parse_model('param a = 1 mm', 'x.mbs'); print('ok')"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           env=dict(os.environ, XDG_CACHE_HOME=str(cache)))
     assert proc.returncode == 0 and "ok" in proc.stdout, proc.stderr
@@ -162,7 +162,7 @@ def test_planted_parser_tables_are_never_loaded(tmp_path, plant):
 
 def test_parser_tables_cache_is_private(tmp_path):
     cache = tmp_path / "cache"
-    code = "from planar_mbs.parse import parser; parser()"
+    code = "from planar_mbs.language.parse import parser; parser()"
     for _ in range(2):  # written, then loaded
         subprocess.run([sys.executable, "-c", code], check=True, timeout=120,
                        env=dict(os.environ, XDG_CACHE_HOME=str(cache)))

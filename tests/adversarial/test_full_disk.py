@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 import pytest
 
-from planar_mbs.sweep import read_case_table
+from planar_mbs.sweep.scan import read_case_table
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "models" / "slider_crank_clearance_a.mbs"
@@ -52,7 +52,7 @@ def _inject_env(tmp_path: Path, budget: int) -> dict:
     site = tmp_path / "site"
     site.mkdir(exist_ok=True)
     (site / "sitecustomize.py").write_text(
-        "import planar_mbs.results as R\n"
+        "import planar_mbs.results.hdf5 as R\n"
         "_orig, _used = R.reserve_space, [0]\n"
         "def _disk(fd, nbytes, path=''):\n"
         f"    if _used[0] + nbytes > {budget}:\n"
@@ -147,7 +147,7 @@ def test_parallel_sweep_on_a_full_disk_stops_cleanly_and_resumes(tmp_path, size)
         text = r.stdout + r.stderr
         assert r.returncode == 3, text
         assert "Traceback" not in text and "is full" in text and "resume" in text, text
-        from planar_mbs.sweep_store import case_files, journal_folder
+        from planar_mbs.sweep.store import case_files, journal_folder
 
         done = [r for r in read_case_table(out) if r["status"] == "finished"]
         with h5py.File(out, "r") as f:
@@ -235,7 +235,7 @@ def test_analyze_store_on_a_full_disk_leaves_the_results_file_as_it_was(tmp_path
     disk, the results file byte for byte as before (HDF5 failing its writes halfway used to print
     tracebacks, an "internal error", and crash the process with a segmentation fault); once there
     is room, the same command stores the section, which reads back."""
-    from planar_mbs.analysis import read_section
+    from planar_mbs.results.analysis import read_section
 
     disk = tmp_path / "disk"
     with small_disk(disk, "6m") as mounted:

@@ -85,7 +85,7 @@ def test_an_absurd_state_stops_the_run(sandbox):
 
 def test_an_absurd_state_during_the_run_stops_it(sandbox):
     """The time loop hands back a state beyond every bound: SimulationError, status absurd_state."""
-    from planar_mbs import simulation
+    from planar_mbs.run import simulation
 
     model = mbs_api.load_model(sandbox / "mech.mbs")
     real = simulation._absurd_state

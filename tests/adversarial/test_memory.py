@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from planar_mbs import load_model, simulate
-from planar_mbs.results import FileResults, ResultsFileError, peak, row_count
+from planar_mbs.results.hdf5 import FileResults, ResultsFileError, peak, row_count
 
 ROOT = Path(__file__).resolve().parents[2]
 

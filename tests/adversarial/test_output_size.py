@@ -13,8 +13,8 @@ from typer.testing import CliRunner
 
 from planar_mbs import load_model, simulate
 from planar_mbs.errors import ModelError
-from planar_mbs.output_size import MAX_ROWS, estimate
-from planar_mbs.simulation import run_settings
+from planar_mbs.run.output_size import MAX_ROWS, estimate
+from planar_mbs.run.simulation import run_settings
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "models" / "slider_crank_clearance_a.mbs"

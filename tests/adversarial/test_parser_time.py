@@ -10,7 +10,7 @@ import pytest
 
 from advhelp import assert_clean, mbs, snapshot
 from planar_mbs.errors import ModelError
-from planar_mbs.parse import parse_expression, parse_model
+from planar_mbs.language.parse import parse_expression, parse_model
 
 MB = 2**20
 BOUND = 2.0  # s: a hang bound, not a speed requirement

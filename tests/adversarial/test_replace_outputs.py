@@ -17,7 +17,7 @@ import pytest
 import planar_mbs as mbs_api
 from advhelp import MBS, assert_clean, mbs, snapshot
 from planar_mbs.errors import ModelError
-from planar_mbs.results import part_beside
+from planar_mbs.results.hdf5 import part_beside
 
 NOT_RESULTS = {  # a file an `-o` typo could name, and its bytes
     "notes.py": b"print('my script')\n",

@@ -259,14 +259,14 @@ def test_crafted_sweep_file(sandbox, command, kind):
 def test_huge_declared_shape_is_refused_without_allocating(sandbox):
     """One crafted file asked for a 7 TiB allocation: refused from its metadata."""
     KINDS["huge-declared-chunked"](sandbox)
-    from planar_mbs.results import ResultsFileError, read_results
+    from planar_mbs.results.hdf5 import ResultsFileError, read_results
 
     with pytest.raises(ResultsFileError, match="declares|GiB"):
         read_results(sandbox / "c.h5")
 
 
 def test_layout_budget_counts_every_signal(sandbox):
-    from planar_mbs.results import ResultsFileError, check_run_layout
+    from planar_mbs.results.hdf5 import ResultsFileError, check_run_layout
 
     with h5py.File(sandbox / "run.h5", "r") as f:
         need = check_run_layout(f, "run.h5")
@@ -287,8 +287,8 @@ def test_results_written_now_carry_the_format_version(sandbox):
 def test_crafted_poincare_section_is_refused(sandbox, damage):
     """`sweep_sections` (Python API) reads every case's section: a crafted one is refused from its
     metadata, before any allocation."""
-    from planar_mbs.results import ResultsFileError
-    from planar_mbs.sweep import sweep_sections
+    from planar_mbs.results.hdf5 import ResultsFileError
+    from planar_mbs.sweep.scan import sweep_sections
 
     with h5py.File(sandbox / "sweep.h5", "r+") as f:
         g = f.create_group("cases/0/poincare")

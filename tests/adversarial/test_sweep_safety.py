@@ -13,7 +13,7 @@ from pathlib import Path
 import h5py
 import pytest
 
-from planar_mbs.sweep import read_case_table
+from planar_mbs.sweep.scan import read_case_table
 
 ROOT = Path(__file__).resolve().parents[2]
 IDEAL = ROOT / "models" / "slider_crank.mbs"
@@ -135,8 +135,8 @@ def test_a_second_sweep_on_a_file_being_written_is_refused_and_takes_nothing(tmp
 
 
 def test_library_sweep_refuses_a_locked_file_before_reading_it(tmp_path):
-    from planar_mbs.results import WriteLock
-    from planar_mbs.sweep import SweepError, parse_param, run_sweep
+    from planar_mbs.results.hdf5 import WriteLock
+    from planar_mbs.sweep.scan import SweepError, parse_param, run_sweep
 
     out = tmp_path / "s.h5"
     out.write_bytes(b"not yet an HDF5 file: a sweep that just took the lock")

@@ -1,1 +1,0 @@
-"""The .mbs grammar (`mbs.lark`), shipped inside the wheel as `planar_mbs.grammar`."""

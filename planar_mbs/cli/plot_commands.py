@@ -1,0 +1,225 @@
+"""`mbs plot` and `mbs view`: thin typer commands over `planar_mbs.outputs.plot` and
+`planar_mbs.outputs.rerun_log`, plus `record_run`, which `mbs run --rerun OUT.rrd` calls.
+
+Registered in `app.py` with ``app.command()(plot)`` and ``app.command()(view)``.
+Errors are printed without a traceback; bad usage (unknown signal, not a results
+file, unknown format) exits with code 2.
+"""
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import console as _console
+from .common import fail as _fail
+from .common import quantity as _quantity
+
+
+def _results_path(text: Path) -> Path:
+    """The file part of `FILE.h5` or `FILE.h5:/cases/3`, checked to be a regular HDF5 file
+    (a FIFO or a device is never opened)."""
+    from planar_mbs.results.hdf5 import check_results_file
+
+    return check_results_file(Path(str(text).split(":/", 1)[0]))
+
+
+ResultsArg = Annotated[Path, typer.Argument(help="HDF5 results file written by `mbs run` (or a sweep file; "
+                                            "one case of a sweep: FILE.h5:/cases/3).", show_default=False)]
+
+
+def plot(
+    results: ResultsArg,
+    signals: Annotated[Optional[list[str]], typer.Argument(
+        help="Signals to plot, one panel each; join names with commas to share a panel (A.fx,A.fy). "
+             "None: the default figures.", show_default=False)] = None,
+    against: Annotated[Optional[str], typer.Option(
+        "--against", "-x", help="Plot against this signal instead of time (angles in degrees, mod 360: "
+                                "--against crank.phi).", show_default=False)] = None,
+    poincare: Annotated[Optional[str], typer.Option(
+        "--poincare", "-p", help="Poincaré map X:Y, sampled once per revolution of the driven body "
+                                 "(e.g. slider.vx:slider.ax).", show_default=False)] = None,
+    orbit: Annotated[Optional[list[str]], typer.Option(
+        "--orbit", help="Journal orbit of this clearance joint inside its clearance circle. Repeatable.",
+        show_default=False)] = None,
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="Directory for the figures.",
+        show_default="<results>_plots/ next to the results file")] = None,
+    fmt: Annotated[str, typer.Option("--format", "-f", help="png, svg or pdf.")] = "png",
+    transient: Annotated[int, typer.Option("--transient", help="Revolutions dropped at the start before "
+                                           "Poincaré sampling (as `mbs analyze --transient`).", min=0)] = 1,
+    skip: Annotated[Optional[int], typer.Option("--skip", hidden=True, min=0, help="The old name of --transient.")]
+    = None,
+    body: Annotated[Optional[str], typer.Option(
+        "--clock", help="Body whose revolutions clock the Poincaré section.",
+        show_default="the body that turns most, i.e. the driven crank")] = None,
+    list_: Annotated[bool, typer.Option("--list", "-l", help="List the signals in the file and exit.")] = False,
+    t_from: Annotated[Optional[str], typer.Option(
+        "--from", help="Start of the time window drawn, with units (0.2s).", show_default="the start of the run")]
+    = None,
+    t_to: Annotated[Optional[str], typer.Option(
+        "--to", help="End of the time window drawn, with units (250ms).", show_default="the end of the run")] = None,
+) -> None:
+    """Draw figures of a run or a sweep (PNG, SVG or PDF).
+
+    Time series (one panel per SIGNAL), Poincaré maps, journal orbits; for a sweep file, a grid
+    per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
+
+    Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
+    mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
+    mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
+    """
+    from planar_mbs.errors import MbsError
+    from planar_mbs.outputs.plot import FORMATS, plot_file
+
+    from .common import check_choice, check_number, check_output
+
+    skip = transient if skip is None else skip
+    try:
+        fmt = check_choice(fmt, FORMATS, "--format")
+        file = _results_path(results)
+        if list_:
+            _list_signals(results)
+            return
+        window = dict(t_from=check_number(_quantity(t_from, "time", "--from"), "--from", low=0.0, low_ok=True,
+                                          hint="a time from the start of the run, e.g. `--from 0.2s`"),
+                      t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
+                                        hint="a time from the start of the run, e.g. `--to 0.25s`"))
+        notes: list[str] = []
+        check_output(output or file.parent / f"{file.stem}_plots", "--output", [("the results file", file)],
+                     folder=True)
+        if ":/" in str(results):  # one case of a sweep: plot it like a run
+            written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes)
+        else:
+            written = plot_file(file, signals or [], against, poincare, output, fmt, skip, body, orbit or [],
+                                notes=notes, **window)
+    except MbsError as err:
+        _fail(err)
+    for note in notes:
+        _console(stderr=True).print(f"warning: {note}", markup=False, style="yellow")
+    con = _console()
+    for path in written:
+        con.print(str(path), markup=False)
+    if not written:
+        con.print("nothing to plot", markup=False)
+
+
+def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes):
+    """`mbs plot sweep.h5:/cases/3 ...`: plot one case of a sweep like a run."""
+    from planar_mbs.outputs.plot import plot_results
+    from planar_mbs.results.hdf5 import read_results
+
+    try:
+        res = read_results(results)
+    except KeyError as exc:
+        from planar_mbs.outputs.plot import PlotError
+
+        raise PlotError(f"error: no group {exc} in {str(results).split(':/', 1)[0]}") from None
+    file, group = str(results).split(":", 1)
+    stem = f"{Path(file).stem}_case{group.rstrip('/').rsplit('/', 1)[-1]}"
+    out = output or Path(file).parent / f"{stem}_plots"
+    return plot_results(res, stem, signals or [], against, poincare, out, fmt, skip, body, orbit or [],
+                        notes=notes, **window)
+
+
+def _list_signals(results: Path) -> None:
+    from rich.table import Table
+
+    from planar_mbs.outputs.plot import is_sweep, sweep_cases
+    from planar_mbs.results.hdf5 import read_results
+
+    if ":/" not in str(results) and is_sweep(results):
+        cases = sweep_cases(results)
+        _console().print(f"sweep with {len(cases)} cases; signals of case {cases[0][0]}:", markup=False)
+        res = cases[0][1]
+    else:
+        res = read_results(results)
+    table = Table("signal", "unit", title=f"{len(res.signals)} signals, {len(res.time):,} samples",
+                  title_justify="left")
+    for name in sorted(res.signals):
+        table.add_row(name, res.units.get(name, ""))
+    _console().print(table)
+
+
+def view(
+    results: ResultsArg,
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="The rerun recording to write.",
+        show_default="<results>.rrd next to the results file")] = None,
+    open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the recording.")] = False,
+    magnify: Annotated[float, typer.Option(help="Magnification of the clearance (eccentricity and gap) "
+                                                "in the drawing.", min=0.0)] = 10.0,
+    fps: Annotated[Optional[float], typer.Option(
+        help="Frames per simulated second.",
+        show_default="90 per revolution of the driven body", min=0.0)] = None,
+    signals: Annotated[str, typer.Option(
+        "--signals", help="Scalar series: `envelope` (per frame bin the first sample, the min and the max; "
+                          "peaks kept, far smaller and faster) or `full` (every sample).")] = "envelope",
+    signal_rate: Annotated[Optional[float], typer.Option(
+        help="Envelope bins per simulated second.", show_default="the frame rate", min=0.0)] = None,
+    signal_stride: Annotated[int, typer.Option(help="Keep every n-th sample of the scalar signals instead "
+                                                    "(no envelope).", min=1)] = 1,
+    signals_only: Annotated[bool, typer.Option("--signals-only", help="Do not rebuild the model; log the "
+                                               "signals, contact events and Poincaré points only.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace the output even when it is not a recording of "
+                                        "these results (another run's).")] = False,
+) -> None:
+    """Turn a results file into a rerun recording (.rrd) and optionally open the viewer.
+
+    The moving mechanism (clearance magnified), joint reactions and contact forces as arrows,
+    every signal, contact onsets and Poincaré points, on a `sim_time` timeline.
+
+    Example: mbs view a.h5 -o a.rrd --open
+    """
+    from planar_mbs.errors import MbsError
+    from planar_mbs.outputs.plot import PlotError
+    from planar_mbs.results.hdf5 import read_results
+    from planar_mbs.outputs.rerun_log import check_replace, model_from_results, recording_key
+
+    from .common import check_choice, check_number, check_output
+
+    try:
+        signals = check_choice(signals, ("envelope", "full"), "--signals")
+        check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
+        check_number(fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
+        check_number(signal_rate, "--signal-rate", low=0.0, hint="bins per simulated second, e.g. 2000")
+        file = _results_path(results)
+        out = output or file.with_suffix(".rrd")
+        check_output(out, "--output", [("the results file", file)], make_parents=True)
+        key = recording_key(results)
+        check_replace(out, key, force)
+        res = read_results(results)
+        if not len(res.time):
+            raise PlotError(f"error: {results} holds no samples: nothing to record")
+        model = None if signals_only else model_from_results(res)
+        record_run(res, model, out, magnify=magnify, fps=fps, signal_stride=signal_stride, open_viewer=open_,
+                   signals=signals, signal_rate=signal_rate, recording_id=key)
+    except MbsError as err:
+        _fail(err)
+    except OSError as err:
+        _fail(f"error: {err}")
+
+
+def record_run(results, model, path, magnify: float = 10.0, fps: float | None = None, signal_stride: int = 1,
+               open_viewer: bool = False, quiet: bool = False, signals: str = "envelope",
+               signal_rate: float | None = None, recording_id: str | None = None):
+    """Write a rerun recording of `results` (drawn with `model`; None = signals only) to
+    `path`, print one summary line, optionally open the viewer.  `mbs run --rerun` calls this
+    (`signals="full"` for every sample of every signal, e.g. from a `--rerun-signals full`)."""
+    from planar_mbs.outputs.rerun_log import open_viewer as _open
+    from planar_mbs.outputs.rerun_log import record_run as _record
+
+    info = _record(results, model, path, magnify=magnify, fps=fps, signal_stride=signal_stride,
+                   signals=signals, signal_rate=signal_rate, recording_id=recording_id)
+    if not quiet:
+        loop = float(results.attrs.get("wall_time") or 0.0)
+        # a share of the time loop only when it is one: short runs pay rerun's fixed start-up cost
+        share = (f", {100 * info.seconds / loop:.0f} % of the time loop" if 0 < info.seconds <= loop
+                 else f"; the time loop took {loop:.2f} s" if loop > 0 else "")
+        _console().print(
+            f"rerun recording → {path}: {info.frames:,} frames, {info.signals} signals, "
+            f"{info.signal_samples:,} scalar samples ({info.signal_mode}), "
+            f"{info.contact_onsets:,} contact onsets, {info.poincare_points} Poincaré points "
+            f"({info.seconds:.2f} s{share})", markup=False)
+    if open_viewer:
+        _open(path)
+    return info

@@ -1,0 +1,542 @@
+"""`mbs sweep` and `mbs analyze`: thin typer commands over `planar_mbs.sweep.scan` and
+`planar_mbs.results.analysis`.
+
+Registered in `app.py` with ``app.command()(sweep)`` and ``app.command()(analyze)``.
+Exit codes as everywhere: 0 success, 2 bad model / usage / a sweep file from
+another model, 3 at least one case failed (its results up to the failure are kept),
+130 interrupted, 143 stopped by SIGTERM (finished cases are kept; rerunning the command resumes).
+"""
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from planar_mbs import catalog
+
+from .common import ExitCode
+from .common import console as _console
+from .common import fail as _fail
+from .common import parse_sets as _sets
+from .common import (
+    MAX_JOBS,
+    MAX_REVOLUTIONS,
+    check_number,
+    check_output,
+    check_rtol,
+    model_files,
+    positive_time,
+)
+
+
+
+def _check_sweep_files(model: Path, output: Path, sets: list[str], keep: Optional[list[str]]) -> None:
+    """Before any case runs: the output is not the model or a file it includes and can be written;
+    every `--keep` name is a signal or an entity of the model."""
+    inputs = [("the model file" if i == 0 else "a file the model includes", f)
+              for i, f in enumerate(model_files(model))]
+    check_output(output, "--output", inputs)
+    if keep:
+        from planar_mbs import load_model
+        from planar_mbs.sweep.scan import kept_signals
+
+        kept_signals(load_model(model, **_sets(sets)), keep)  # signal or entity names, as the sweep reads them
+
+
+def _pair(text: Optional[str]) -> Optional[list[str]]:
+    if text is None:
+        return None
+    from planar_mbs.errors import ModelError
+
+    x, sep, y = text.partition(":")
+    if not sep or not x.strip() or not y.strip():
+        raise ModelError(f"`--poincare {text}` is not X:Y", "--poincare", hint="e.g. `--poincare slider.vx:slider.ax`")
+    return [x.strip(), y.strip()]
+
+
+def _angle(text: Optional[str]) -> Optional[float]:
+    """An angle with units (`90deg`, `1.2rad`; plain numbers are degrees)."""
+    if text is None:
+        return None
+    from planar_mbs.errors import ModelError
+    from planar_mbs.sweep.scan import parameter_number
+
+    parsed = parameter_number(text)
+    if parsed is None or parsed[1] not in ("", "deg", "rad", "°"):
+        raise ModelError(f"`--angle {text}` is not an angle", "--angle", hint="e.g. `--angle 90deg`")
+    value, unit = parsed
+    return value if unit == "rad" else math.radians(value)
+
+
+def _section_options(poincare, period, angle, transient, clock, no_section) -> Optional[dict]:
+    if no_section:
+        return None
+    check_number(transient, "--transient", low=0.0, low_ok=True, high=MAX_REVOLUTIONS,
+                 hint="driver periods dropped before the section, e.g. `--transient 1`")
+    opts: dict = {"transient": transient}
+    if poincare:
+        opts["signals"] = _pair(poincare)
+    if period is not None:
+        opts["period"] = positive_time(period, "--period")
+    if angle is not None:
+        opts["angle"] = check_number(_angle(angle), "--angle", hint="e.g. `--angle 90deg`")
+    if clock:
+        opts["clock"] = clock
+    return opts
+
+
+PoincareOpt = Annotated[Optional[str], typer.Option(
+    "--poincare", "-p", help="Signals of the Poincaré section X:Y.",
+    show_default="the slider's vx:ax")]
+PeriodOpt = Annotated[Optional[str], typer.Option(
+    "--period", help="A stroboscopic section every PERIOD (with units).",
+    show_default="once per revolution of the clock body")]
+AngleOpt = Annotated[Optional[str], typer.Option(
+    "--angle", help="Section at this angle of the clock body (90deg, 1.5rad) instead of once per period.",
+    show_default=False)]
+TransientOpt = Annotated[float, typer.Option(
+    "--transient", help="Section crossings (revolutions) dropped at the start; where the motion settles "
+    "is then found from the points.", min=0)]
+ClockOpt = Annotated[Optional[str], typer.Option(
+    "--clock", help="Body whose angle clocks the section.",
+    show_default="the driven body, else the body that turns most")]
+
+
+def sweep(
+    model: Annotated[Path, typer.Argument(help="The .mbs model file.", show_default=False)],
+    param: Annotated[list[str], typer.Option(
+        "--param", "-P", help="NAME=VALUES: a list (speed=800rpm,1200rpm), a linear range with a count "
+        "(clearance=0.1mm..0.5mm:5) or names (law=hertz,lankarani_nikravesh). Repeatable; the sweep is the "
+        "cartesian product.", show_default=False)],
+    output: Annotated[Path, typer.Option("--output", "-o", help="The sweep's HDF5 file.", show_default=False)],
+    set_: Annotated[Optional[list[str]], typer.Option(
+        "--set", "-s", help="Fixed override of a `param` for every case, NAME=VALUE. Repeatable.",
+        show_default=False)] = None,
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", help="Parallel processes.",
+                                                min=1, show_default="the number of cores")] = None,
+    t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time of every case, with units.",
+                                                 show_default="the model's simulate block")] = None,
+    revolutions: Annotated[Optional[float], typer.Option(
+        "--revolutions", "-n", help="End time as a number of driver periods (scales with a swept speed).",
+        show_default=False)] = None,
+    per_rev: Annotated[Optional[int], typer.Option(
+        "--per-rev", help="Output samples per driver period (the output step divides the period, so the "
+        "Poincaré section is sampled without interpolation).", min=1, show_default=False)] = None,
+    output_step: Annotated[Optional[str], typer.Option("--output-step", help="Output step with units.",
+                                                       show_default="the model's simulate block")] = None,
+    integrator: Annotated[Optional[str], typer.Option(help=catalog.choices(catalog.INTEGRATORS) + ".",
+                                                      show_default="the model's simulate block, else dopri5")] = None,
+    rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance.",
+                                                    show_default="the model's simulate block, else 1e-6")] = None,
+    atol: Annotated[Optional[float], typer.Option(help="Absolute tolerance (> 0).",
+                                                    show_default="the model's simulate block, else 1e-9")] = None,
+    keep: Annotated[Optional[str], typer.Option(
+        "--keep", help="Comma-separated signals to store per case besides its Poincaré section, verdict and "
+        "summary statistics (extrema and RMS of every signal); an entity name (slider) keeps all its "
+        "signals; --keep all stores every signal of every sample (large: `mbs sweep replay` reruns any "
+        "case instead).", show_default="none")] = None,
+    poincare: PoincareOpt = None,
+    period: PeriodOpt = None,
+    angle: AngleOpt = None,
+    transient: TransientOpt = 1.0,
+    clock: ClockOpt = None,
+    no_section: Annotated[bool, typer.Option("--no-section", help="Store no Poincaré section.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Start the file afresh.")] = False,
+    retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Run failed cases again.")] = False,
+    scheduler: Annotated[Optional[str], typer.Option(
+        "--scheduler", help="Address of a running dask.distributed scheduler (tcp://host:8786): the cases run on "
+        "its workers instead of local processes. Workers need planar_mbs installed; the model's text (with its "
+        "includes) is sent to them. Only this process writes the HDF5 file.", show_default=False)] = None,
+    worker_timeout: Annotated[float, typer.Option(
+        "--worker-timeout", help="With --scheduler: stop (keeping the finished cases) once the cluster has had no "
+        "worker, or no scheduler, for this many seconds.", min=1.0)] = 60.0,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Run even when a case asks for more than 10^8 output rows "
+                     "or the cases do not fit on the free disk space (the sweep stops cleanly if the disk fills).")]
+    = False,
+) -> None:
+    """Run a model for every combination of parameter values, in parallel, into one HDF5 file.
+
+    Each case is stored under /cases/<k>/ with its Poincaré section and the verdict on its motion
+    (periodic, quasi-periodic or chaotic) under /cases/<k>/poincare, the extrema and RMS of every
+    signal under /cases/<k>/summary and the signals named with --keep; the table of cases is
+    /cases_table. `mbs sweep replay FILE K -o case.h5` reruns case K with every signal; `mbs sweep
+    merge A B -o ALL` merges scans. Rerunning the same command resumes: finished cases are not run
+    again, and a killed sweep loses no finished case.
+
+    Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
+    """
+    from planar_mbs.errors import MbsError, ModelError
+    from planar_mbs.run.simulation import integrator_of
+    from planar_mbs.sweep.scan import parse_param, run_sweep
+
+    try:
+        axes = [parse_param(p) for p in param]
+        if integrator is not None:
+            integrator_of(integrator, "--integrator")
+        settings = {k: v for k, v in dict(
+            t_end=positive_time(t_end, "--t-end"), output_step=positive_time(output_step, "--output-step"),
+            rtol=check_rtol(rtol), atol=atol, integrator=integrator.lower() if integrator else None).items()
+            if v is not None}
+        check_number(revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS,
+                     hint="the number of driver periods to simulate, e.g. `-n 101`")
+        check_number(jobs, "--jobs", low=1, low_ok=True, high=MAX_JOBS, hint="e.g. `-j 4`")
+        if t_end is not None and revolutions is not None:
+            raise ModelError("give --t-end or --revolutions, not both", "--revolutions")
+        section = _section_options(poincare, period, angle, transient, clock, no_section)
+        keep_list = None if keep is not None and keep.strip() == "all" else \
+            [k.strip() for k in (keep or "").split(",") if k.strip()]  # none by default
+        _check_sweep_files(model, output, set_ or [], keep_list)
+        with _interruptible(), _SweepProgress(quiet) as bar, _cluster(scheduler) as executor:
+            summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
+                                revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
+                                jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
+                                progress=bar.update, worker_timeout=worker_timeout, force=force)
+    except MbsError as err:
+        _fail(err)
+    except KeyboardInterrupt as err:
+        _console(stderr=True).print(f"interrupted; finished cases are kept in {output}: run the same command "
+                                    "again to resume")
+        raise typer.Exit(128 + _interruptible.signum(err))
+    finally:
+        from planar_mbs.sweep.server import remove_temp_folder
+
+        remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
+    _print_table(summary.rows, [a.name for a in axes])
+    for r in summary.rows:
+        if r["index"] in summary.failed and r.get("message"):
+            vals = ", ".join(f"{k}={v}" for k, v in r["values"].items())
+            _console(stderr=True).print(f"case {r['index']} ({vals}) failed: {r['message']}", markup=False,
+                                        soft_wrap=True)
+    # failed cases of an earlier call stay in the file (skipped unless --retry-failed): they count too
+    earlier = [r["index"] for r in summary.rows if r["status"] == "failed" and r["index"] not in summary.ran]
+    note = f" ({len(earlier)} from an earlier run: --retry-failed runs them again)" if earlier else ""
+    _console().print(f"{len(summary.ran)} case(s) run, {len(summary.skipped)} already in the file, "
+                     f"{len(summary.failed) + len(earlier)} failed{note} → {summary.path}  "
+                     f"({summary.wall_time:.1f} s)")
+    if summary.failed or earlier:
+        raise typer.Exit(ExitCode.SIMULATION_FAILED)
+
+
+class _interruptible:
+    """Ctrl-C (SIGINT) and SIGTERM stop a sweep the same way: finished cases kept, the pool's case
+    files removed, the sentence that says how to resume, exit 128 + the signal (130, 143), as for
+    `mbs run`.  The handler is installed even when the shell started the sweep with SIGINT ignored
+    (a script without job control, `nohup`), where Python leaves it ignored.  It raises
+    KeyboardInterrupt at once and notes the signal (`sweep.note_interrupt`), so that an interrupt
+    Python drops (raised inside a weakref or garbage-collector callback) is raised again at the
+    sweep's next wait or, in one process, before its next case, instead of being printed as
+    "Exception ignored" while the sweep ran on to its end.  (SIGTERM used to end the process where
+    it stood, leaving the folder of case files.)"""
+
+    SIGNALS = ("SIGINT", "SIGTERM")
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        from planar_mbs.sweep.scan import PENDING_INTERRUPTS, note_interrupt
+
+        def interrupt(signum, frame):
+            note_interrupt(signum)
+            raise KeyboardInterrupt
+
+        def unraisable(report):
+            if not (isinstance(report.exc_value, KeyboardInterrupt) and PENDING_INTERRUPTS):
+                self.hook(report)  # a dropped interrupt is raised again, not printed as "Exception ignored"
+
+        self.previous = {}
+        PENDING_INTERRUPTS.clear()
+        self.hook, sys.unraisablehook = sys.unraisablehook, unraisable
+        if threading.current_thread() is threading.main_thread():
+            for name in self.SIGNALS:
+                sig = getattr(signal, name)
+                self.previous[sig] = signal.signal(sig, interrupt)
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        for sig, handler in self.previous.items():
+            signal.signal(sig, handler)
+        sys.unraisablehook = self.hook
+        return False
+
+    @staticmethod
+    def signum(err: KeyboardInterrupt) -> int:
+        """The signal that stopped the sweep: the run's own (`simulation.RunInterrupted`, a case run
+        in this process), else the last one noted, else SIGINT."""
+        from planar_mbs.sweep.scan import PENDING_INTERRUPTS
+
+        return int(getattr(err, "signum", 0) or (PENDING_INTERRUPTS[-1] if PENDING_INTERRUPTS else 2))
+
+
+class _cluster:
+    """A dask.distributed executor on the scheduler at `address` (None: no executor, local processes)."""
+
+    def __init__(self, address: Optional[str]):
+        self.address = address
+        self.client = None
+
+    def __enter__(self):
+        if self.address is None:
+            return None
+        from planar_mbs.errors import ModelError
+
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ModelError("--scheduler needs dask.distributed", "--scheduler",
+                             hint="pip install 'dask[distributed]'") from None
+        import logging
+
+        # distributed logs a lost scheduler with tracebacks, and a callback that fails then on its event
+        # loop is logged by asyncio ("Exception in callback ..."); the sweep reports it in one sentence
+        # (distributed's logging config gives some children levels of their own, tornado.application
+        # among them: every such logger is silenced by name, not only the parents)
+        names = {"distributed", "tornado", "tornado.application", "asyncio"}
+        names |= {n for n in logging.root.manager.loggerDict if n.split(".")[0] in ("distributed", "tornado")}
+        for name in names:
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        _check_tls(self.address)
+        try:
+            self.client = Client(self.address, timeout="10s")
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise ModelError(f"cannot reach the dask scheduler at {self.address}: {exc}", "--scheduler",
+                             hint="start one with `dask scheduler` and workers with `dask worker ADDRESS`") from None
+        return self.client.get_executor()
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            try:
+                self.client.close(timeout=5)
+            except Exception:  # a scheduler that died: nothing to close cleanly, and nothing to lose
+                pass
+        return False
+
+
+TLS_SETTINGS = ("DASK_DISTRIBUTED__COMM__TLS__CA_FILE", "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT",
+                "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY")
+
+
+def _check_tls(address: str) -> None:
+    """A tls:// scheduler needs the client's certificates from dask's configuration (docs/sweeps.md,
+    "Trust"); without them dask fails with a TypeError about an ssl_context: say what to set."""
+    if not address.lower().startswith("tls://"):
+        return
+    from distributed.security import Security
+
+    sec = Security()  # reads distributed.comm.tls.* (files in ~/.config/dask or DASK_ variables)
+    if not (sec.tls_ca_file and sec.tls_client_cert):
+        from planar_mbs.errors import ModelError
+
+        raise ModelError(f"--scheduler {address}: a TLS scheduler needs this client's certificates, and dask's "
+                         "configuration names none", "--scheduler",
+                         hint="set " + ", ".join(TLS_SETTINGS) + " (files: the CA certificate, this client's "
+                         "certificate and key), as docs/sweeps.md shows")
+
+
+def _print_table(rows, params) -> None:
+    from rich.table import Table
+
+    t = Table(title_justify="left")
+    for col in ["case", *params, "status", "verdict", "K", "λ/T", "D2"]:
+        t.add_column(col)
+    fmt = lambda v: "" if v != v else f"{v:.2f}"  # noqa: E731  (NaN -> "")
+    for r in rows:
+        t.add_row(str(r["index"]), *[r["values"].get(p, "") for p in params], r["status"], r.get("verdict", ""),
+                  fmt(r.get("K", math.nan)), fmt(r.get("lyapunov", math.nan)), fmt(r.get("dimension", math.nan)))
+    _console().print(t)
+
+
+class _SweepProgress:
+    """A rich bar over the cases; shows the last case's verdict."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.failed = 0
+        self.bar = None
+        self.task = None
+
+    def __enter__(self):
+        return self
+
+    def update(self, done: int, total: int, outcome) -> None:
+        if self.quiet:
+            return
+        if self.bar is None:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, \
+                TimeRemainingColumn
+
+            self.bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                                TimeRemainingColumn(), TextColumn("{task.fields[last]}"),
+                                console=_console(stderr=True), transient=True)
+            self.bar.start()
+            self.task = self.bar.add_task("sweep", total=total, completed=done, last="")
+        last = ""
+        if outcome is not None and outcome.status != "finished":
+            self.failed += 1
+        if outcome is not None:
+            vals = ", ".join(f"{k}={v}" for k, v in outcome.values.items())
+            last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
+        if self.failed:
+            last = f"{self.failed} failed  {last}"
+        self.bar.update(self.task, completed=done, last=last)
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.stop()
+        return False
+
+
+def analyze(
+    results: Annotated[Path, typer.Argument(help="A results file (FILE.h5), one case of a sweep "
+                                            "(FILE.h5:/cases/3) or a whole sweep file.", show_default=False)],
+    poincare: PoincareOpt = None,
+    period: PeriodOpt = None,
+    angle: AngleOpt = None,
+    transient: TransientOpt = 1.0,
+    clock: ClockOpt = None,
+    store: Annotated[bool, typer.Option("--store", help="Write the section and verdict into the file "
+                                        "(group `poincare` of the run).")] = False,
+) -> None:
+    """Poincaré section of a run and a verdict on its motion: periodic (with its period count),
+    quasi-periodic or chaotic, with the indicators it rests on (0-1 test K, nearest-neighbour
+    Lyapunov growth λ per period, correlation dimension D2, recurrence residual).
+
+    For a sweep file, prints the stored verdict of every case.
+    """
+    from planar_mbs.errors import MbsError
+
+    try:
+        _analyze(results, poincare, period, angle, transient, clock, store)
+    except MbsError as err:
+        _fail(err)
+    except (KeyError, ValueError, OSError) as err:
+        _console(stderr=True).print(f"error: {err}", markup=False)
+        raise typer.Exit(ExitCode.BAD_MODEL)
+
+
+def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
+    from planar_mbs import read_results
+    from planar_mbs.results.analysis import classify, poincare_section, store_section
+    from planar_mbs.sweep.scan import read_case_table
+
+    from planar_mbs.results.hdf5 import check_results_file, open_results
+
+    file, _, group = str(results).partition(":")
+    check_results_file(file)
+    opts = _section_options(poincare, period, angle, transient, clock, False)
+
+    with open_results(file) as f:
+        is_sweep = f.attrs.get("kind") == "sweep"
+    if is_sweep and not group:
+        rows = read_case_table(file)
+        params = list(rows[0]["values"]) if rows else []
+        _print_table(rows, params)
+        return
+    con = _console()
+    stored = _stored_case(file, group) if is_sweep and group else None
+    if stored is not None:  # a case of a scan that kept no signal: its stored section and verdict
+        sec, verdict = stored
+        con.print(f"{results} keeps no signals (`mbs sweep replay {file} {group.strip('/').split('/')[-1]} "
+                  "-o case.h5` runs it again with all of them); its stored section:", markup=False)
+        _print_verdict(con, results, sec, verdict)
+        return
+    res = read_results(results)
+    signals = opts.pop("signals", None)  # None: the slider, chosen as plots and sweeps do
+    sec = poincare_section(res, signals, **opts)
+    verdict = classify(sec)
+    _print_verdict(con, results, sec, verdict)
+    if store:
+        store_section(file, group, sec, verdict)
+        con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)
+
+
+def _stored_case(file: str, group: str):
+    """(section, verdict) stored for a sweep's case that has no signals; None otherwise."""
+    from planar_mbs.results.analysis import read_section
+    from planar_mbs.results.hdf5 import open_results
+
+    with open_results(file) as f:
+        g = f.get(group)
+        if g is None or "signals" in g or "poincare" not in g:
+            return None
+        sec, verdict = read_section(g)
+    return (sec, verdict) if verdict is not None else None
+
+
+def _print_verdict(con, results, sec, verdict) -> None:
+    from planar_mbs.results.analysis import report
+
+    con.print(f"Poincaré section of {results}: {len(sec)} points of {', '.join(sec.names)} "
+              f"({sec.kind}" + (f", period {sec.period:.6g} s" if sec.period else "") + f", {sec.method}, "
+              f"transient {sec.transient:g})", markup=False)
+    if sec.method == "interpolated":
+        con.print("  interpolation error (relative to each signal's spread): "
+                  + ", ".join(f"{k} {v:.1e}" for k, v in sec.interp_error.items()), markup=False)
+    for line in report(sec, verdict):  # the one wording of a verdict (run --until-settled prints it too)
+        con.print(line, markup=False)
+
+
+SUBCOMMANDS = {"replay": "sweep-replay", "merge": "sweep-merge"}
+
+
+def route(argv: list[str]) -> None:
+    """``mbs sweep replay ...`` and ``mbs sweep merge ...`` are the commands `sweep_replay` and
+    `sweep_merge` (``sweep`` itself takes a model file first; a model file named ``replay`` in the
+    working folder is still a model)."""
+    if argv[1:2] == ["sweep"] and argv[2:3] and argv[2] in SUBCOMMANDS and not Path(argv[2]).exists():
+        argv[1:3] = [SUBCOMMANDS[argv[2]]]
+
+
+def sweep_replay(
+    scan: Annotated[Path, typer.Argument(help="The sweep's HDF5 file.", show_default=False)],
+    case: Annotated[int, typer.Argument(help="The case's index (the `case` column of `mbs analyze`).",
+                                        show_default=False)],
+    output: Annotated[Path, typer.Option("--output", "-o", help="The case's results file (every signal).",
+                                         show_default=False)],
+) -> None:
+    """Run one case of a sweep again, from what the sweep file records (the model with its includes,
+    the --set values, the settings): the same results as `mbs run` with those settings, bit for bit."""
+    from planar_mbs.errors import MbsError
+    from planar_mbs.results.hdf5 import check_results_file
+    from planar_mbs.sweep.scan import replay_case
+
+    from .common import check_output as _check_output
+
+    try:
+        check_results_file(scan)
+        _check_output(output, "--output", [("the sweep file", scan)])
+        res = replay_case(scan, case, output)
+    except MbsError as err:
+        _fail(err)
+    _console().print(f"case {case}: {res.attrs.get('message', 'finished')} ({len(res.time)} rows) → {output}",
+                     markup=False)
+    if not res.attrs.get("complete", True):
+        raise typer.Exit(ExitCode.SIMULATION_FAILED)
+
+
+def sweep_merge(
+    inputs: Annotated[list[Path], typer.Argument(help="Sweep files of the same model and settings.",
+                                                 show_default=False)],
+    output: Annotated[Path, typer.Option("--output", "-o", help="The merged sweep file.", show_default=False)],
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing output.")] = False,
+) -> None:
+    """Merge sweep files of the same model and settings (e.g. computed on two machines) into one;
+    a case found in two files is refused."""
+    from planar_mbs.errors import MbsError
+    from planar_mbs.results.hdf5 import check_results_file
+    from planar_mbs.sweep.scan import merge_sweeps
+
+    from .common import check_output as _check_output
+
+    try:
+        for p in inputs:
+            check_results_file(p)
+        _check_output(output, "--output", [("a file to merge", p) for p in inputs])
+        n = merge_sweeps(inputs, output, overwrite=overwrite)
+    except MbsError as err:
+        _fail(err)
+    _console().print(f"{n} case(s) from {len(inputs)} files → {output}", markup=False)

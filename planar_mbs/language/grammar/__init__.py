@@ -1,0 +1,1 @@
+"""The .mbs grammar (`mbs.lark`), shipped inside the wheel as `planar_mbs.language.grammar`."""

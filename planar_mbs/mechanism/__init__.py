@@ -1,0 +1,3 @@
+"""Stage 2, the mechanism: a `ModelSpec` compiled into the flat arrays of a `Model` (`compile`,
+`model`), its constraint rows ordered for the envelope solver (`ordering`) and its initial pose
+assembled on the constraints (`kinematics`)."""

@@ -1,0 +1,1182 @@
+"""ModelSpec → Model: the compiler as a straight list of named passes.
+
+    collect        merge included statements, apply `override`, reject duplicates
+    resolve_params apply `--set` overrides, evaluate params in dependency order
+    assign_ids     number bodies, sort joints into ideal / clearance, index the rest
+    size           counts and constraint rows (`JOINT_ROWS`, drivers after joints)
+    allocate       zero arrays of the right shapes (also when a kind is absent)
+    fill           evaluate every field with its dimension check, fill the arrays
+    check          whole-model checks
+
+Each pass raises `ModelError` naming the element and its line.  Expressions are
+evaluated by `evaluate.Evaluator` (values, units, field readers), never by Python's eval.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import catalog
+from ..language import units as U
+from ..errors import ModelError, did_you_mean
+from ..language.evaluate import (
+    FUNCTIONS,
+    CallVal,
+    Evaluator,
+    Fields,
+    Scalar,
+    Symbol,
+    Vec,
+    _chain,
+    _format_value,
+    scalar_si,
+    symbol_of,
+    vector_si,
+)
+from .model import (
+    CONTACT_LAW_NAMES,
+    CP_BREAKDOWN,
+    CP_CLEARANCE,
+    CP_EXPONENT,
+    CP_KIND,
+    CP_NX,
+    CP_NY,
+    CP_VISCOSITY,
+    PairKind,
+    CP_FRICTION,
+    CP_FRICTION_V0,
+    CP_LENGTH,
+    CP_FRICTION_V1,
+    CP_R_BEARING,
+    CP_R_JOURNAL,
+    CP_RESTITUTION,
+    CP_SIGMA_SUM,
+    CP_STIFFNESS,
+    JOINT_ROWS,
+    JP_LENGTH,
+    JP_PHI0,
+    N_CLEARANCE_PARAM,
+    N_FORCE_PARAM,
+    N_JOINT_PARAM,
+    N_MOTION_PARAM,
+    ContactLaw,
+    INTEGRATOR_NAMES,
+    DriverType,
+    ForceType,
+    Integrator,
+    JointType,
+    KernelModel,
+    Model,
+    MotionType,
+    Settings,
+    SourceRef,
+)
+from ..language.expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
+from .ordering import reorder
+from ..language.parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
+from ..language.spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
+
+__all__ = ["load_model", "compile_text"]
+
+
+# ------------------------------------------------------------------ entry points
+def load_model(path: str | Path, overrides: dict[str, str] | None = None) -> Model:
+    """Read, parse and compile a `.mbs` file; `overrides` are `--set NAME=VALUE` pairs."""
+    import os
+    import stat
+
+    path = str(path)
+    try:
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened
+            raise IsADirectoryError(0, "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file")
+        if info.st_size > MAX_MODEL_BYTES:
+            raise ModelError(f"the model file is {info.st_size / 2**20:.0f} MB; models are limited to "
+                             f"{MAX_MODEL_BYTES // 2**20} MB", path, hint="is this really a model file?")
+        with open(path, "rb") as f:
+            data = f.read(MAX_MODEL_BYTES + 1)
+    except OSError as e:
+        raise ModelError(f"cannot read the model file ({getattr(e, 'strerror', None) or e})", path,
+                         hint="check the path") from None
+    model = compile_text(decode_model(data, path), path, overrides)
+    model.source_files.insert(0, Path(path).resolve())
+    return model
+
+
+def compile_text(text: str, path: str = "<string>", overrides: dict[str, str] | None = None,
+                 includes: dict[str, str] | None = None, key: str | None = None) -> Model:
+    """Parse and compile model text; every user mistake raises `ModelError`.  ``includes`` and
+    ``key`` (a model's `source_includes` and `source_key`) supply its included files from memory."""
+    try:
+        spec = parse_model(text, path, sources=includes, main=key)
+        return Compiler(spec, overrides or {}).run()
+    except ModelError:
+        raise
+    except RecursionError:
+        raise ModelError("the model nests too deeply to compile", path,
+                         hint="split deeply nested expressions into several `param`s") from None
+    except Exception as e:  # the contract: users only ever see ModelError
+        raise ModelError(f"internal error while compiling ({type(e).__name__}: {e})", path,
+                         hint="this is a bug in planar_mbs; please report it with the model") from None
+
+
+# ------------------------------------------------------------------ element kinds
+MIN_INERTIA = 1e-200  # SI: a mass or inertia below it is a typo; its inverse (and its square) overflow
+BODY_FIELDS = {"mass": "kg", "inertia": "kg*m^2", "position": "(x, y) of the centre of mass",
+               "angle": "deg or rad", "velocity": "(vx, vy)", "omega": "angular velocity",
+               "shape": "bar(length, width) | box(width, height) | circle(radius)"}
+MATERIAL_FIELDS = {"E": "Young's modulus, e.g. 207 GPa", "nu": "Poisson's ratio, e.g. 0.3",
+                   "density": "e.g. 7800 kg/m^3"}
+_CONTACT_FIELDS = {  # every contact element (catalog.ELEMENTS) takes these
+    "material": "material of both parts", "law": "contact law name", "restitution": "coefficient of restitution",
+    "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)", "friction": "Coulomb coefficient (default 0)",
+    "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
+    "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
+}
+JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
+    **{spec.name: dict(spec.fields) for spec in catalog.JOINTS},
+    "clearance_revolute": {
+        "clearance": "radial clearance c = R_B - R_J", "bearing_radius": "R_B", "journal_radius": "R_J",
+        "length": "bearing length", "material": "material of both parts",
+        "bearing_material": "material of the bearing", "journal_material": "material of the journal",
+        "law": "contact law name", "restitution": "coefficient of restitution",
+        "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)",
+        "friction": "Coulomb coefficient (default 0)",
+        "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
+        "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
+        "offset": "initial journal centre minus bearing centre (dx, dy) in the bearing's frame (default: "
+                  "centred when the joint closes a loop)",
+        "relative_velocity": "initial velocity of the journal centre relative to the bearing centre (vx, vy), "
+                             "bearing frame"},
+}
+JOINT_FIELDS["lubricated_revolute"] = {**JOINT_FIELDS["clearance_revolute"],
+                                       **catalog.element("lubricated_revolute").fields}
+JOINT_FIELDS["clearance_translational"] = {**catalog.element("clearance_translational").fields, **_CONTACT_FIELDS}
+JOINT_FIELDS["contact"] = {**catalog.element("contact").fields, **_CONTACT_FIELDS}
+CONTACT_ELEMENTS = tuple(e.name for e in catalog.ELEMENTS)
+JOINT_TYPES = {spec.name: JointType(spec.code) for spec in catalog.JOINTS}
+LAWS = {name: law for law, name in CONTACT_LAW_NAMES.items()}
+LAW_SETTINGS = frozenset(key for g in catalog.LAW_GROUPS for key in g.takes)  # a law's call arguments
+DRIVER_KINDS = ("rotation", "translation")
+DRIVER_FIELDS = {"speed": "constant speed",
+                 "motion": "ramp(...) | harmonic(...) | polynomial(...) | an expression of t",
+                 "relative_to": "reference body (default ground)", "axis": "axis (ux, uy) (translation)",
+                 "initial": "value of the coordinate at t = 0 (default: from the initial pose)"}
+MOTIONS = ("ramp", "harmonic", "polynomial")
+FORCE_KINDS = ("constant", "torque", "spring_damper", "rotational_spring_damper", "expression")
+FORCE_FIELDS = {
+    "constant": {"force": "(fx, fy) in the global frame"},
+    "torque": {"torque": "e.g. 2 N*m"},
+    "spring_damper": {"stiffness": "N/m", "damping": "N*s/m", "length": "free length (default: initial)",
+                      "actuator": "actuator force (tension positive): a constant or an expression"},
+    "rotational_spring_damper": {"stiffness": "N*m/rad", "damping": "N*m*s/rad",
+                                 "angle": "free angle (default: initial)",
+                                 "actuator": "actuator torque: a constant or an expression"},
+    "expression": {"fx": "force along global x: an expression of t, params and signals",
+                   "fy": "force along global y (the same)", "torque": "torque on the body (the same)"},
+}
+SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalog.INTEGRATORS)), "rtol": "relative tolerance",
+              "atol": "absolute tolerance", "step": "RK4 step / first trial step", "h_min": "smallest step",
+              "h_max": "largest step", "output_step": "time between outputs",
+              "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
+              "projection": "auto | on | off", "max_steps": "step limit"}
+# every name that may be called in a model (the rest are unknown functions)
+_CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle"}
+RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
+SINGLETONS = ("gravity", "simulate")
+
+
+def _rot(phi: float) -> np.ndarray:
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([[c, -s], [s, c]])
+
+
+# ------------------------------------------------------------------ the passes
+# Each pass is a small class of methods over one shared state (`self`: the spec, the resolved
+# params, the element lists, the arrays `self.a`); `Compiler` at the end joins them and runs
+# them in order.  Names: symbols and params, layout (ids, sizes, arrays), bodies, joints,
+# clearance joints, drivers, forces, settings, checks.
+class _SymbolPasses:
+    """Passes 1-2: one statement per name, then every param resolved."""
+
+    # 1. collect ------------------------------------------------------------
+    def pass_collect(self):
+        """One statement per name (or singleton); `override` replaces in place."""
+        self.elements: dict[str, Statement] = {}
+        for st in self.spec.statements:
+            key = st.kind if st.kind in SINGLETONS else st.name
+            where = st.name_pos or st.pos
+            if st.kind not in SINGLETONS and key in RESERVED:
+                raise where.error(f"the name `{key}` is reserved ({RESERVED[key]})",
+                                  hint="choose another name")
+            if st.kind not in SINGLETONS and key in KEYWORDS:
+                raise where.error(f"`{key}` is a keyword and cannot name an element",
+                                  hint="choose another name")
+            old = self.elements.get(key)
+            if st.override:
+                if old is None:
+                    names = [n for n, s in self.elements.items() if s.kind == st.kind]
+                    what = f"`{st.kind}`" if st.kind in SINGLETONS else f"{st.kind} `{key}`"
+                    raise where.error(f"`override` of {what}, which is not defined before",
+                                      hint=did_you_mean(key, names) or
+                                      "override replaces an element defined earlier (e.g. in an included file)")
+                if old.kind != st.kind:
+                    raise where.error(f"`{key}` is a {old.kind}, so `override {st.kind}` cannot replace it",
+                                      hint=f"write `override {old.kind} {key} ...`")
+                self.elements[key] = st
+            elif old is not None:
+                prev = f"{old.pos.file}:{old.pos.line}"
+                if st.kind in SINGLETONS:
+                    raise where.error(f"a second `{st.kind}` statement (the first is at {prev})",
+                                      hint=f"write `override {st.kind} ...` to replace it")
+                raise where.error(f"`{key}` is already defined (a {old.kind} at {prev})",
+                                  hint=f"choose another name, or write `override {st.kind} {key} ...` to replace it")
+            else:
+                self.elements[key] = st
+        self.kind_of = {n: s.kind for n, s in self.elements.items() if s.kind not in SINGLETONS}
+
+    def _of(self, kind: str) -> list[Statement]:
+        return [s for s in self.elements.values() if s.kind == kind]
+
+    # 2. resolve params -----------------------------------------------------
+    def pass_resolve_params(self):
+        """Apply `--set` overrides, then evaluate every param (dependency order, cycles reported)."""
+        params = {s.name: s for s in self._of("param")}
+        exprs: dict[str, Expr] = {}
+        for name, text in self.cli_overrides.items():
+            name, text = str(name).strip(), str(text).strip()
+            if name not in params:
+                raise ModelError(f"`--set {name}=...`: the model has no param `{name}`", "--set", 1, 1,
+                                 source_line=f"{name}={text}", width=len(name),
+                                 hint=did_you_mean(name, params) or
+                                 ("params: " + ", ".join(params) if params else "the model declares no params"))
+            exprs[name] = parse_expression(text, "--set")
+        self.ev = Evaluator(params, {}, self.kind_of, _CALL_NAMES)
+        original = {}
+        if exprs:
+            for name in _param_order(params, {}):  # dependencies first: no deep recursion
+                self.ev.param(name)
+        for name in exprs:  # the model's own value, to check the override against
+            original[name] = self.ev.param(name)
+        self.ev = Evaluator(params, exprs, self.kind_of, _CALL_NAMES)
+        for name in _param_order(params, exprs):
+            self.ev.param(name)
+        self.parameters: dict[str, str] = {}
+        for name, st in params.items():
+            value = self.ev.param(name)
+            if name in exprs:
+                self._check_override(name, exprs[name], original[name], value, st)
+                self.parameters[name] = exprs[name].pos.text
+            elif isinstance(st.value, Number) or (isinstance(st.value, Name) and isinstance(value, Symbol)):
+                self.parameters[name] = st.value.pos.text
+            else:
+                self.parameters[name] = _format_value(value)
+
+    def _check_override(self, name, expr, old, new, st):
+        def kind(v):
+            return {Scalar: "number", Vec: "vector", Symbol: "name"}.get(type(v), "value")
+
+        where = f"line {st.pos.line}"
+        if kind(old) != kind(new):
+            raise expr.pos.error(f"`--set {name}`: the model's `{name}` is a {kind(old)} ({where}), "
+                                 f"the override gives a {kind(new)}",
+                                 hint=f"the model has `param {name} = {st.value.pos.text}`")
+        if isinstance(old, Scalar) and not old.plain and not new.plain \
+                and old.q.dimensionality != new.q.dimensionality:
+            raise expr.pos.error(f"`--set {name}`: {U.describe(old.q.dimensionality)} was expected, "
+                                 f"got {U.describe(new.q.dimensionality)} ({expr.pos.text})",
+                                 hint=f"the model has `param {name} = {st.value.pos.text}`")
+
+class _LayoutPasses:
+    """Passes 3-6: number the elements, size and allocate the arrays, fill them kind by kind."""
+
+    # 3. assign ids ---------------------------------------------------------
+    def pass_assign_ids(self):
+        """Bodies get ids 0..nbody-1; joints split into ideal and clearance by their type."""
+        self.bodies = self._of("body")
+        self.body_id = {s.name: i for i, s in enumerate(self.bodies)}
+        self.materials = {s.name: s for s in self._of("material")}
+        self.ideal, self.clearance = [], []
+        for st in self._of("joint"):
+            jt = st.value.name
+            if jt in CONTACT_ELEMENTS:
+                self.clearance.append(st)
+            elif jt in JOINT_TYPES:
+                self.ideal.append(st)
+            else:
+                raise st.value.name_pos.error(f"unknown joint type `{jt}`",
+                                              hint=did_you_mean(jt, JOINT_FIELDS) or
+                                              "joint types: " + ", ".join(JOINT_FIELDS))
+        # contact pairs: one per clearance element, four for a translational clearance joint
+        self.pairs = []
+        for st in self.clearance:
+            parts = catalog.element(st.value.name).parts
+            self.pairs += [(f"{st.name}_{part}" if part else st.name, st) for part in parts]
+        for name, st in self.pairs:
+            if name != st.name and name in self.kind_of:
+                raise (st.name_pos or st.pos).error(
+                    f"the corner `{name}` of `{st.name}` has the name of another element",
+                    hint="rename one of them")
+        self.drivers = self._of("driver")
+        for st in self.drivers:
+            if st.value.name not in DRIVER_KINDS:
+                raise st.value.name_pos.error(f"unknown driver `{st.value.name}`",
+                                              hint=did_you_mean(st.value.name, DRIVER_KINDS) or
+                                              "drivers: rotation(...) or translation(...)")
+        self.forces = self._of("force")
+        for st in self.forces:
+            if st.value.name not in FORCE_KINDS:
+                raise st.value.name_pos.error(f"unknown force `{st.value.name}`",
+                                              hint=did_you_mean(st.value.name, FORCE_KINDS) or
+                                              "forces: " + ", ".join(FORCE_KINDS))
+
+    # 4. size ---------------------------------------------------------------
+    def pass_size(self):
+        """Counts and first constraint rows: joints in order, then drivers (one row each)."""
+        self.nbody, self.njoint = len(self.bodies), len(self.ideal)
+        self.ndriver, self.nclear, self.nforce = len(self.drivers), len(self.pairs), len(self.forces)
+        types = [JOINT_TYPES[s.value.name] for s in self.ideal]
+        rows = JOINT_ROWS[np.array(types, dtype=np.int64)] if types else np.zeros(0, np.int64)
+        self.joint_row = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64) if types \
+            else np.zeros(0, np.int64)
+        first = int(rows.sum())
+        self.driver_row = np.arange(first, first + self.ndriver, dtype=np.int64)
+
+    # 5. allocate -----------------------------------------------------------
+    def pass_allocate(self):
+        nb, nj, nd, nc, nf = self.nbody, self.njoint, self.ndriver, self.nclear, self.nforce
+        f, i = np.float64, np.int64
+        self.a = dict(
+            body_mass=np.zeros(nb, f), body_inertia=np.zeros(nb, f), minv=np.zeros(3 * nb, f),
+            gravity=np.zeros(2, f),
+            joint_type=np.zeros(nj, i), joint_body=np.full((nj, 2), -1, i),
+            joint_point=np.zeros((nj, 2, 2), f), joint_axis=np.zeros((nj, 2), f),
+            joint_param=np.zeros((nj, N_JOINT_PARAM), f), joint_row=self.joint_row,
+            driver_type=np.zeros(nd, i), driver_body=np.full((nd, 2), -1, i),
+            driver_point=np.zeros((nd, 2, 2), f), driver_axis=np.zeros((nd, 2), f),
+            driver_motion=np.zeros(nd, i), driver_motion_param=np.zeros((nd, N_MOTION_PARAM), f),
+            driver_row=self.driver_row,
+            clearance_body=np.full((nc, 2), -1, i), clearance_point=np.zeros((nc, 2, 2), f),
+            clearance_law=np.zeros(nc, i), clearance_param=np.zeros((nc, N_CLEARANCE_PARAM), f),
+            force_type=np.zeros(nf, i), force_body=np.full((nf, 2), -1, i),
+            force_point=np.zeros((nf, 2, 2), f), force_param=np.zeros((nf, N_FORCE_PARAM), f),
+        )
+        self.q0, self.qd0 = np.zeros(3 * nb), np.zeros(3 * nb)
+        self.clearance_start = np.full((nc, 4), np.nan)  # offset (x, y), relative velocity (x, y); NaN: not given
+        self.geometry: list[dict] = []
+
+    # 6. fill ---------------------------------------------------------------
+    def pass_fill(self):
+        for k, st in enumerate(self.bodies):
+            self._fill_body(k, st)
+        self._sigma_cache: dict[str, float] = {}
+        for st in self.materials.values():
+            self._sigma(st.name, st.name_pos)
+        for k, st in enumerate(self.ideal):
+            self._fill_joint(k, st)
+        self.clearance_assembly = []
+        for st in self.clearance:
+            self._fill_element(len(self.clearance_assembly), st)
+        self.programs = Programs(self.ev, self._expression_context())
+        for k, st in enumerate(self.drivers):
+            self._fill_driver(k, st)
+        for k, st in enumerate(self.forces):
+            self._fill_force(k, st)
+        g = self.elements.get("gravity")
+        if g is not None:
+            self.a["gravity"][:] = vector_si(self.ev, g.value, U.ACCELERATION, "")
+        self.settings = self._settings(self.elements.get("simulate"))
+
+    def _expression_context(self) -> Context:
+        """What the expressions of loads and motions may name (`expressions.Context`)."""
+        a = self.a
+        clearance = {st.name: (int(a["clearance_body"][k, 0]), tuple(a["clearance_point"][k, 0]),
+                               int(a["clearance_body"][k, 1]), tuple(a["clearance_point"][k, 1]),
+                               float(a["clearance_param"][k, CP_CLEARANCE]))
+                     for k, st in enumerate(self.clearance)}
+        return Context(self.body_id, self.q0, self.qd0, clearance, self.kind_of)
+
+    def _fields(self, st: Statement, label: str, allowed: dict, call: Call | None = None) -> Fields:
+        extra = tuple(Field(k.name, k.value, k.pos) for k in call.kwargs) if call else ()
+        return Fields(self.ev, st, label, allowed, extra)
+
+class _BodyPass:
+    """Bodies: mass, inertia, the initial pose and velocity, the drawing shape; and the body
+    references (`body (x, y)`) every other element uses."""
+
+    def _fill_body(self, k: int, st: Statement):
+        f = self._fields(st, f"body `{st.name}`", BODY_FIELDS)
+        m = f.scalar("mass", U.MASS, positive=True)
+        inertia = f.scalar("inertia", U.INERTIA, positive=True)
+        for key, value, unit in (("mass", m, "kg"), ("inertia", inertia, "kg*m^2")):
+            if value < MIN_INERTIA:  # 1/value overflows or loses every digit (subnormal): no dynamics left
+                raise f.expr(key).pos.error(f"`{key}` of body `{st.name}` is {value:.3g} {unit}, too small to "
+                                            f"compute with (below {MIN_INERTIA:g} {unit}, its inverse overflows)",
+                                            hint=f"a unit typo? e.g. `{key} = 0.3 {unit}`")
+        self.a["body_mass"][k], self.a["body_inertia"][k] = m, inertia
+        self.a["minv"][3 * k:3 * k + 3] = (1.0 / m, 1.0 / m, 1.0 / inertia)
+        self.q0[3 * k:3 * k + 2] = f.vector("position", U.LENGTH, (0.0, 0.0))
+        self.q0[3 * k + 2] = f.scalar("angle", U.ANGLE, 0.0)
+        self.qd0[3 * k:3 * k + 2] = f.vector("velocity", U.VELOCITY, (0.0, 0.0))
+        self.qd0[3 * k + 2] = f.scalar("omega", U.ANGULAR_VELOCITY, 0.0)
+        self.geometry.append(self._shape(f.expr("shape")) if f.has("shape") else {})
+
+    SHAPES = {"bar": ("length", "width"), "box": ("width", "height"), "circle": ("radius",)}
+
+    def _shape(self, e: Expr) -> dict:
+        v = self.ev.value(e)
+        if not isinstance(v, CallVal) or v.call.name not in self.SHAPES:
+            name = v.call.name if isinstance(v, CallVal) else e.pos.text
+            raise e.pos.error(f"unknown shape `{name}`",
+                              hint=did_you_mean(name, self.SHAPES) or
+                              "shapes: bar(length, width), box(width, height), circle(radius)")
+        c = v.call
+        keys = self.SHAPES[c.name]
+        given = self._call_args(c, keys)
+        out = {"kind": c.name}
+        for key in keys:
+            if key not in given:
+                raise c.pos.error(f"`{c.name}(...)` needs `{key}`", hint=f"`{c.name}({', '.join(keys)})`")
+            value = scalar_si(self.ev, given[key], U.LENGTH, key)
+            if not value > 0:
+                raise given[key].pos.error(f"`{key}` of a shape must be positive", hint="e.g. `10 mm`")
+            out[key] = value
+        return out
+
+    def _call_args(self, c: Call, keys) -> dict[str, Expr]:
+        """Positional and keyword arguments of `c` matched to `keys`."""
+        if len(c.args) > len(keys):
+            raise c.args[len(keys)].pos.error(f"`{c.name}` takes at most {len(keys)} arguments: {', '.join(keys)}",
+                                              hint="remove the extra arguments")
+        given = dict(zip(keys, c.args))
+        for kw in c.kwargs:
+            if kw.name not in keys:
+                raise kw.pos.error(f"unknown argument `{kw.name}` of `{c.name}`",
+                                   hint=did_you_mean(kw.name, keys) or f"arguments: {', '.join(keys)}")
+            if kw.name in given:
+                raise kw.pos.error(f"`{kw.name}` of `{c.name}` is given twice", hint="keep one of them")
+            given[kw.name] = kw.value
+        return given
+
+    # body references and the initial pose
+    def _body(self, name: str, pos: Pos) -> int:
+        if name == "ground":
+            return -1
+        if name in self.body_id:
+            return self.body_id[name]
+        if name in self.kind_of and self.kind_of[name] != "param":
+            raise pos.error(f"`{name}` is a {self.kind_of[name]}, not a body",
+                            hint="name a body here (or `ground`)")
+        raise pos.error(f"unknown body `{name}`",
+                        hint=did_you_mean(name, [*self.body_id, "ground"]) or
+                        "declare it with `body NAME { mass = ...  inertia = ... }` or use `ground`")
+
+    def _ref(self, e: Expr, what: str, point=True) -> tuple[int, tuple[float, float]]:
+        """`crank`, `crank (0.025, 0)` or `crank (p)` → (body id, point in the body frame)."""
+        if isinstance(e, Name):
+            name = e.name
+            if e.name in self.ev.params:
+                v = self.ev.param(e.name)
+                if isinstance(v, Symbol):
+                    name = v.name
+            return self._body(name, e.pos), (0.0, 0.0)
+        if isinstance(e, Call) and e.name not in FUNCTIONS and not e.kwargs:
+            body = self._ref(Name(e.name_pos, e.name), what)[0]
+            if not point:
+                raise e.pos.error(f"{what} takes bodies without points", hint=f"write just `{e.name}`")
+            if len(e.args) == 2:
+                return body, (scalar_si(self.ev, e.args[0], U.LENGTH, "x"),
+                              scalar_si(self.ev, e.args[1], U.LENGTH, "y"))
+            if len(e.args) == 1:
+                return body, vector_si(self.ev, e.args[0], U.LENGTH, "point")
+            if not e.args:
+                return body, (0.0, 0.0)
+        raise e.pos.error(f"{what} expects a body, optionally with a point in its frame; got `{e.pos.text}`",
+                          hint="e.g. `crank (0.025, 0)` or `ground`")
+
+    def _angle0(self, b: int) -> float:
+        return 0.0 if b < 0 else float(self.q0[3 * b + 2])
+
+    def _world(self, b: int, s) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        if b < 0:
+            return s
+        return self.q0[3 * b:3 * b + 2] + _rot(self.q0[3 * b + 2]) @ s
+
+    def _two_refs(self, st: Statement, what: str, point=True):
+        c: Call = st.value
+        if len(c.args) != 2:
+            raise c.pos.error(f"{what} connects two bodies: `{c.name}(a (x, y), b (x, y))`, "
+                              f"got {len(c.args)} positional argument{'s' if len(c.args) != 1 else ''}",
+                              hint="e.g. `revolute(ground (0, 0), crank (-0.025, 0))`; use `ground` for the frame")
+        (bi, pi), (bj, pj) = self._ref(c.args[0], what, point), self._ref(c.args[1], what, point)
+        if bi == bj:
+            raise c.pos.error(f"{what} connects `{c.args[0].pos.text}` to itself" if bi >= 0 else
+                              f"{what} connects ground to ground",
+                              hint="the two sides must be different bodies")
+        return bi, pi, bj, pj
+
+    def _unit_axis(self, f: Fields, name: str) -> tuple[float, float]:
+        """A direction `(ux, uy)`, normalised; any common unit (or none) is accepted."""
+        if not f.has(name):
+            raise f.missing(name)
+        e = f.expr(name)
+        v = self.ev.value(e)
+        if not isinstance(v, Vec) or len(v.items) != 2:
+            raise e.pos.error(f"`{name}` must be a direction `(ux, uy)`, got `{e.pos.text}`", hint=f"e.g. `{name} = (1, 0)`")
+        x, y = v.items
+        if not (x.plain or y.plain) and x.q.dimensionality != y.q.dimensionality:
+            raise e.pos.error(f"the components of `{name}` have different dimensions", hint=f"e.g. `{name} = (1, 0)`")
+        ax = [float(s.q.magnitude if s.plain else s.q.to_base_units().magnitude) for s in v.items]
+        n = math.hypot(*ax)
+        if n == 0:
+            raise e.pos.error(f"`{name}` must not be the zero vector", hint=f"give a direction, e.g. `{name} = (1, 0)`")
+        return ax[0] / n, ax[1] / n
+
+class _JointPass:
+    """Ideal joints: bodies, points, axes and the relative angle or length they keep."""
+
+    def _fill_joint(self, k: int, st: Statement):
+        c: Call = st.value
+        label = f"joint `{st.name}` ({c.name})"
+        f = self._fields(st, label, JOINT_FIELDS[c.name], c)
+        jt = JOINT_TYPES[c.name]
+        bi, pi, bj, pj = self._two_refs(st, label)
+        a = self.a
+        a["joint_type"][k] = int(jt)
+        a["joint_body"][k] = (bi, bj)
+        a["joint_point"][k] = (pi, pj)
+        takes = catalog.JOINTS[int(jt)].fields  # filled by name (catalog.JointSpec)
+        if "axis" in takes:
+            a["joint_axis"][k] = self._unit_axis(f, "axis")
+        if "angle" in takes:
+            a["joint_param"][k, JP_PHI0] = f.scalar("angle", U.ANGLE, self._angle0(bj) - self._angle0(bi))
+        if "length" in takes:
+            default = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
+            length = f.scalar("length", U.LENGTH, default)
+            if not length > 0:
+                where = f.expr("length").pos if f.has("length") else st.name_pos
+                raise where.error(f"the length of {label} must be positive",
+                                  hint="the two points coincide in the initial pose; give `length = ...`")
+            a["joint_param"][k, JP_LENGTH] = length
+
+class _ClearancePass:
+    """Revolute clearance joints: radii, materials, the contact law and its stiffness, friction."""
+
+    def _sigma(self, name: str, pos: Pos) -> float:
+        """sigma = (1 - nu^2) / E of a material (Muvengei et al. eq. 18)."""
+        if name in self._sigma_cache:
+            return self._sigma_cache[name]
+        if name not in self.materials:
+            if name in self.kind_of:
+                raise pos.error(f"`{name}` is a {self.kind_of[name]}, not a material",
+                                hint="declare a material: `material steel { E = 207 GPa  nu = 0.3 }`")
+            raise pos.error(f"unknown material `{name}`",
+                            hint=did_you_mean(name, self.materials) or
+                            "declare it with `material NAME { E = 207 GPa  nu = 0.3 }`")
+        st = self.materials[name]
+        f = self._fields(st, f"material `{name}`", MATERIAL_FIELDS)
+        E = f.scalar("E", U.PRESSURE, positive=True)
+        nu = f.scalar("nu", U.NUMBER)
+        if not -1 < nu < 0.5:
+            raise f.expr("nu").pos.error(f"Poisson's ratio must lie in (-1, 0.5), got {f.expr('nu').pos.text}",
+                                          hint="steel is about 0.3, rubber almost 0.5")
+        f.scalar("density", U.DENSITY, None, positive=True)
+        self._sigma_cache[name] = (1 - nu * nu) / E
+        return self._sigma_cache[name]
+
+    def _material(self, f: Fields, key: str) -> tuple[str, Pos]:
+        e = f.expr(key)
+        v = self.ev.value(e)
+        if not isinstance(v, Symbol):
+            raise e.pos.error(f"`{key}` takes the name of a material, got `{e.pos.text}`",
+                              hint=f"e.g. `{key} = steel` with `material steel {{ E = 207 GPa  nu = 0.3 }}`")
+        return v.name, e.pos
+
+    def _fill_element(self, k: int, st: Statement):
+        """The contact pairs of one contact element, from pair k on (catalog.ELEMENTS)."""
+        kind = st.value.name
+        if kind in ("clearance_revolute", "lubricated_revolute"):
+            self._fill_clearance(k, st)
+        elif kind == "clearance_translational":
+            self._fill_translational(k, st)
+        else:
+            self._fill_contact(k, st)
+
+    def _fill_clearance(self, k: int, st: Statement):
+        """A revolute clearance joint: a force element (Muvengei et al. §II.A–C), stiffness from eq. 18;
+        lubricated, it adds the short-bearing film (Flores et al. 2006) and its dry contact begins at
+        the breakdown eccentricity ratio."""
+        lubricated = st.value.name == "lubricated_revolute"
+        label = f"{'lubricated' if lubricated else 'clearance'} joint `{st.name}`"
+        bi, pi, bj, pj = self._two_refs(st, label)
+        f = self._clearance_fields(st, label)
+        name = f.symbol("law", list(LAWS))
+        law = LAWS[name]
+        group = catalog.law(name).group
+        cl, rb, rj = self._clearance_radii(f, st, label)
+        length = f.scalar("length", U.LENGTH, 0.0, positive=True)
+        sigma_sum = self._clearance_sigma(f, st, label)
+        stiffness, exponent, ce = self._clearance_law(f, st, label, name, group, rb, rj, sigma_sum, length)
+        p = self.a["clearance_param"][k]
+        p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL], p[CP_LENGTH] = cl, rb, rj, length
+        p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = stiffness, exponent, ce, sigma_sum
+        self._clearance_friction(f, p)
+        self._clearance_start(f, k, cl)
+        self.a["clearance_body"][k] = (bi, bj)
+        self.a["clearance_point"][k] = (pi, pj)
+        self.a["clearance_law"][k] = int(law)
+        self.clearance_assembly.append(("revolute",))
+        if lubricated:
+            p[CP_KIND] = int(PairKind.LUBRICATED)
+            if not length > 0:
+                raise f.missing("length")
+            p[CP_VISCOSITY] = f.scalar("viscosity", U.VISCOSITY, positive=True)
+            eb = p[CP_BREAKDOWN] = f.scalar("breakdown", U.NUMBER, 0.95)
+            if not 0 < eb < 1:
+                raise f.expr("breakdown").pos.error(
+                    f"the breakdown eccentricity ratio must lie in (0, 1), got {f.expr('breakdown').pos.text}",
+                    hint="the film breaks down before the journal touches the bearing (ratio 1), e.g. 0.95")
+
+    def _contact_law(self, f: Fields, st: Statement, label: str, r_eff: float):
+        """(law, K, n, c_e, sigma) of a contact element of a plane geometry: a cylindrical law needs a
+        bearing, and without `stiffness` K = 4 / (3 (sigma_1 + sigma_2)) sqrt(R) (Hertz, a circle of
+        effective radius R on a plane or on another circle; no default for a sharp corner, R = 0)."""
+        name = f.symbol("law", list(LAWS))
+        group = catalog.law(name).group
+        if group.compliance == "materials":
+            raise f.expr("law").pos.error(f"law {name} is for a journal in a bearing; {label} is no bearing",
+                                          hint="use hertz or a dissipative law, e.g. lankarani_nikravesh")
+        sigma_sum = self._clearance_sigma(f, st, label)
+        if not f.has("stiffness") and not r_eff > 0:
+            raise (st.name_pos or st.pos).error(f"{label} touches at a sharp corner: give its `stiffness`",
+                                                hint="e.g. `stiffness = 1e9` (N/m^1.5), or a `corner_radius`")
+        if not f.has("stiffness") and sigma_sum == 0:
+            raise (st.name_pos or st.pos).error(f"{label} needs `material` (or `stiffness`)",
+                                                hint="e.g. `material = steel`")
+        # the bearing radii only set _clearance_law's default stiffness, replaced here
+        K, n, ce = self._clearance_law(f, st, label, name, group, 2.0, 1.0, sigma_sum, 0.0)
+        if not f.has("stiffness"):
+            K = 4.0 / (3.0 * sigma_sum) * math.sqrt(r_eff)
+        return LAWS[name], K, n, ce, sigma_sum
+
+    def _fill_pair(self, k: int, kind: int, bodies, points, law, K, n, ce, sigma, f: Fields, **cols):
+        p = self.a["clearance_param"][k]
+        p[CP_KIND], p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = kind, K, n, ce, sigma
+        for col, v in cols.items():
+            p[globals()[col]] = v
+        self._clearance_friction(f, p)
+        self.a["clearance_body"][k] = bodies
+        self.a["clearance_point"][k] = points
+        self.a["clearance_law"][k] = int(law)
+
+    def _fill_translational(self, k: int, st: Statement):
+        """A block of `length` x `width` in a guide `clearance` wider (Flores et al. 2008, ch. 5): four
+        pairs, each corner (a circle of `corner_radius`, 0: sharp) against the guide surface on its side."""
+        label = f"translational clearance joint `{st.name}`"
+        bi, pi, bj, pj = self._two_refs(st, label)
+        f = self._clearance_fields(st, label)
+        ax = np.array(self._unit_axis(f, "axis"))
+        cl = f.scalar("clearance", U.LENGTH, positive=True)
+        length = f.scalar("length", U.LENGTH, positive=True)
+        width = f.scalar("width", U.LENGTH, positive=True)
+        rc = f.scalar("corner_radius", U.LENGTH, 0.0, nonneg=True)
+        if not cl < width:
+            raise f.expr("clearance").pos.error(f"the clearance of {label} must be smaller than the block's width",
+                                                hint="a corner could then reach the far guide surface")
+        if not 2 * rc < min(length, width):
+            raise f.expr("corner_radius").pos.error("the corners' radius must be less than half the block's sides")
+        law, K, n, ce, sigma = self._contact_law(f, st, label, rc)
+        phi0 = 0.0  # the block's sides lie along `axis` in its own frame too: aligned at equal angles
+        ab = ax
+        ng, nb = np.array([-ax[1], ax[0]]), np.array([-ab[1], ab[0]])
+        half = 0.5 * (width + cl)
+        for i, (sa, sn) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
+            line = np.asarray(pi) + sn * half * ng
+            corner = np.asarray(pj) + sa * (0.5 * length - rc) * ab + sn * (0.5 * width - rc) * nb
+            self._fill_pair(k + i, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (line, corner), law, K, n, ce, sigma, f,
+                            CP_CLEARANCE=cl, CP_R_JOURNAL=rc, CP_NX=-sn * ng[0], CP_NY=-sn * ng[1], CP_LENGTH=length)
+            self.clearance_assembly.append(
+                ("translational", bi, bj, tuple(pi), tuple(pj), tuple(ax), phi0, st.name) if i == 0 else ("none",))
+
+    def _fill_contact(self, k: int, st: Statement):
+        """Contact between two bodies' outlines: a circle (or point) on a line, two circles from outside,
+        or a circle in a cavity."""
+        label = f"contact `{st.name}`"
+        bi, pi, bj, pj = self._two_refs(st, label)
+        f = self._clearance_fields(st, label)
+        shape = f.symbol("shape", list(catalog.CONTACT_SHAPES))
+        takes = {"circle_on_line": ("normal", "radius"), "circle_on_circle": ("radius", "first_radius"),
+                 "circle_in_circle": ("radius", "first_radius")}[shape]
+        for key in ("normal", "radius", "first_radius"):
+            if f.has(key) and key not in takes:
+                raise f.expr(key).pos.error(f"shape {shape} takes no `{key}`", hint="it takes " + _chain(takes))
+        if shape == "circle_on_line":
+            r = f.scalar("radius", U.LENGTH, 0.0, nonneg=True)
+            m = self._unit_axis(f, "normal")
+            law, K, n, ce, sigma = self._contact_law(f, st, label, r)
+            self._fill_pair(k, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (pi, pj), law, K, n, ce, sigma, f,
+                            CP_R_JOURNAL=r, CP_NX=m[0], CP_NY=m[1])
+        else:
+            r = f.scalar("radius", U.LENGTH, positive=True)
+            r1 = f.scalar("first_radius", U.LENGTH, positive=True)
+            inside = shape == "circle_in_circle"
+            if inside and not r < r1:
+                raise f.expr("radius").pos.error(f"the circle (radius {r:g} m) must be smaller than the cavity "
+                                                 f"(first_radius {r1:g} m)")
+            law, K, n, ce, sigma = self._contact_law(f, st, label, r * r1 / (r1 - r if inside else r1 + r))
+            kind = PairKind.CIRCLE_IN_CIRCLE if inside else PairKind.CIRCLE_ON_CIRCLE
+            self._fill_pair(k, int(kind), (bi, bj), (pi, pj), law, K, n, ce, sigma, f,
+                            CP_R_BEARING=r1, CP_R_JOURNAL=r, CP_CLEARANCE=r1 - r if inside else 0.0)
+        self.clearance_assembly.append(("none",))
+
+    def _clearance_start(self, f: Fields, k: int, cl: float):
+        """The journal's initial `offset` and `relative_velocity` (bearing frame), when given."""
+        if f.has("offset"):
+            ox, oy = f.vector("offset", U.LENGTH, (0.0, 0.0))
+            self.clearance_start[k, :2] = ox, oy
+            if math.hypot(ox, oy) > cl * (1 + 1e-9):
+                raise f.expr("offset").pos.error(
+                    f"the journal's offset ({math.hypot(ox, oy) * 1e3:g} mm) exceeds the clearance ({cl * 1e3:g} mm)",
+                    hint="the journal starts inside its bearing: |offset| <= clearance")
+        if f.has("relative_velocity"):
+            self.clearance_start[k, 2:] = f.vector("relative_velocity", U.VELOCITY, (0.0, 0.0))
+
+    def _clearance_fields(self, st: Statement, label: str) -> Fields:
+        """The joint's fields, with the settings a law call carries
+        (``law = lankarani_nikravesh(restitution = 0.9)``) added to them."""
+        c: Call = st.value
+        allowed = JOINT_FIELDS[c.name]
+        f = self._fields(st, label, allowed, c)
+        if not f.has("law"):
+            return f
+        lv = self.ev.value(f.expr("law"))
+        if not isinstance(lv, CallVal):
+            return f
+        law_call = lv.call
+        settings = LAW_SETTINGS  # the chosen law's group checks them later
+        extra = []
+        for kw in law_call.kwargs:
+            if kw.name not in settings:
+                raise kw.pos.error(f"unknown argument `{kw.name}` of the contact law",
+                                   hint=did_you_mean(kw.name, settings) or "arguments: " + ", ".join(sorted(settings)))
+            extra.append(Field(kw.name, kw.value, kw.pos))
+        if law_call.args:
+            raise law_call.pos.error("contact law arguments are named, e.g. `restitution = 0.9`")
+        return Fields(self.ev, st, label, allowed,
+                      tuple(Field(kw.name, kw.value, kw.pos) for kw in c.kwargs) + tuple(extra))
+
+    def _clearance_radii(self, f: Fields, st: Statement, label: str) -> tuple[float, float, float]:
+        """(c, R_B, R_J) from any two of `clearance`, `bearing_radius`, `journal_radius`."""
+        given = {key: f.scalar(key, U.LENGTH, positive=True)
+                 for key in ("clearance", "bearing_radius", "journal_radius") if f.has(key)}
+        if len(given) < 2:
+            raise (st.name_pos or st.pos).error(
+                f"{label} needs two of `clearance`, `bearing_radius`, `journal_radius`",
+                hint="e.g. `clearance = 0.3 mm  bearing_radius = 5 mm`")
+        rb = given.get("bearing_radius")
+        rj = given.get("journal_radius")
+        cl = given.get("clearance")
+        if rb is None:
+            rb = rj + cl
+        elif rj is None:
+            rj = rb - cl
+        elif cl is None:
+            cl = rb - rj
+        elif abs(rb - rj - cl) > 1e-9 * rb:
+            raise f.expr("clearance").pos.error(
+                "`bearing_radius - journal_radius` differs from `clearance`", hint="give only two of the three")
+        if not rj < rb:
+            key = "journal_radius" if f.has("journal_radius") else "clearance"
+            raise f.expr(key).pos.error(
+                f"the journal (radius {rj * 1e3:g} mm) must be smaller than the bearing (radius {rb * 1e3:g} mm)",
+                hint="the clearance c = R_B - R_J must be positive")
+        if not rj > 0:
+            raise f.expr("clearance").pos.error(
+                f"the clearance leaves no journal (journal radius {rj * 1e3:g} mm)",
+                hint="the clearance must be smaller than the bearing radius")
+        return cl, rb, rj
+
+    def _clearance_sigma(self, f: Fields, st: Statement, label: str) -> float:
+        """sigma_1 + sigma_2 of the bearing and journal materials (0 when none is given)."""
+        if f.has("material") and (f.has("bearing_material") or f.has("journal_material")):
+            raise f.expr("material").pos.error("give `material` or `bearing_material` + `journal_material`, not both")
+        if f.has("bearing_material") != f.has("journal_material"):
+            raise (st.name_pos or st.pos).error(f"{label} needs both `bearing_material` and `journal_material`")
+        if f.has("material"):
+            return 2 * self._sigma(*self._material(f, "material"))
+        if f.has("bearing_material"):
+            return self._sigma(*self._material(f, "bearing_material")) + \
+                self._sigma(*self._material(f, "journal_material"))
+        return 0.0
+
+    def _clearance_law(self, f: Fields, st: Statement, label: str, name: str, group, rb: float, rj: float,
+                       sigma_sum: float, length: float) -> tuple[float, float, float]:
+        """(K, n, c_e) of the contact law, checked against what the law's group reads."""
+        for key in sorted(LAW_SETTINGS - set(group.takes)):  # settings the law's group does not read
+            if f.has(key):
+                why = (": its compliance comes from the materials, the bearing length and the radii"
+                       if group.compliance == "materials" else f" (a {group.name} law)")
+                other = next(s.name for s in catalog.LAWS if key in s.group.takes)
+                raise f.expr(key).pos.error(f"law {name} takes no `{key}`{why}",
+                                            hint=f"remove it, or use a law that takes it, such as {other}")
+        if group.compliance == "materials":
+            # implicit cylindrical laws (Muvengei et al. eqs. 22, 23): compliance from sigma, L and the radii
+            if not length > 0:
+                raise (st.name_pos or st.pos).error(f"law {name} of {label} needs the bearing `length`",
+                                                    hint="e.g. `length = 20 mm`")
+            if sigma_sum == 0:
+                raise (st.name_pos or st.pos).error(
+                    f"law {name} of {label} needs `material` (or `bearing_material` + `journal_material`)",
+                    hint="e.g. `material = steel` with `material steel { E = 207 GPa  nu = 0.3 }`")
+        exponent = f.scalar("exponent", U.NUMBER, 1.5, positive=True)
+        if group.compliance == "materials":
+            stiffness = hertz_stiffness(rb, rj, sigma_sum)  # not used by the law; kept for reference
+        elif f.has("stiffness"):
+            stiffness = f.scalar("stiffness", U.contact_stiffness(exponent), positive=True)
+        else:
+            if sigma_sum == 0:
+                raise (st.name_pos or st.pos).error(
+                    f"{label} needs `material` (or `stiffness`) to compute the contact stiffness",
+                    hint="e.g. `material = steel` with `material steel { E = 207 GPa  nu = 0.3 }`")
+            if exponent != 1.5:
+                raise f.expr("exponent").pos.error(
+                    "the default stiffness (Muvengei et al. eq. 18) holds for exponent 1.5; give `stiffness` too")
+            stiffness = hertz_stiffness(rb, rj, sigma_sum)
+        if "restitution" in group.needs or f.has("restitution"):
+            ce = f.scalar("restitution", U.NUMBER)
+            if not 0 < ce <= 1:
+                raise f.expr("restitution").pos.error(
+                    f"the coefficient of restitution must lie in (0, 1], got {f.expr('restitution').pos.text}")
+        else:
+            ce = 1.0
+        return stiffness, exponent, ce
+
+    def _clearance_friction(self, f: Fields, p: np.ndarray) -> None:
+        """Coulomb friction and its slip-speed ramp v0 -> v1 into the joint's parameter row."""
+        p[CP_FRICTION] = f.scalar("friction", U.NUMBER, 0.0, nonneg=True)
+        v0 = p[CP_FRICTION_V0] = f.scalar("friction_velocity", U.VELOCITY, 1e-4, nonneg=True)
+        if v0 == 0 and not f.has("friction_velocity_full"):
+            raise f.expr("friction_velocity").pos.error(
+                "with `friction_velocity = 0` give `friction_velocity_full` (the slip speed of full friction)")
+        v1 = p[CP_FRICTION_V1] = f.scalar("friction_velocity_full", U.VELOCITY, 2 * v0, positive=True)
+        if not v1 > v0:
+            raise f.expr("friction_velocity_full").pos.error(
+                "`friction_velocity_full` must exceed `friction_velocity`",
+                hint="friction ramps from 0 at friction_velocity to its full value at friction_velocity_full")
+
+
+class _DriverPass:
+    """Drivers: the driven coordinate and its prescribed motion."""
+
+    def _fill_driver(self, k: int, st: Statement):
+        c: Call = st.value
+        label = f"driver `{st.name}` ({c.name})"
+        rotation = c.name == "rotation"
+        allowed = {n: d for n, d in DRIVER_FIELDS.items() if rotation is False or n != "axis"}
+        f = self._fields(st, label, allowed, c)
+        if not c.args or len(c.args) > 2:
+            raise c.pos.error(f"{label} drives one body: `{c.name}(body{'' if rotation else ' (x, y)'}, speed = ...)`")
+        bj, pj = self._ref(c.args[0], label, point=not rotation)
+        if bj < 0:
+            raise c.args[0].pos.error("the ground cannot be driven", hint="drive a body")
+        bi, p_i = -1, (0.0, 0.0)
+        if f.has("relative_to"):
+            bi, p_i = self._ref(f.expr("relative_to"), label, point=not rotation)
+            if bi == bj:
+                raise f.expr("relative_to").pos.error("a body cannot be driven relative to itself",
+                                                     hint="name another body, or leave `relative_to` out (ground)")
+        a = self.a
+        a["driver_body"][k] = (bi, bj)
+        a["driver_point"][k] = (p_i, pj)
+        if rotation:
+            a["driver_type"][k] = int(DriverType.ANGLE)
+            coord, rate = U.ANGLE, U.ANGULAR_VELOCITY
+            p0 = self._angle0(bj) - self._angle0(bi)
+        else:
+            a["driver_type"][k] = int(DriverType.POSITION)
+            coord, rate = U.LENGTH, U.VELOCITY
+            axis = self._unit_axis(f, "axis")
+            a["driver_axis"][k] = axis
+            u = _rot(self._angle0(bi)) @ np.array(axis)
+            p0 = float(u @ (self._world(bj, pj) - self._world(bi, p_i)))
+        # motion: speed = X | motion = m(...) | a positional m(...)
+        motions = [e for e in (f.expr("motion"), *c.args[1:]) if e is not None]
+        if f.has("speed"):
+            if motions:
+                raise f.expr("speed").pos.error("give either `speed = ...` or a motion, not both",
+                                                hint="remove one of them")
+            mtype, mp = MotionType.CONSTANT_SPEED, [p0, f.scalar("speed", rate)]
+        else:
+            if len(motions) != 1:
+                raise (motions[1].pos if motions else c.pos).error(
+                    f"{label} needs one motion",
+                    hint="`speed = ...`, `ramp(speed = ..., time = ...)`, `harmonic(amplitude = ..., "
+                         "frequency = ...)` or `polynomial(c0, c1, ...)`")
+            e = motions[0]
+            if isinstance(e, Call) and e.name not in EXPRESSION_FUNCTIONS or \
+                    isinstance(e, Name) and e.name in self.ev.params:
+                mtype, mp = self._motion(e, coord, rate, p0)
+            else:  # an expression of t: its program, derivatives by dual numbers
+                mtype, mp = MotionType.EXPRESSION, [self.programs.program(e, coord, label, state=False)]
+        if f.has("initial"):
+            if mtype in (MotionType.POLYNOMIAL, MotionType.EXPRESSION):
+                raise f.expr("initial").pos.error("`initial` does not apply to a polynomial or an expression; "
+                                                  "its value at t = 0 is the start value",
+                                                  hint="remove `initial`")
+            mp[0] = f.scalar("initial", coord)
+        a["driver_motion"][k] = int(mtype)
+        a["driver_motion_param"][k, :len(mp)] = mp
+
+    def _motion(self, e: Expr, coord: U.Dim, rate: U.Dim, p0: float):
+        v = self.ev.value(e)
+        if not isinstance(v, CallVal) or v.call.name not in MOTIONS:
+            name = v.call.name if isinstance(v, CallVal) else e.pos.text
+            raise e.pos.error(f"unknown motion `{name}`",
+                              hint=did_you_mean(name, MOTIONS) or "motions: ramp, harmonic, polynomial, or an "
+                                                                  "expression of t (`30 deg * sin(2 * pi * 1 Hz * t)`)")
+        c = v.call
+        if c.name == "polynomial":
+            if c.kwargs or not 1 <= len(c.args) <= N_MOTION_PARAM:
+                raise c.pos.error(f"`polynomial(c0, c1, ...)` takes 1 to {N_MOTION_PARAM} positional coefficients")
+            coeffs = []
+            for kk, arg in enumerate(c.args):
+                si = U.Dim(f"{coord.words} per second^{kk}" if kk else coord.words,
+                           f"{coord.si}/s**{kk}", f"{coord.example}/s^{kk}" if kk else coord.example)
+                coeffs.append(scalar_si(self.ev, arg, si, f"c{kk}"))
+            return MotionType.POLYNOMIAL, coeffs
+        keys = {"ramp": ("speed", "time"), "harmonic": ("amplitude", "frequency", "phase")}[c.name]
+        given = self._call_args(c, keys)
+        for key in keys:
+            if key not in given and key != "phase":
+                raise c.pos.error(f"`{c.name}(...)` needs `{key}`", hint=f"`{c.name}({', '.join(keys)})`")
+        if c.name == "ramp":
+            t = scalar_si(self.ev, given["time"], U.TIME, "time")
+            if not t > 0:
+                raise given["time"].pos.error("the ramp time must be positive", hint="e.g. `time = 0.1 s`")
+            return MotionType.RAMP, [p0, scalar_si(self.ev, given["speed"], rate, "speed"), t]
+        amp = scalar_si(self.ev, given["amplitude"], coord, "amplitude")
+        freq = scalar_si(self.ev, given["frequency"], U.FREQUENCY, "frequency")
+        phase = scalar_si(self.ev, given["phase"], U.ANGLE, "phase") if "phase" in given else 0.0
+        return MotionType.HARMONIC, [p0, amp, freq, phase]
+
+class _ForcePass:
+    """Applied forces: constant forces and torques, translational and rotational spring-dampers."""
+
+    def _fill_force(self, k: int, st: Statement):
+        c: Call = st.value
+        label = f"force `{st.name}` ({c.name})"
+        f = self._fields(st, label, FORCE_FIELDS[c.name], c)
+        a = self.a
+        if c.name in ("constant", "torque"):
+            key, dim = ("force", U.FORCE) if c.name == "constant" else ("torque", U.TORQUE)
+            if not 1 <= len(c.args) <= 2 or (len(c.args) == 2 and f.has(key)):
+                raise c.pos.error(f"`{c.name}(body, {key} = ...)` acts on one body")
+            b, p = self._ref(c.args[0], label, point=c.name == "constant")
+            if b < 0:
+                raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
+            e = c.args[1] if len(c.args) == 2 else f.expr(key)
+            if e is None:
+                raise f.missing(key)
+            value = vector_si(self.ev, e, dim, key) if c.name == "constant" else (scalar_si(self.ev, e, dim, key),)
+            a["force_type"][k] = int(ForceType.CONSTANT_FORCE if c.name == "constant" else ForceType.CONSTANT_TORQUE)
+            a["force_body"][k] = (b, -1)
+            a["force_point"][k, 0] = p
+            a["force_param"][k, :len(value)] = value
+            return
+        if c.name == "expression":
+            return self._fill_expression_force(k, st, c, f, label)
+        rotational = c.name == "rotational_spring_damper"
+        bi, pi, bj, pj = self._two_refs(st, label, point=not rotational)
+        if rotational:
+            free0 = self._angle0(bj) - self._angle0(bi)
+            params = (f.scalar("stiffness", U.ROT_STIFFNESS, 0.0, nonneg=True),
+                      f.scalar("damping", U.ROT_DAMPING, 0.0, nonneg=True),
+                      f.scalar("angle", U.ANGLE, free0), *self._actuator(f, U.TORQUE, label))
+        else:
+            free0 = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
+            params = (f.scalar("stiffness", U.STIFFNESS, 0.0, nonneg=True),
+                      f.scalar("damping", U.DAMPING, 0.0, nonneg=True),
+                      f.scalar("length", U.LENGTH, free0, nonneg=True), *self._actuator(f, U.FORCE, label))
+        a["force_type"][k] = int(ForceType.ROTATIONAL_SPRING_DAMPER if rotational else ForceType.SPRING_DAMPER)
+        a["force_body"][k] = (bi, bj)
+        a["force_point"][k] = (pi, pj)
+        a["force_param"][k] = params
+
+    def _actuator(self, f: Fields, dim: U.Dim, label: str) -> tuple[float, float]:
+        """(constant actuator, 1 + result row of its expression or 0): a constant stays a number, an
+        expression of t or the state becomes a load's program (`expressions`)."""
+        e = f.expr("actuator")
+        if e is None:
+            return 0.0, 0.0
+        value, prog = self.programs.constant_or_program(e, dim, f"{label}'s `actuator`")
+        return (value, 0.0) if prog is None else (0.0, float(self.programs.result_row(prog) + 1))
+
+    def _fill_expression_force(self, k: int, st: Statement, c: Call, f: Fields, label: str):
+        """`expression(body (p), fx = ..., fy = ..., torque = ...)`: a program per component given."""
+        if len(c.args) != 1:
+            raise c.pos.error(f"`expression(body, fx = ..., fy = ..., torque = ...)` acts on one body",
+                              hint="e.g. `expression(slider, fx = if(slider.vx < 0 m/s, -800 N, 0 N))`")
+        b, p = self._ref(c.args[0], label, point=True)
+        if b < 0:
+            raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
+        dims = {"fx": U.FORCE, "fy": U.FORCE, "torque": U.TORQUE}
+        if not any(f.has(key) for key in dims):
+            raise c.pos.error(f"{label} needs `fx`, `fy` or `torque`",
+                              hint="e.g. `fx = -800 N * step(slider.vx, -0.01 m/s, 1, 0 m/s, 0)`")
+        progs = [self.programs.result_row(self.programs.program(f.expr(key), dim, f"{label}'s `{key}`"))
+                 if f.has(key) else -1 for key, dim in dims.items()]
+        a = self.a
+        a["force_type"][k] = int(ForceType.EXPRESSION)
+        a["force_body"][k] = (b, -1)
+        a["force_point"][k, 0] = p
+        a["force_param"][k, :3] = progs
+
+
+class _SettingsPass:
+    """The `simulate` block."""
+
+    def _settings(self, st: Statement | None) -> Settings:
+        s = Settings()
+        if st is None:
+            return s
+        f = self._fields(st, "`simulate`", SIM_FIELDS)
+        s.t_end = f.scalar("t_end", U.TIME, s.t_end, positive=True)
+        name = f.symbol("integrator", catalog.names(catalog.INTEGRATORS), INTEGRATOR_NAMES[s.integrator])
+        s.integrator = Integrator(catalog.integrator(name).code)
+        s.rtol = f.scalar("rtol", U.NUMBER, s.rtol, positive=True)
+        s.atol = f.scalar("atol", U.NUMBER, s.atol, positive=True)
+        s.step = f.scalar("step", U.TIME, s.step, positive=True)
+        s.h_min = f.scalar("h_min", U.TIME, s.h_min, nonneg=True)
+        s.h_max = f.scalar("h_max", U.TIME, s.h_max, nonneg=True)
+        s.output_step = f.scalar("output_step", U.TIME, s.output_step, positive=True)
+        if s.rtol >= 1.0:  # as `--rtol` and simulate(rtol=...): planar_mbs.run.settings_check
+            raise f.expr("rtol").pos.error(f"`rtol = {s.rtol:g}` must be less than 1",
+                                           hint="a relative tolerance lies between 0 and 1, e.g. `rtol = 1e-8`")
+        if 0.0 < s.h_max < s.h_min:
+            raise f.expr("h_min").pos.error(f"`h_min = {s.h_min:g} s` is larger than `h_max = {s.h_max:g} s`: no "
+                                            "step can be taken", hint="give h_min below h_max (h_max = 0: no "
+                                            "largest step)")
+        s.alpha = f.scalar("alpha", U.RATE, s.alpha, nonneg=True)
+        s.beta = f.scalar("beta", U.RATE, s.beta, nonneg=True)
+        p = f.symbol("projection", ["auto", "on", "off", "true", "false", "yes", "no"], s.projection)
+        s.projection = {"true": "on", "yes": "on", "false": "off", "no": "off"}.get(p, p)
+        n = f.scalar("max_steps", U.NUMBER, float(s.max_steps), positive=True)
+        if n != int(n) or n > 2**62:
+            raise f.expr("max_steps").pos.error("`max_steps` must be a whole number", hint="e.g. `max_steps = 1e6`")
+        s.max_steps = int(n)
+        return s
+
+class _CheckPass:
+    """Pass 7: whole-model checks, then the `Model`."""
+
+    # 7. check --------------------------------------------------------------
+    def pass_check(self):
+        """Whole-model checks, then the Model."""
+        if self.nbody == 0:
+            raise ModelError("the model has no bodies", self.spec.path, 1, 1, source_line=_first_line(self.spec),
+                             hint="declare one: `body crank { mass = 0.3 kg  inertia = 1e-5 kg*m^2 }`")
+        for name, arr in self.a.items():
+            if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
+                raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
+        self.a.update(self.programs.arrays())
+        kernel = reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()}))
+
+        def refs(sts):
+            return [SourceRef(s.pos.file, s.pos.line, s.pos.column) for s in sts]
+
+        self.model = Model(
+            kernel=kernel, settings=self.settings, q0=self.q0, qd0=self.qd0,
+            body_names=[s.name for s in self.bodies], joint_names=[s.name for s in self.ideal],
+            driver_names=[s.name for s in self.drivers], clearance_names=[n for n, _ in self.pairs],
+            force_names=[s.name for s in self.forces], body_geometry=self.geometry,
+            body_source=refs(self.bodies), joint_source=refs(self.ideal),
+            driver_source=refs(self.drivers), clearance_source=refs([s for _, s in self.pairs]),
+            clearance_assembly=self.clearance_assembly,
+            parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
+            source_key=self.spec.key, source_includes=dict(self.spec.includes),
+            source_files=list(self.spec.include_files),
+            clearance_start=self.clearance_start,
+        )
+
+
+# ------------------------------------------------------------------ the compiler
+class Compiler(_SymbolPasses, _LayoutPasses, _BodyPass, _JointPass, _ClearancePass, _DriverPass, _ForcePass,
+               _SettingsPass, _CheckPass):
+    """Runs the passes in order over one ModelSpec."""
+
+    PASSES = ("collect", "resolve_params", "assign_ids", "size", "allocate", "fill", "check")
+
+    def __init__(self, spec: ModelSpec, overrides: dict[str, str]):
+        self.spec = spec
+        self.cli_overrides = dict(overrides)
+
+    def run(self) -> Model:
+        for name in self.PASSES:
+            getattr(self, f"pass_{name}")()
+        return self.model
+
+
+def _names_in(e: Expr) -> list[str]:
+    """The names an expression refers to (walked without recursion)."""
+    out, todo = [], [e]
+    while todo:
+        x = todo.pop()
+        if isinstance(x, Name):
+            out.append(x.name)
+        elif isinstance(x, BinOp):
+            todo += [x.left, x.right]
+        elif isinstance(x, Neg):
+            todo.append(x.operand)
+        elif isinstance(x, Vector):
+            todo += list(x.items)
+        elif isinstance(x, Call):
+            todo += [*x.args, *(k.value for k in x.kwargs)]
+    return out
+
+
+def _param_order(params: dict[str, Statement], overrides: dict[str, Expr]) -> list[str]:
+    """Params ordered so that each comes after the params it uses (an iterative depth-first
+    search, so a long chain `p1 = p2 + 1`, `p2 = p3 + 1`, ... cannot exhaust the stack).
+    A cycle is reported naming its params, at the first one's name."""
+    deps = {n: [d for d in _names_in(overrides.get(n, st.value)) if d in params]
+            for n, st in params.items()}
+    order, state = [], {}  # state: 1 = on the path, 2 = done
+    for root in params:
+        if state.get(root):
+            continue
+        state[root] = 1
+        stack = [(root, iter(deps[root]))]
+        while stack:
+            node, it = stack[-1]
+            nxt = None
+            for d in it:
+                if state.get(d) == 1:
+                    path = [n for n, _ in stack]
+                    path = path[path.index(d):] + [d]
+                    cycle = _chain(path)
+                    raise params[d].name_pos.error(f"parameters depend on each other in a cycle: {cycle}",
+                                                   hint="give one of them a value that does not use the others")
+                if not state.get(d):
+                    nxt = d
+                    break
+            if nxt is None:
+                stack.pop()
+                state[node] = 2
+                order.append(node)
+            else:
+                state[nxt] = 1
+                stack.append((nxt, iter(deps[nxt])))
+    return order
+
+
+def hertz_stiffness(r_bearing: float, r_journal: float, sigma_sum: float) -> float:
+    """K = 4 / (3 (sigma_1 + sigma_2)) * sqrt(R_B R_J / (R_B - R_J))  (Muvengei et al. eq. 18, bearing concave:
+    R_1 = -R_B, R_2 = R_J turn R_1 R_2 / (R_1 + R_2) into R_B R_J / (R_B - R_J))."""
+    return 4.0 / (3.0 * sigma_sum) * math.sqrt(r_bearing * r_journal / (r_bearing - r_journal))
+
+
+def _first_line(spec: ModelSpec) -> str:
+    return (spec.text.splitlines() or [""])[0]

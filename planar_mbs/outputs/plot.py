@@ -1,0 +1,862 @@
+"""Figures of a run or a sweep: time series, Poincaré maps, journal orbits, case grids.
+
+Two layers:
+
+* **data helpers** (numpy only): which signals exist, which body is the slider and
+  which one turns, Poincaré samples once per revolution, the clearance radius of a
+  joint.  `rerun_log` uses them too.
+* **figures** (matplotlib, imported inside the functions, drawn on
+  ``matplotlib.figure.Figure`` objects with the Agg canvas, so no GUI backend and no
+  global pyplot state): `series_figure`, `poincare_figure`, `orbit_figure`,
+  `sweep_grid_figure`, `poincare_grid_figure`, `bifurcation_figure`, and
+  `plot_file`, which the ``mbs plot`` command calls.
+
+Poincaré sampling: `planar_mbs.results.section`, the one section of the project (the same
+points as a sweep's stored verdict and `mbs analyze`): once per revolution of the
+clock body (the body of the rotation driver, else the body that turns most),
+crossings located by interpolation, the first ``skip`` crossings dropped.  For a
+constant-speed driver this is exactly sampling at ``t = k T``, ``T = 2 pi / omega``.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+
+from ..errors import MbsError, did_you_mean
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..mechanism.model import Model
+    from ..results.hdf5 import Results
+
+FORMATS = ("png", "svg", "pdf")
+MAX_LINE_POINTS = 50_000  # longer series are reduced to a min/max envelope (peaks kept)
+
+
+class PlotError(MbsError):
+    """Bad usage of `mbs plot` / `mbs view` (unknown signal, not a results file): exit code 2."""
+
+    exit_code = 2
+
+
+# --------------------------------------------------------------------------- data helpers
+
+
+def entities(results: "Results") -> dict[str, set[str]]:
+    """``{entity: {quantity, ...}}`` of the signals present."""
+    out: dict[str, set[str]] = {}
+    for name in results.signals:
+        entity, _, qty = name.rpartition(".")
+        out.setdefault(entity, set()).add(qty)
+    return out
+
+
+def body_names(results: "Results") -> list[str]:
+    return sorted(e for e, q in entities(results).items() if {"x", "y", "phi"} <= q)
+
+
+def driver_names(results: "Results") -> list[str]:
+    return sorted(e for e, q in entities(results).items() if "power" in q and ({"torque"} & q or {"force"} & q))
+
+
+def clearance_names(results: "Results") -> list[str]:
+    return sorted(e for e, q in entities(results).items() if {"ex", "ey", "penetration"} <= q)
+
+
+def _journal(model, name: str) -> bool:
+    """Is clearance element `name` a journal in a bearing (whose orbit is a figure), rather than a contact
+    between outlines or a corner of a translational clearance joint?  True when the model is unknown."""
+    from ..mechanism.model import CP_KIND, PairKind
+
+    if model is None or name not in model.clearance_names:
+        return True
+    kind = int(model.kernel.clearance_param[model.clearance_names.index(name), CP_KIND])
+    return kind in (PairKind.CIRCLE_IN_CIRCLE, PairKind.LUBRICATED)
+
+
+def check_signals(results: "Results", names: Sequence[str]) -> None:
+    """Raise `PlotError` (with a did-you-mean hint) for the first unknown signal."""
+    for name in names:
+        if name not in results.signals:
+            ents = entities(results)
+            if name in ents:
+                hint = f"`{name}` is an entity; its signals are " + ", ".join(
+                    f"`{name}.{q}`" for q in sorted(ents[name]))
+            else:
+                hint = did_you_mean(name, results.signals)
+            raise PlotError(f"error: no signal `{name}` in the results" + (f"\nhint: {hint}" if hint else
+                            "\nhint: `mbs plot FILE --list` prints the signal names"))
+
+
+def slider_body(results: "Results", model: "Model | None" = None) -> str | None:
+    """The body shown as "the slider" (`planar_mbs.results.section.slider_body`, the one rule)."""
+    from ..results.section import slider_body as _slider
+
+    return _slider(results, model) if body_names(results) or model is not None else None
+
+
+def turning_body(results: "Results", model: "Model | None" = None) -> str | None:
+    """The body whose revolutions clock the Poincaré section (`planar_mbs.results.section.clock_body`)."""
+    from ..results.section import clock_body
+
+    return clock_body(results, model)
+
+
+def revolution_times(time: np.ndarray, phi: np.ndarray, skip: int = 1) -> np.ndarray:
+    """Times at which ``phi - phi[0]`` crosses ``±2 pi k``, the first ``skip`` dropped
+    (`planar_mbs.results.section.crossings`)."""
+    from ..results.section import crossings
+
+    return crossings(time, phi)[skip:]
+
+
+@dataclass
+class PoincareSet:
+    x: np.ndarray
+    y: np.ndarray
+    t: np.ndarray
+    x_name: str
+    y_name: str
+    body: str
+    skip: int
+
+
+def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
+             model: "Model | None" = None) -> PoincareSet:
+    """Poincaré points ``(x, y)``, one per revolution of `body` after the first `skip`:
+    the section of `planar_mbs.results.section.poincare_section` (the one used by sweeps and
+    `mbs analyze`)."""
+    from ..results.section import AnalysisError, poincare_section
+
+    check_signals(results, [x, y])
+    body = body or turning_body(results, model)
+    if body is None or f"{body}.phi" not in results:
+        raise PlotError(f"error: no body `{body}` to clock the Poincaré section"
+                        + (f"\nhint: {did_you_mean(str(body), body_names(results))}" if body else ""))
+    try:
+        sec = poincare_section(results, (x, y) if x != y else (x,), clock=body, transient=skip, model=model)
+    except AnalysisError as err:
+        raise PlotError(f"error: {err}") from None
+    return PoincareSet(sec.points[x], sec.points[y], sec.time, x, y, body, skip)
+
+
+def clearance_radius(results: "Results", joint: str) -> float:
+    """Radial clearance c of a clearance joint: ``e - penetration`` (the same at every sample)."""
+    c = results[f"{joint}.e"] - results[f"{joint}.penetration"]
+    return float(np.median(c)) if len(c) else float("nan")
+
+
+def contact_onsets(results: "Results", joint: str) -> np.ndarray:
+    """Sample indices where `joint` goes from free flight to contact."""
+    flag = results.signals.get(f"{joint}.in_contact")
+    if flag is None:
+        flag = (results[f"{joint}.penetration"] > 0).astype(float)
+    on = flag > 0.5
+    return np.nonzero(on[1:] & ~on[:-1])[0] + 1
+
+
+class _WindowSignals(dict):
+    """Signals of a results object cut to a time window, read (and cut) on first access."""
+
+    def __init__(self, results: "Results", mask: np.ndarray):
+        super().__init__()
+        self._results, self._mask = results, mask
+        self._names = list(results.signals)
+
+    def __missing__(self, name):
+        if name not in self._names:
+            raise KeyError(name)
+        value = np.asarray(self._results[name])[self._mask]
+        self[name] = value
+        return value
+
+    def __contains__(self, name) -> bool:
+        return name in self._names
+
+    def __iter__(self):
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def keys(self):
+        return list(self._names)
+
+    def items(self):
+        return [(n, self[n]) for n in self._names]
+
+    def values(self):
+        return [self[n] for n in self._names]
+
+    def get(self, name, default=None):
+        return self[name] if name in self._names else default
+
+
+def time_window(results: "Results", t_from: float | None = None, t_to: float | None = None) -> "Results":
+    """The samples with ``t_from <= t <= t_to`` (either end open when None), as `Results`."""
+    from ..results.hdf5 import Results
+
+    if t_from is None and t_to is None:
+        return results
+    t = np.asarray(results.time)
+    lo = -np.inf if t_from is None else t_from
+    hi = np.inf if t_to is None else t_to
+    if not lo < hi:
+        raise PlotError(f"error: the time window is empty (--from {lo:g} s, --to {hi:g} s)\n"
+                        "hint: --from must be before --to")
+    mask = (t >= lo) & (t <= hi)
+    if not mask.any():
+        raise PlotError(f"error: no samples between {lo:g} s and {hi:g} s (the run covers "
+                        f"{t[0]:g} s to {t[-1]:g} s)\nhint: choose a window inside the run")
+    cut = Results(time=t[mask], signals={}, units=dict(results.units), attrs=dict(results.attrs))
+    cut.signals = _WindowSignals(results, mask)
+    # the window as asked (an open end: the run's first or last sample), for titles
+    cut.attrs["window"] = (float(t[mask][0]) if t_from is None else float(t_from),
+                           float(t[mask][-1]) if t_to is None else float(t_to))
+    return cut
+
+
+# the orbit is drawn through the output samples: when the journal turns more than this
+# between two samples along the wall, the straight chords visibly cut into the clearance circle
+# (a chord of 15 degrees dips 0.9 % of the clearance inside it)
+ORBIT_MAX_TURN_DEG = 15.0
+
+
+def orbit_resolution_warning(results: "Results", joint: str) -> str | None:
+    """A warning when the output step is too coarse to draw the journal's orbit: along the
+    bearing wall (e >= 0.98 c) the journal turns more than ORBIT_MAX_TURN_DEG between
+    consecutive samples in more than 5 % of them."""
+    ex, ey = np.asarray(results[f"{joint}.ex"]), np.asarray(results[f"{joint}.ey"])
+    c = clearance_radius(results, joint)
+    if len(ex) < 3 or not c > 0:
+        return None
+    near = np.hypot(ex, ey) >= 0.98 * c
+    both = near[1:] & near[:-1]
+    if both.sum() < 10:
+        return None
+    turn = np.degrees(np.abs(np.angle(np.exp(1j * np.diff(np.arctan2(ey, ex))))))[both]
+    coarse = turn > ORBIT_MAX_TURN_DEG
+    if coarse.mean() <= 0.05:
+        return None
+    dt = float(np.median(np.diff(results.time)))
+    worst = float(np.percentile(turn, 95))
+    finer = dt * ORBIT_MAX_TURN_DEG / worst
+    return (f"the orbit of `{joint}` is drawn from output samples {dt:.3g} s apart, between which the journal "
+            f"turns up to {worst:.0f}° along the bearing wall: straight chords cut across the clearance circle. "
+            f"Rerun with a finer output step (e.g. --output-step {finer:.2g}s) to draw it faithfully")
+
+
+def default_panels(results: "Results", model: "Model | None" = None) -> list[tuple[str, list[str]]]:
+    """Muvengei et al.'s figures from the signals present: slider velocity, slider acceleration,
+    clearance-joint forces, driver torques (or forces)."""
+    panels: list[tuple[str, list[str]]] = []
+    slider = slider_body(results, model)
+    if slider:
+        panels.append((f"{slider}_velocity", [f"{slider}.vx"]))
+        panels.append((f"{slider}_acceleration", [f"{slider}.ax"]))
+    forces = [f"{c}.contact_force" for c in clearance_names(results) if f"{c}.contact_force" in results]
+    if forces:
+        panels.append(("contact_force", forces))
+    efforts = [f"{d}.torque" if f"{d}.torque" in results else f"{d}.force" for d in driver_names(results)]
+    if efforts:
+        panels.append(("driver_torque", efforts))
+    return panels
+
+
+_UNIT_PRETTY = {"m/s^2": "m/s²", "rad/s^2": "rad/s²", "N*m": "N·m", "kg*m^2": "kg·m²", "1": ""}
+
+
+def pretty_unit(unit: str) -> str:
+    return _UNIT_PRETTY.get(unit, unit.replace("*", "·").replace("^2", "²").replace("^3", "³"))
+
+
+# what each quantity is, in words (a figure's y label: "slider velocity x (slider.vx) [m/s]")
+QUANTITY_WORDS = {
+    "x": "position x", "y": "position y", "phi": "angle", "vx": "velocity x", "vy": "velocity y",
+    "omega": "angular velocity", "ax": "acceleration x", "ay": "acceleration y", "alpha": "angular acceleration",
+    "fx": "force x", "fy": "force y", "force": "force", "moment": "moment", "torque": "torque", "power": "power",
+    "contact_force": "contact force", "penetration": "penetration", "e": "eccentricity", "ex": "eccentricity x",
+    "ey": "eccentricity y", "impact_velocity": "impact velocity", "in_contact": "in contact",
+    "kinetic_energy": "kinetic energy", "potential_energy": "potential energy", "total_energy": "total energy",
+    "position_error": "position error", "velocity_error": "velocity error",
+}
+
+
+def label(name: str, unit: str) -> str:
+    u = pretty_unit(unit)
+    return f"{name} [{u}]" if u else name
+
+
+def words_label(name: str, unit: str) -> str:
+    """A y label in words with the signal's name under it: ``slider velocity x`` / ``(slider.vx) [m/s]``
+    (two lines, so that it fits beside a panel of a few inches)."""
+    entity, _, quantity = name.rpartition(".")
+    words = QUANTITY_WORDS.get(quantity)
+    text = f"{entity} {words}\n({name})" if words and entity else name
+    u = pretty_unit(unit)
+    return f"{text} [{u}]" if u else text
+
+
+def axis_values(results: "Results", name: str | None) -> tuple[np.ndarray, str]:
+    """x values and label: time [s], or a signal; angles in degrees wrapped to [0, 360)
+    with NaN breaks where they wrap, so successive revolutions overlay."""
+    if name is None:
+        return results.time, "time [s]"
+    check_signals(results, [name])
+    v = results[name]
+    unit = results.units.get(name, "")
+    if unit == "rad":
+        deg = np.degrees(v)
+        if np.ptp(deg) > 360:
+            deg = np.mod(deg, 360.0)
+            breaks = np.nonzero(np.abs(np.diff(deg)) > 180)[0] + 1
+            deg = np.insert(deg.astype(float), breaks, np.nan)
+            return deg, f"{name} [deg, mod 360]"
+        return deg, f"{name} [deg]"
+    return v, label(name, unit)
+
+
+def _with_breaks(x: np.ndarray, y: np.ndarray, n_time: int) -> np.ndarray:
+    """Insert NaNs into y where `axis_values` inserted them into x."""
+    if len(x) == n_time:
+        return y
+    nan_at = np.nonzero(np.isnan(x))[0]
+    positions = nan_at - np.arange(len(nan_at))
+    return np.insert(y.astype(float), positions, np.nan)
+
+
+def envelope(x: np.ndarray, y: np.ndarray, max_points: int = MAX_LINE_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Reduce a long monotone-x series to the min and max of each bucket (peaks survive)."""
+    n = len(x)
+    if n <= max_points or np.isnan(x).any():
+        return x, y
+    buckets = max_points // 2
+    size = n // buckets
+    m = buckets * size
+    yb = y[:m].reshape(buckets, size)
+    lo = yb.argmin(1) + np.arange(buckets) * size
+    hi = yb.argmax(1) + np.arange(buckets) * size
+    idx = np.sort(np.concatenate([lo, hi, np.arange(m, n)]))
+    return x[idx], y[idx]
+
+
+# --------------------------------------------------------------------------- figures
+
+
+def _figure(width: float = 8.0, height: float = 4.0):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), layout="constrained", dpi=110)
+
+
+def _title(results: "Results", width: float = 8.0) -> str:
+    """The run's title (model, parameters, state), wrapped to fit a figure `width` inches wide."""
+    params = results.attrs.get("parameters") or {}
+    model = Path(str(results.attrs.get("model_path", "") or "")).name
+    bits = [model] if model else []
+    if isinstance(params, dict) and params:
+        bits.append(", ".join(f"{k} = {v}" for k, v in params.items()))
+    if not results.complete:
+        bits.append(f"incomplete: {results.attrs.get('message', '')}")
+    if results.attrs.get("window"):
+        t0, t1 = results.attrs["window"]
+        bits.append(f"t = {t0:.6g} … {t1:.6g} s")
+    bits = [b.replace("$", r"\$") for b in bits]  # a `$` in a file name or value is text, not mathtext
+    return wrap_pairs(bits, int(width * 10))  # ~10 characters per inch at 10 pt
+
+
+def wrap_pairs(bits: Sequence[str], width: int) -> str:
+    """``bits`` joined with " · " (each bit's own "k = v, k = v" kept), in lines of at most `width`
+    characters broken only between two pairs or two bits, never inside ``key = value``."""
+    units: list[str] = []  # the pieces a line may end after
+    for i, bit in enumerate(bits):
+        pairs = bit.split(", ") if " = " in bit else [bit]
+        for j, pair in enumerate(pairs):
+            last = j == len(pairs) - 1
+            units.append(pair + ("" if last and i == len(bits) - 1 else " ·" if last else ","))
+    lines, line = [], ""
+    for unit in units:
+        if line and len(line) + 1 + len(unit) > width:
+            lines.append(line)
+            line = unit
+        else:
+            line = f"{line} {unit}" if line else unit
+    lines.append(line)
+    return "\n".join(lines)
+
+
+LONG_RUN_REVOLUTIONS = 10  # a time plot of more revolutions marks the start-up and scales to what follows it
+
+
+def startup_end(results: "Results", transient: int = 1, model: "Model | None" = None) -> float | None:
+    """End of the start-up of a long run (more than `LONG_RUN_REVOLUTIONS` revolutions of the turning
+    body): the time of its `transient`-th revolution; None for a short run or one that does not turn."""
+    body = turning_body(results, model)
+    if body is None or f"{body}.phi" not in results or transient < 1:
+        return None
+    from ..results.section import crossings
+
+    times = crossings(results.time, results[f"{body}.phi"])
+    return float(times[transient - 1]) if len(times) > LONG_RUN_REVOLUTIONS else None
+
+
+def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: str | None = None,
+                  title: str | None = None, startup: float | None = None):
+    """One subplot per panel (sharing x); the signals of a panel share its axes.  ``startup`` (s,
+    time plots only): the start-up is shaded and each panel's y range fits what comes after it,
+    so that one start-up impact does not flatten a long run into a band."""
+    names = [n for p in panels for n in p]
+    check_signals(results, names)
+    x, xlabel = axis_values(results, against)
+    fig = _figure(8.0, 1.0 + 2.3 * len(panels))
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    scatter = against is not None and results.units.get(against, "") != "rad"
+    degrees = against is not None and results.units.get(against, "") == "rad"  # x in degrees: angles too
+    shown_unit = lambda n: "deg" if degrees and results.units.get(n, "") == "rad" else results.units.get(n, "")  # noqa: E731
+    for ax, panel in zip(axes, panels):
+        units = {shown_unit(n) for n in panel}
+        for name in panel:
+            v = np.degrees(results[name]) if shown_unit(name) == "deg" else results[name]
+            y = _with_breaks(x, v, len(results.time))
+            if scatter:
+                ax.plot(x, y, ".", ms=1.0, label=name)
+            else:
+                xs, ys = envelope(x, y)
+                ax.plot(xs, ys, lw=0.7, label=name)
+        if startup is not None and against is None:
+            _mark_startup(ax, results, panel, startup)
+        if len(panel) == 1:
+            ax.set_ylabel(words_label(panel[0], shown_unit(panel[0])))
+        else:
+            ax.set_ylabel(f"[{pretty_unit(units.pop())}]" if len(units) == 1 else "")
+            ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, lw=0.3, alpha=0.6)
+    axes[-1].set_xlabel(xlabel)
+    fig.suptitle(title if title is not None else _title(results), fontsize="medium")
+    return fig
+
+
+def _mark_startup(ax, results: "Results", panel: Sequence[str], startup: float) -> None:
+    """Shade the start-up and fit the y range to the samples after it (5 % margin)."""
+    after = np.asarray(results.time) > startup
+    values = np.concatenate([np.asarray(results[n], float)[after] for n in panel])
+    values = values[np.isfinite(values)]
+    ax.axvspan(float(results.time[0]), startup, color="0.85", lw=0, zorder=0, label="start-up")
+    ax.text(startup, 0.98, " ← start-up (its peaks off scale)", transform=ax.get_xaxis_transform(), ha="left",
+            va="top", fontsize="x-small", color="0.35")
+    if len(values) and np.ptp(values) > 0:
+        pad = 0.05 * np.ptp(values)
+        ax.set_ylim(values.min() - pad, values.max() + pad)
+
+
+def poincare_figure(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
+                    model: "Model | None" = None, ax=None, window: tuple[float, float] | None = None):
+    """Poincaré map of a run; with `window` (t0, t1) only the points in it (the section is still
+    counted in revolutions from the start of the run)."""
+    ps = poincare(results, x, y, body, skip, model)
+    if window is not None:
+        keep = (ps.t >= window[0]) & (ps.t <= window[1])
+        ps = PoincareSet(ps.x[keep], ps.y[keep], ps.t[keep], ps.x_name, ps.y_name, ps.body, ps.skip)
+        results = time_window(results, *window)
+    fig = None
+    if ax is None:
+        fig = _figure(5.5, 5.0)
+        ax = fig.subplots()
+        fig.suptitle(_title(results, 5.5), fontsize="medium")
+    ax.plot(ps.x, ps.y, "o", ms=2.5, color="C3")
+    ax.set_xlabel(label(x, results.units.get(x, "")))
+    ax.set_ylabel(label(y, results.units.get(y, "")))
+    ax.set_title(f"Poincaré map: {len(ps.t)} points, once per revolution\nof {ps.body} (first {skip} skipped)",
+                 fontsize="small")
+    ax.grid(True, lw=0.3, alpha=0.6)
+    return fig if fig is not None else ax
+
+
+def orbit_figure(results: "Results", joint: str):
+    """The journal centre's path (ex, ey) inside the clearance circle, in mm."""
+    check_signals(results, [f"{joint}.ex", f"{joint}.ey"])
+    c = clearance_radius(results, joint)
+    fig = _figure(5.5, 5.5)
+    ax = fig.subplots()
+    ex, ey = results[f"{joint}.ex"] * 1e3, results[f"{joint}.ey"] * 1e3
+    ax.plot(ex, ey, lw=0.5, color="C0", label="journal centre")
+    ax.plot(ex[:1], ey[:1], "o", ms=4, color="C2", label="start")
+    th = np.linspace(0, 2 * np.pi, 361)
+    ax.plot(c * 1e3 * np.cos(th), c * 1e3 * np.sin(th), "--", color="k", lw=1.0, label=f"clearance c = {c * 1e3:g} mm")
+    lim = 1.2 * max(c * 1e3, float(np.max(np.hypot(ex, ey), initial=0.0)))
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"{joint}.ex [mm]")
+    ax.set_ylabel(f"{joint}.ey [mm]")
+    ax.set_title(f"journal orbit in clearance joint {joint}", fontsize="small")
+    ax.legend(loc="upper right", fontsize="x-small")
+    ax.grid(True, lw=0.3, alpha=0.6)
+    if orbit_resolution_warning(results, joint):
+        ax.text(0.5, 0.01, "coarse output step: chords cut the circle", transform=ax.transAxes, ha="center",
+                va="bottom", fontsize="x-small", color="C3")
+    fig.suptitle(_title(results, 5.5), fontsize="medium")
+    return fig
+
+
+# ----- sweeps
+
+
+def is_sweep(path: str | Path) -> bool:
+    from ..results.hdf5 import SIGNALS, open_results
+
+    with open_results(path) as f:
+        return "cases" in f and SIGNALS not in f
+
+
+def sweep_cases(path: str | Path) -> list[tuple[str, "Results"]]:
+    """``(case key, Results)`` of every ``/cases/<k>`` group, in numeric order."""
+    from ..results.hdf5 import open_results, read_results
+
+    with open_results(path) as f:
+        keys = sorted(f["cases"].keys(), key=lambda k: (not k.isdigit(), int(k) if k.isdigit() else 0, k))
+    return [(k, read_results(f"{path}:/cases/{k}")) for k in keys]
+
+
+def varying_parameters(cases: Sequence[tuple[str, "Results"]]) -> list[str]:
+    """Parameter names whose value differs between cases."""
+    values: dict[str, set[str]] = {}
+    for _, res in cases:
+        params = res.attrs.get("parameters") or {}
+        if isinstance(params, str):
+            params = json.loads(params) if params else {}
+        for k, v in params.items():
+            values.setdefault(k, set()).add(str(v))
+    return [k for k, v in values.items() if len(v) > 1]
+
+
+def case_label(res: "Results", keys: Sequence[str], fallback: str) -> str:
+    params = res.attrs.get("parameters") or {}
+    return ", ".join(f"{k} = {params.get(k)}" for k in keys) if keys else f"case {fallback}"
+
+
+_NUMBER = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*)$")
+
+
+def parameter_value(text) -> tuple[float, str] | None:
+    """``"2500 rpm"`` -> ``(2500.0, "rpm")``; None when the value is not a plain number."""
+    m = _NUMBER.match(str(text))
+    return (float(m.group(1)), m.group(2).strip()) if m else None
+
+
+SUBPLOT_CHARS = 44  # characters of a title line that fit a 4-inch subplot at the "small" font size
+
+
+def _grid(n: int):
+    ncols = min(n, 2 if n <= 4 else math.ceil(math.sqrt(n)))
+    return math.ceil(n / ncols), ncols
+
+
+def sweep_grid_figure(cases, name: str, against: str | None = None):
+    """One subplot per case of one signal (Muvengei et al.'s Figs. 9-11)."""
+    keys = varying_parameters(cases)
+    nrows, ncols = _grid(len(cases))
+    fig = _figure(4.0 * ncols, 0.6 + 2.6 * nrows)
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax, (k, res) in zip(axes, cases):
+        check_signals(res, [name])
+        x, xlabel = axis_values(res, against)
+        xs, ys = envelope(x, _with_breaks(x, res[name], len(res.time)))
+        ax.plot(xs, ys, lw=0.6)
+        ax.set_title(wrap_pairs([case_label(res, keys, k)], SUBPLOT_CHARS), fontsize="small")
+        ax.set_xlabel(xlabel, fontsize="small")
+        ax.set_ylabel(label(name, res.units.get(name, "")), fontsize="small")
+        ax.grid(True, lw=0.3, alpha=0.6)
+    for ax in axes[len(cases):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{name} per case", fontsize="medium")
+    return fig
+
+
+def poincare_grid_figure(cases, x: str, y: str, body: str | None = None, skip: int = 1):
+    keys = varying_parameters(cases)
+    nrows, ncols = _grid(len(cases))
+    fig = _figure(4.0 * ncols, 0.6 + 3.4 * nrows)
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax, (k, res) in zip(axes, cases):
+        ps = poincare(res, x, y, body, skip)
+        ax.plot(ps.x, ps.y, "o", ms=2.5, color="C3")
+        ax.set_title(wrap_pairs([case_label(res, keys, k), f"{len(ps.t)} points"], SUBPLOT_CHARS), fontsize="small")
+        ax.set_xlabel(label(x, res.units.get(x, "")), fontsize="small")
+        ax.set_ylabel(label(y, res.units.get(y, "")), fontsize="small")
+        ax.grid(True, lw=0.3, alpha=0.6)
+    for ax in axes[len(cases):]:
+        ax.set_visible(False)
+    fig.suptitle(f"Poincaré maps per case (once per revolution, first {skip} skipped)", fontsize="medium")
+    return fig
+
+
+def bifurcation_figure(cases, name: str, body: str | None = None, skip: int = 1):
+    """Poincaré samples of `name` against the one swept parameter (None if the sweep
+    does not vary exactly one numeric parameter)."""
+    keys = varying_parameters(cases)
+    if len(keys) != 1:
+        return None
+    key = keys[0]
+    values = [parameter_value((res.attrs.get("parameters") or {}).get(key)) for _, res in cases]
+    if any(v is None for v in values):
+        return None
+    fig = _figure(7.0, 4.5)
+    ax = fig.subplots()
+    for (k, res), (p, _) in zip(cases, values):
+        ps = poincare(res, name, name, body, skip)
+        ax.plot(np.full(len(ps.x), p), ps.x, "o", ms=1.5, color="k")
+    unit = values[0][1]
+    ax.set_xlabel(f"{key} [{unit}]" if unit else key)
+    ax.set_ylabel(label(name, cases[0][1].units.get(name, "")))
+    ax.set_title(f"bifurcation diagram: {name} once per revolution (first {skip} skipped)", fontsize="small")
+    ax.grid(True, lw=0.3, alpha=0.6)
+    return fig
+
+
+# --------------------------------------------------------------------------- the `mbs plot` driver
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")[:80] or "figure"
+
+
+def _save(fig, path: Path, written: list[Path]) -> None:
+    """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data.  The
+    figure is written beside `path` and moved over it once whole, so a full disk or a kill leaves
+    the previous figure (or none), never half a file in its place."""
+    import os
+    import secrets
+    import stat
+
+    from ..results.hdf5 import HDF5_SIGNATURE
+
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if os.path.lexists(path):
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                raise PlotError(f"error: {path} exists and is not a regular file; not writing a figure there")
+            with open(path, "rb") as f:
+                if f.read(len(HDF5_SIGNATURE)) == HDF5_SIGNATURE:
+                    raise PlotError(f"error: {path} holds HDF5 data; not writing a figure over it\n"
+                                    "hint: choose another --output folder")
+        with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), "wb") as f:  # mode as umask says
+            fig.savefig(f, format=path.suffix[1:])
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise PlotError(f"error: cannot write {path}: {exc.strerror or exc}") from None
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        tmp.unlink(missing_ok=True)
+    written.append(path)
+
+
+def parse_panels(signals: Sequence[str]) -> list[list[str]]:
+    """Each argument is a panel; ``A.fx,A.fy`` puts several signals on one panel."""
+    return [[s.strip() for s in arg.split(",") if s.strip()] for arg in signals if arg.strip()]
+
+
+def parse_pair(text: str, option: str = "--poincare") -> tuple[str, str]:
+    x, sep, y = text.partition(":")
+    if not sep or not x.strip() or not y.strip():
+        raise PlotError(f"error: `{option} {text}` is not X:Y\nhint: write e.g. `{option} slider.vx:slider.ax`")
+    return x.strip(), y.strip()
+
+
+def plot_file(
+    path: str | Path,
+    signals: Sequence[str] = (),
+    against: str | None = None,
+    poincare_pair: str | None = None,
+    outdir: str | Path | None = None,
+    fmt: str = "png",
+    skip: int = 1,
+    body: str | None = None,
+    orbit: Sequence[str] = (),
+    model: "Model | None" = None,
+    t_from: float | None = None,
+    t_to: float | None = None,
+    notes: list[str] | None = None,
+) -> list[Path]:
+    """Draw the figures `mbs plot` makes and return the files written.
+
+    With no `signals`, `poincare_pair` or `orbit`, draw the default set (see
+    `default_panels`, plus each clearance joint's orbit and the slider's
+    velocity-acceleration Poincaré map).  A sweep file (``/cases/<k>``) gives one grid
+    per signal, a grid of Poincaré maps and a bifurcation diagram.
+    """
+    from ..results.hdf5 import read_results
+
+    path = Path(path)
+    if fmt not in FORMATS:
+        raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
+    if not path.exists():
+        raise PlotError(f"error: no such file: {path}")
+    try:
+        sweep = is_sweep(path)
+    except OSError as exc:
+        raise PlotError(f"error: {path} is not an HDF5 results file ({exc})") from None
+    outdir = Path(outdir) if outdir is not None else path.parent / f"{path.stem}_plots"
+    stem = path.stem
+    if sweep:
+        panels = parse_panels(signals)
+        pair = parse_pair(poincare_pair) if poincare_pair else None
+        return _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, [])
+    try:
+        results = read_results(path)
+    except (KeyError, OSError) as exc:
+        raise PlotError(f"error: {path} is not a results file written by `mbs run` ({exc})") from None
+    return plot_results(results, stem, signals, against, poincare_pair, outdir, fmt, skip, body, orbit, model,
+                        t_from, t_to, notes)
+
+
+def plot_results(
+    results: "Results",
+    stem: str,
+    signals: Sequence[str] = (),
+    against: str | None = None,
+    poincare_pair: str | None = None,
+    outdir: str | Path = ".",
+    fmt: str = "png",
+    skip: int = 1,
+    body: str | None = None,
+    orbit: Sequence[str] = (),
+    model: "Model | None" = None,
+    t_from: float | None = None,
+    t_to: float | None = None,
+    notes: list[str] | None = None,
+) -> list[Path]:
+    """The figures of one run (already loaded); file names start with `stem`.  ``t_from`` / ``t_to``
+    (s) cut every figure to a time window; warnings (a too-coarse orbit) go to `notes`."""
+    if fmt not in FORMATS:
+        raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
+    outdir = Path(outdir)
+    panels = parse_panels(signals)
+    pair = parse_pair(poincare_pair) if poincare_pair else None
+    written: list[Path] = []
+    if len(results.time) == 0:
+        raise PlotError("error: the results hold no samples")
+    full = results
+    results = time_window(results, t_from, t_to)
+    window = results.attrs.get("window") if results is not full else None
+    if against:
+        check_signals(results, [against])
+    defaults = not panels and pair is None and not orbit
+    if defaults:
+        startup = startup_end(results, skip, model) if window is None else None  # a long run, no window asked
+        for fname, names in default_panels(results, model):
+            _save(series_figure(results, [names], against, startup=startup),
+                  outdir / f"{stem}_{_slug(fname)}.{fmt}", written)
+        if startup is not None and notes is not None:
+            notes.append(f"a long run: the start-up (to t = {startup:.3g} s, shaded) is off the y scale of the "
+                         "time plots; `--from`/`--to` draws a window")
+        orbit = [c for c in clearance_names(results) if _journal(model, c)]
+        slider = slider_body(results, model)
+        if slider is None and notes is not None:
+            notes.append("no slider in this mechanism: no slider figures and no Poincaré map; name the signals "
+                         "to draw (`mbs plot FILE BODY.omega`) and the map's (`-p X:Y`)")
+        if slider and (body or turning_body(results, model)):
+            p = poincare(full, f"{slider}.vx", f"{slider}.ax", body, skip, model)
+            if len(p.t):
+                pair = (p.x_name, p.y_name)
+    if panels:
+        check_signals(results, [n for p in panels for n in p])
+        name = "_".join("+".join(p) for p in panels) + (f"_vs_{against}" if against else "")
+        _save(series_figure(results, panels, against), outdir / f"{stem}_{_slug(name)}.{fmt}", written)
+    if pair:
+        fig = poincare_figure(full, pair[0], pair[1], body, skip, model, window=window)
+        _save(fig, outdir / f"{stem}_poincare_{_slug(pair[0] + '_' + pair[1])}.{fmt}", written)
+    for joint in orbit:
+        if joint not in clearance_names(results):
+            hint = did_you_mean(joint, clearance_names(results))
+            raise PlotError(f"error: `{joint}` is not a clearance joint of this run"
+                            + (f"\nhint: {hint}" if hint else f"\nhint: clearance joints: "
+                               f"{', '.join(clearance_names(results)) or 'none'}"))
+        _save(orbit_figure(results, joint), outdir / f"{stem}_orbit_{_slug(joint)}.{fmt}", written)
+        warning = orbit_resolution_warning(results, joint)
+        if warning and notes is not None:
+            notes.append(warning)
+    return written
+
+
+def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
+    cases = sweep_cases(path)
+    if not cases:
+        raise PlotError(f"error: {path} holds no cases")
+    stem = path.stem
+    first = cases[0][1]
+    if not panels and pair is None:
+        panels = [names[:1] for _, names in default_panels(first)]
+        slider = slider_body(first)
+        if slider:
+            pair = (f"{slider}.vx", f"{slider}.ax")
+    for panel in panels:
+        for name in panel:
+            for _, res in cases:
+                check_signals(res, [name] + ([against] if against else []))
+            _save(sweep_grid_figure(cases, name, against), outdir / f"{stem}_grid_{_slug(name)}.{fmt}", written)
+    if pair:
+        _save(poincare_grid_figure(cases, pair[0], pair[1], body, skip),
+              outdir / f"{stem}_poincare_grid_{_slug(pair[0] + '_' + pair[1])}.{fmt}", written)
+        fig = bifurcation_figure(cases, pair[0], body, skip)
+        if fig is not None:
+            _save(fig, outdir / f"{stem}_bifurcation_{_slug(pair[0])}.{fmt}", written)
+    return written
+
+
+def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None, *, scale: float = 1.0,
+                       unit: str = "", title: str = "", ax=None, where: dict | None = None):
+    """Poincaré samples of ``signal`` (default: the first section signal) against the swept
+    parameter ``param``, from the ``poincare`` groups of a sweep file; points coloured by the
+    verdict of their case (the stored sections: the points `mbs plot` draws for the same file).  ``where`` keeps only cases whose other parameters have these
+    values (text, as in the case table).  ``scale`` multiplies the parameter (e.g. to rpm)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..results.analysis import VERDICT_COLOURS, read_section
+    from ..sweep.scan import parameter_number, parameter_si, read_case_table
+
+    table = read_case_table(sweep_path)
+    # plot numbers in the unit the values were given in when they share one, else in SI
+    parsed = [parameter_number(r["values"].get(param, "")) for r in table]
+    units = {p[1] for p in parsed if p is not None}
+    same_unit = len(units) == 1 and None not in parsed
+    if same_unit and not unit:
+        unit = units.pop()
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(8, 4))
+    seen = set()
+    from ..results.hdf5 import open_results
+
+    with open_results(sweep_path) as f:
+        for row in table:
+            if where and any(row["values"].get(k) != v for k, v in where.items()):
+                continue
+            g = f.get(f"cases/{row['index']}")
+            if g is None or "poincare" not in g:
+                continue
+            sec, verdict = read_section(g)
+            name = signal or sec.names[0]
+            text = row["values"][param]
+            p = (parameter_number(text)[0] if same_unit else parameter_si(text)) * scale
+            v = verdict.verdict if verdict else "undetermined"
+            ax.plot(np.full(len(sec), p), sec.points[name], ".", ms=2, color=VERDICT_COLOURS[v],
+                    label=v if v not in seen else None)
+            seen.add(v)
+    ax.set_xlabel(f"{param}" + (f" [{unit}]" if unit else ""))
+    ax.set_ylabel(f"{signal or 'section'} at the Poincaré section")
+    if title:
+        ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=8, markerscale=4)
+    return fig or ax.figure

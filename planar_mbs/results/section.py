@@ -1,0 +1,358 @@
+"""The one Poincaré section of the project: plots, rerun, `mbs analyze` and sweeps all use it.
+
+Rules (docs/plots.md and docs/sweeps.md describe them for users):
+
+* **Clock.** The section is clocked by a body's angle: the body of the model's
+  first absolute rotation driver when the model is known, else the body whose
+  angle turns most over the run (the crank of a slider-crank).  `clock_body`.
+* **Crossings.** A point is taken each time the clock's angle passes a level:
+  ``phi − phi(0) = 2πk`` by default (once per revolution from the start), or
+  ``phi = angle + 2πk`` for a given ``angle``.  Every level crossed between two
+  output samples gives a point, located by linear interpolation of the angle
+  (`crossings`); for a driver at constant speed these are exactly ``t = kT``.
+  With an explicit ``period`` (a system without a turning body) the section is
+  stroboscopic, ``t = t0 + kT``.
+* **Transient.** The first ``transient`` crossings are dropped (default 1: the
+  end of the first revolution, which still carries the start).  Where the motion
+  really settles is measured afterwards, on the points (`settling`).
+* **Sampling.** Signals are interpolated linearly at the crossing times; on the
+  output grid (times within 1e-6 of an output step) the integrator's own values
+  are used (``method = "grid"``), else the interpolation error is estimated from
+  the local second difference (``interp_error``, relative to each signal's spread).
+* **The slider.** The default section plane is the slider's velocity against its
+  acceleration (as in the figures of Muvengei, Kihiu and Ikua, "Effects of input
+  speed on the dynamic response of planar multi-body systems with differently
+  located frictionless revolute clearance joints"); the slider is the body a
+  translational joint ties to ground, else the one body that moves without
+  turning, else a body named like a slider (`slider_body`).
+
+numpy only.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import MbsError
+
+SLIDER_WORDS = ("slider", "piston", "block", "carriage", "cart", "ram", "crosshead")
+TOL_PERIODIC = 1e-3  # recurrence residual / spread below which two section points coincide
+MAX_PERIOD = 16  # longest period looked for (in revolutions)
+MIN_SETTLED = 20  # fewest section points a settled part must have
+STATIONARY_TOL = 0.15  # window mean/spread differences (in units of the run's spread) for stationarity
+
+
+class AnalysisError(MbsError, ValueError):
+    """The section cannot be taken (no clock, too short a run, unknown signal): exit code 2."""
+
+    exit_code = 2
+
+
+# ---------------------------------------------------------------- which body
+def driver_period(model) -> tuple[float, str] | None:
+    """``(T, body name)`` of the model's first absolute rotation driver at constant speed, else None."""
+    from ..mechanism.model import DriverType, MotionType
+
+    k = model.kernel
+    for d in range(model.ndriver):
+        if (k.driver_type[d] == DriverType.ANGLE and k.driver_body[d, 0] < 0
+                and k.driver_motion[d] == MotionType.CONSTANT_SPEED):
+            w = float(k.driver_motion_param[d, 1])
+            if w != 0.0:
+                return 2 * math.pi / abs(w), model.body_names[int(k.driver_body[d, 1])]
+    return None
+
+
+def _bodies(results) -> list[str]:
+    return [n[:-4] for n in results.signals if n.endswith(".phi")]
+
+
+def clock_body(results, model=None) -> str | None:
+    """The body whose revolutions clock the section: the body of the model's first absolute
+    rotation driver, else the body whose angle turns most over the run (None: no angle)."""
+    if model is not None:
+        from ..mechanism.model import DriverType
+
+        k = model.kernel
+        for d in range(model.ndriver):
+            if int(k.driver_type[d]) == DriverType.ANGLE and int(k.driver_body[d, 0]) < 0:
+                return model.body_names[int(k.driver_body[d, 1])]
+    best, turn = None, -1.0
+    for b in _bodies(results):
+        phi = results[f"{b}.phi"]
+        net = abs(float(phi[-1] - phi[0])) if len(phi) else 0.0
+        if net > turn:
+            best, turn = b, net
+    return best
+
+
+def slider_body(results, model=None) -> str | None:
+    """The body shown as "the slider": the body a translational joint ties to ground (from
+    the model when given); else the one body that moves without turning; else a body named
+    like a slider; else None (a mechanism without a slider: figures and sections ask for signals,
+    rather than showing another body's motion as the slider's)."""
+    if model is not None:
+        from ..mechanism.model import JointType
+
+        k = model.kernel
+        for j in range(model.njoint):
+            if int(k.joint_type[j]) == JointType.TRANSLATIONAL:
+                i1, i2 = (int(b) for b in k.joint_body[j])
+                if i1 < 0 <= i2 or i2 < 0 <= i1:
+                    return model.body_names[max(i1, i2)]
+    bodies = _bodies(results) if results is not None else list(model.body_names if model else [])
+    if not bodies:
+        return None
+    if results is None:
+        still = []
+    else:
+        still = [b for b in bodies if f"{b}.x" in results and np.ptp(results[f"{b}.phi"]) < 1e-9
+                 and np.ptp(results[f"{b}.x"]) + np.ptp(results[f"{b}.y"]) > 0]
+    if len(still) == 1:
+        return still[0]
+    named = [b for b in (still or bodies) if any(w in b.lower() for w in SLIDER_WORDS)]
+    return named[0] if named else None
+
+
+def default_signals(results, model=None) -> tuple[str, str]:
+    """The default section plane, ``(<slider>.vx, <slider>.ax)``; `AnalysisError` naming
+    ``-p X:Y`` when the results hold no such signals."""
+    body = slider_body(results, model)
+    names = (f"{body}.vx", f"{body}.ax")
+    if body is None or (results is not None and any(n not in results for n in names)):
+        bodies = _bodies(results) if results is not None else list(model.body_names if model else [])
+        other = next((b for b in reversed(bodies) if b != clock_body(results, model)), "crank")
+        what = f"no slider signals ({', '.join(names)})" if body else "no slider in this mechanism"
+        raise AnalysisError(f"{what} to take the Poincaré section of; name two signals with `-p X:Y` "
+                            f"(e.g. `-p {other}.omega:{other}.alpha`)")
+    return names
+
+
+# ---------------------------------------------------------------- when
+def crossings(t: np.ndarray, phi: np.ndarray, angle: float | None = None) -> np.ndarray:
+    """Times at which the clock angle passes a level: ``phi − phi[0] = 2πk`` (k ≥ 1) when
+    ``angle`` is None, else ``phi = angle + 2πk``, in the direction of the net turn.
+    Every level crossed between two samples counts, located by linear interpolation."""
+    if len(phi) < 2:
+        return np.zeros(0)
+    sign = 1.0 if phi[-1] >= phi[0] else -1.0
+    if angle is None:
+        s = sign * (phi - phi[0]) / (2 * math.pi)
+        lvl = np.floor(s + 1e-9)  # a turn completed to round-off at the last sample counts
+    else:
+        s = sign * (phi - angle) / (2 * math.pi)
+        lvl = np.floor(s)
+    out = []
+    for i in np.nonzero(np.diff(lvl) > 0)[0]:
+        for level in range(int(lvl[i]) + 1, int(lvl[i + 1]) + 1):
+            f = (level - s[i]) / (s[i + 1] - s[i])
+            out.append(t[i] + f * (t[i + 1] - t[i]))
+    return np.asarray(out, float)
+
+
+def section_times(t: np.ndarray, period: float, transient: float = 1.0, phase: float = 0.0) -> np.ndarray:
+    """Stroboscopic section times ``t0 + phase + kT`` inside the run, the first ``transient``
+    dropped (k ≥ transient + 1)."""
+    if len(t) == 0:
+        return np.zeros(0)
+    t0, t1 = float(t[0]), float(t[-1])
+    k0 = math.ceil(transient - 1e-9) + 1
+    k1 = math.floor((t1 - t0 - phase) / period * (1 + 1e-12) + 1e-9)
+    if k1 < k0:
+        return np.zeros(0)
+    return np.minimum(t0 + phase + period * np.arange(k0, k1 + 1), t1)
+
+
+def snap_to_grid(t: np.ndarray, ts: np.ndarray, rel: float = 1e-6) -> tuple[np.ndarray, bool]:
+    """Replace section times by the output times they coincide with (within ``rel`` of the
+    output step); True if all of them do."""
+    if len(ts) == 0 or len(t) < 2:
+        return ts, True
+    dt = float(np.min(np.diff(t)))
+    idx = np.clip(np.searchsorted(t, ts), 1, len(t) - 1)
+    near = np.where(np.abs(t[idx] - ts) < np.abs(t[idx - 1] - ts), idx, idx - 1)
+    hit = np.abs(t[near] - ts) <= rel * dt
+    return np.where(hit, t[near], ts), bool(hit.all())
+
+
+def sample(t: np.ndarray, x: np.ndarray, ts: np.ndarray) -> tuple[np.ndarray, float]:
+    """Values of ``x`` at times ``ts`` (linear interpolation; exact on the grid) and the
+    largest interpolation error estimated from the local second difference (|x''| h²/8)."""
+    if len(ts) == 0:
+        return np.zeros(0), 0.0
+    idx = np.clip(np.searchsorted(t, ts), 1, len(t) - 1)
+    lo, hi = t[idx - 1], t[idx]
+    frac = (ts - lo) / (hi - lo)
+    vals = x[idx - 1] + frac * (x[idx] - x[idx - 1])
+    i0 = np.clip(idx - 1, 1, len(t) - 2) if len(t) > 2 else idx - 1
+    d2 = np.abs(x[i0 + 1] - 2 * x[i0] + x[i0 - 1]) if len(t) > 2 else np.zeros(len(ts))
+    on_grid = (np.minimum(frac, 1 - frac) * (hi - lo)) <= 1e-9 * (hi - lo) + 1e-12 * np.abs(ts)
+    vals = np.where(ts == hi, x[idx], np.where(ts == lo, x[idx - 1], vals))  # output values exactly
+    return vals, float(np.where(on_grid, 0.0, d2 / 8).max())
+
+
+# ---------------------------------------------------------------- the section
+@dataclass
+class PoincareSection:
+    """Section points of a run: ``points[name]`` sampled at ``time``; ``revolution[i]`` is the
+    crossing number of point i counted from the start of the run (1 = end of the first)."""
+
+    time: np.ndarray
+    points: dict[str, np.ndarray]
+    period: float | None  # mean time between crossings (s); the driver period at constant speed
+    transient: float  # crossings dropped
+    method: str  # "grid" (section times are output times) or "interpolated"
+    kind: str = "revolution"  # "revolution", "angle" or "stroboscopic"
+    angle: float | None = None  # rad, for kind == "angle"
+    clock: str | None = None  # the body whose angle clocks the section
+    interp_error: dict[str, float] = field(default_factory=dict)  # relative, per signal
+    scale: dict[str, float] = field(default_factory=dict)  # spread of each signal after the transient
+    revolution: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.revolution is None:
+            self.revolution = np.arange(len(self.time)) + int(math.ceil(self.transient - 1e-9)) + 1
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.points)
+
+    def array(self, names: Sequence[str] | None = None) -> np.ndarray:
+        names = list(names or self.names)
+        return np.column_stack([self.points[n] for n in names]) if len(self.time) else np.zeros((0, len(names)))
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+    def attrs(self) -> dict:
+        return {
+            "period": self.period if self.period is not None else float("nan"),
+            "transient": self.transient, "method": self.method, "kind": self.kind,
+            "angle": self.angle if self.angle is not None else float("nan"),
+            "clock": self.clock or "", "signals": self.names,
+            "interp_error": self.interp_error, "scale": self.scale,
+        }
+
+
+def poincare_section(results, signals: Sequence[str] | None = None, *, period: float | None = None,
+                     angle: float | None = None, clock: str | None = None, transient: float = 1.0,
+                     model=None) -> PoincareSection:
+    """Sample ``signals`` (default: `default_signals`) of a run at the section (module
+    docstring): once per revolution of the clock body, at its ``angle``, or every
+    ``period`` seconds when a period is given; the first ``transient`` crossings dropped."""
+    t = results.time
+    if len(t) < 2:  # before choosing signals: an empty run has no motion to choose by
+        raise AnalysisError(f"the run holds {len(t)} output time{'s' if len(t) != 1 else ''}: a section needs "
+                            "at least two (it stopped at once, or was written empty)")
+    signals = (signals,) if isinstance(signals, str) else tuple(signals) if signals else \
+        default_signals(results, model)
+    for name in signals:
+        results[name]  # KeyError with a suggestion
+    if period is not None and angle is None and period < (t[-1] - t[0]) / (len(t) - 1) * (1 - 1e-9):
+        raise AnalysisError(f"the period {period:.6g} s is shorter than the output step "
+                            f"{(t[-1] - t[0]) / (len(t) - 1):.6g} s: the section would only interpolate between "
+                            "samples (and hold more points than the run has rows)",
+                            )
+    if period is not None and angle is None:
+        ts, kind = section_times(t, period, transient), "stroboscopic"
+        first = math.ceil(transient - 1e-9) + 1
+    else:
+        clock = clock or clock_body(results, model)
+        if clock is None or f"{clock}.phi" not in results:
+            raise AnalysisError(f"no body angle `{clock}.phi` to clock the Poincaré section" if clock else
+                                "the results hold no body angle to clock a Poincaré section; give a period")
+        ts = crossings(t, results[f"{clock}.phi"], angle)
+        skip = math.ceil(transient - 1e-9)
+        ts, kind, first = ts[skip:], ("revolution" if angle is None else "angle"), skip + 1
+        if len(ts) > 1:
+            period = float(np.mean(np.diff(ts)))
+    ts, on_grid = snap_to_grid(t, ts)
+    points, errors, scale = {}, {}, {}
+    start = np.searchsorted(t, ts[0]) if len(ts) else len(t)
+    for name in signals:
+        x = results[name]
+        vals, err = sample(t, x, ts)
+        spread = float(np.ptp(x[start:])) if start < len(t) else 0.0
+        points[name], scale[name] = vals, spread
+        errors[name] = err / spread if spread > 0 else 0.0
+    return PoincareSection(time=np.asarray(ts, float), points=points, period=period, transient=transient,
+                           method="grid" if on_grid else "interpolated", kind=kind, angle=angle, clock=clock,
+                           interp_error=errors, scale=scale, revolution=np.arange(len(ts)) + first)
+
+
+# ---------------------------------------------------------------- where the motion settles
+def normalise(points: np.ndarray, scale: Sequence[float] | None = None) -> np.ndarray:
+    """Points divided by each column's spread (``scale``, else the points' own range)."""
+    points = np.asarray(points, float)
+    if points.ndim == 1:
+        points = points[:, None]
+    s = np.asarray(scale if scale is not None else np.ptp(points, axis=0), float)
+    s = np.where(s > 0, s, 1.0)
+    return (points - points.mean(axis=0)) / s
+
+
+def periodic_from(x: np.ndarray, p: int, tol: float = TOL_PERIODIC) -> int | None:
+    """First index from which every point recurs after ``p`` iterations (``|x[k+p] − x[k]|
+    < tol`` for all later k) on a normalised sequence; None if the recurring tail is shorter
+    than `MIN_SETTLED` points or than 3p."""
+    n = len(x)
+    if n <= p:
+        return None
+    bad = np.nonzero(np.linalg.norm(x[p:] - x[:-p], axis=1) >= tol)[0]
+    start = int(bad[-1]) + 1 if len(bad) else 0
+    return start if n - start >= max(MIN_SETTLED, 3 * p) else None
+
+
+def stationary_from(x: np.ndarray, tol: float = STATIONARY_TOL) -> int | None:
+    """Start of the first window of points from which every later window has the mean and
+    the spread (standard deviation) of the last half, within ``tol`` of the normalised
+    scale (windows of max(MIN_SETTLED, n/10) points), and whose two halves agree too.
+    None when there is no such part or it is shorter than a quarter of the run."""
+    n = len(x)
+    w = max(MIN_SETTLED, n // 10)
+    if n < 2 * w:
+        return None
+    ref = x[n // 2:]
+    mean, std = ref.mean(axis=0), ref.std(axis=0)
+    starts = list(range(0, n - w + 1, w))
+    ok = [bool(np.all(np.abs(x[s:s + w].mean(axis=0) - mean) < tol)
+               and np.all(np.abs(x[s:s + w].std(axis=0) - std) < tol)) for s in starts]
+    first = None
+    for s, good in zip(reversed(starts), reversed(ok)):
+        if not good:
+            break
+        first = s
+    if first is None or n - first < n // 4:
+        return None
+    a, b = np.array_split(x[first:], 2)  # no trend inside the stationary part either
+    same = np.all(np.abs(a.mean(axis=0) - b.mean(axis=0)) < tol) and np.all(np.abs(a.std(axis=0) - b.std(axis=0)) < tol)
+    return first if same else None
+
+
+def settling(points, scale: Sequence[float] | None = None, *, tol_periodic: float = TOL_PERIODIC,
+             max_period: int = MAX_PERIOD) -> tuple[int | None, int | None]:
+    """``(index, period)`` where the section points settle: the earliest index from which
+    they repeat with the smallest period p ≤ ``max_period`` (``period = p``), else the start
+    of the stationary part (``period = None``); ``(None, None)``: not settled."""
+    x = normalise(points, scale)
+    for p in range(1, max_period + 1):
+        s = periodic_from(x, p, tol_periodic)
+        if s is not None:
+            return s, p
+    return stationary_from(x), None
+
+
+def settling_of_results(results, model=None, periodic_only: bool = False) -> int | None:
+    """The revolution from which the default section of a run has settled (None: not yet);
+    ``periodic_only``: settled on a periodic orbit (chaos can look stationary for hundreds
+    of revolutions before it stops, so a run that waits for settling waits for this)."""
+    sec = poincare_section(results, model=model)
+    if len(sec) < MIN_SETTLED:
+        return None
+    idx, period = settling(sec.array(), [sec.scale[n] for n in sec.names])
+    if idx is None or (periodic_only and period is None):
+        return None
+    return int(sec.revolution[idx])

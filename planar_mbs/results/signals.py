@@ -1,0 +1,164 @@
+"""Signal names: `<entity>.<quantity>`, mapped onto columns of the observation row.
+
+One table serves the HDF5 file, the CLI, plots and the Python
+API.  The kernel's `observe` fills rows in the layout of
+`model.observation_layout`; `signal_table` says which column (or which
+combination of columns) each named signal is.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import catalog
+from ..mechanism.model import (
+    CS_E,
+    CS_EX,
+    CS_EY,
+    CS_FN,
+    CS_FRICTION,
+    CS_FX,
+    CS_FY,
+    CS_IMPACT_VELOCITY,
+    CS_IN_CONTACT,
+    CS_PENETRATION,
+    CS_SLIP,
+    CS_FILM_PRESSURE,
+    CS_POINT_X,
+    CS_POINT_Y,
+    CP_FRICTION,
+    CP_KIND,
+    JS_FX,
+    JS_FY,
+    JS_MOMENT,
+    N_CLEARANCE_SIGNALS,
+    N_JOINT_SIGNALS,
+    OBS_SKIP_CLEARANCE,
+    OBS_SKIP_DYNAMICS,
+    OBS_SKIP_ENERGY,
+    OBS_SKIP_ERRORS,
+    OB_CLEARANCE,
+    OB_EFFORT,
+    OB_JOINT,
+    OB_POWER,
+    OB_Q,
+    OB_QD,
+    OB_QDD,
+    OB_SYSTEM,
+    SYS_KINETIC,
+    SYS_POSITION_ERROR,
+    SYS_POTENTIAL,
+    SYS_VELOCITY_ERROR,
+    DriverType,
+    JointType,
+    PairKind,
+    Model,
+    observation_layout,
+)
+
+BODY_QUANTITIES = [
+    ("x", "m"), ("y", "m"), ("phi", "rad"),
+    ("vx", "m/s"), ("vy", "m/s"), ("omega", "rad/s"),
+    ("ax", "m/s^2"), ("ay", "m/s^2"), ("alpha", "rad/s^2"),
+]
+CLEARANCE_QUANTITIES = [
+    ("ex", "m", CS_EX), ("ey", "m", CS_EY), ("e", "m", CS_E),
+    ("penetration", "m", CS_PENETRATION), ("contact_force", "N", CS_FN),
+    ("fx", "N", CS_FX), ("fy", "N", CS_FY), ("in_contact", "1", CS_IN_CONTACT),
+    ("impact_velocity", "m/s", CS_IMPACT_VELOCITY),
+]
+FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "m/s", CS_SLIP)]
+# the contact point on the second body (journal, circle, corner), global frame; the film's peak pressure
+POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_Y)]
+FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
+# joints whose reaction includes a moment (they lock the relative rotation; catalog.JointSpec.moment)
+MOMENT_JOINTS = tuple(JointType(s.code) for s in catalog.JOINTS if s.moment)
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A named output: ``op`` combines ``columns`` ("col": the one column,
+    "hypot": the magnitude of two columns, "sum": their sum)."""
+
+    entity: str
+    quantity: str
+    unit: str
+    columns: tuple[int, ...]
+    op: str = "col"
+
+    @property
+    def name(self) -> str:
+        return f"{self.entity}.{self.quantity}"
+
+    def extract(self, rows: np.ndarray) -> np.ndarray:
+        cols = rows[:, list(self.columns)]
+        if self.op == "col":
+            return cols[:, 0].copy()
+        if self.op == "hypot":
+            return np.hypot(cols[:, 0], cols[:, 1])
+        return cols.sum(axis=1)
+
+
+def signal_table(model: Model) -> list[Signal]:
+    """Every signal the model produces, in observation-row order (`model.observation_layout`)."""
+    nb = model.nbody
+    k = model.kernel
+    lay = observation_layout(nb, model.njoint, model.ndriver, model.nclearance)
+    table: list[Signal] = []
+    for b, name in enumerate(model.body_names):
+        for block, (qty, unit) in enumerate(BODY_QUANTITIES):
+            part, comp = divmod(block, 3)  # q, qd, qdd blocks of 3 nb columns
+            table.append(Signal(name, qty, unit, (lay[(OB_Q, OB_QD, OB_QDD)[part]] + 3 * b + comp,)))
+    for j, name in enumerate(model.joint_names):
+        c = lay[OB_JOINT] + N_JOINT_SIGNALS * j
+        table += [
+            Signal(name, "fx", "N", (c + JS_FX,)),
+            Signal(name, "fy", "N", (c + JS_FY,)),
+            Signal(name, "force", "N", (c + JS_FX, c + JS_FY), "hypot"),
+        ]
+        if JointType(int(k.joint_type[j])) in MOMENT_JOINTS:
+            table.append(Signal(name, "moment", "N*m", (c + JS_MOMENT,)))
+    for d, name in enumerate(model.driver_names):
+        angle = int(k.driver_type[d]) == DriverType.ANGLE
+        effort = ("torque", "N*m") if angle else ("force", "N")
+        table.append(Signal(name, effort[0], effort[1], (lay[OB_EFFORT] + d,)))
+        table.append(Signal(name, "power", "W", (lay[OB_POWER] + d,)))
+    for c, name in enumerate(model.clearance_names):
+        col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * c
+        quantities = list(CLEARANCE_QUANTITIES)
+        if k.clearance_param[c, CP_FRICTION] > 0:
+            quantities += FRICTION_QUANTITIES
+        quantities += POINT_QUANTITIES
+        if int(k.clearance_param[c, CP_KIND]) == PairKind.LUBRICATED:
+            quantities += FILM_QUANTITIES
+        table += [Signal(name, q, u, (col + off,)) for q, u, off in quantities]
+    s = lay[OB_SYSTEM]
+    table += [
+        Signal("system", "kinetic_energy", "J", (s + SYS_KINETIC,)),
+        Signal("system", "potential_energy", "J", (s + SYS_POTENTIAL,)),
+        Signal("system", "total_energy", "J", (s + SYS_KINETIC, s + SYS_POTENTIAL), "sum"),
+        Signal("system", "position_error", "1", (s + SYS_POSITION_ERROR,)),
+        Signal("system", "velocity_error", "1", (s + SYS_VELOCITY_ERROR,)),
+    ]
+    return table
+
+
+def skip_bits(model: Model, columns=None) -> int:
+    """cfg[CFG_SKIP] for a run that keeps only these columns of the observation row (`columns`: the
+    observation columns its stored signals read, as `simulation.select_signals` returns them; None =
+    every column): the OBS_SKIP_* bit of each group none of them reads, whose work the time loop's
+    `observe` then skips (a full `accelerations` per row for the q'' block, joint reactions and driver
+    efforts).  0 when every signal is kept."""
+    if columns is None:
+        return 0
+    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance)
+    s = lay[OB_SYSTEM]
+    groups = (
+        (OBS_SKIP_DYNAMICS, range(lay[OB_QDD], lay[OB_CLEARANCE])),
+        (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], s)),
+        (OBS_SKIP_ENERGY, (s + SYS_KINETIC, s + SYS_POTENTIAL)),
+        (OBS_SKIP_ERRORS, (s + SYS_POSITION_ERROR, s + SYS_VELOCITY_ERROR)),
+    )
+    used = {int(c) for c in columns}
+    return sum(bit for bit, cols in groups if not used.intersection(cols))
