@@ -55,7 +55,7 @@ def lap(k, t=[T0]):
     now = time.perf_counter(); laps[k] = now - t[0]; t[0] = now
 import numpy; lap("python + numpy")
 import planar_mbs as mbs
-from planar_mbs import parse; parse.parser(); lap("lark parser")
+from planar_mbs.language import parse; parse.parser(); lap("lark parser")
 m = mbs.load_model(%r); lap("rest of load_model (units from our table: no pint)")
 from planar_mbs.mechanism.kinematics import assemble; assemble(m); lap("assembly (constraint kernels as plain Python)")
 import numba; lap("numba import")

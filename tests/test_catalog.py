@@ -168,7 +168,7 @@ def test_an_added_law_joint_and_integrator_are_accepted_by_mbs_check(extended):
 def test_the_kernel_constants_of_the_copy_follow_its_catalog(extended):
     """No hand-kept count: the copy's kernel knows one law and joint type and two integrators more."""
     env = {**os.environ, "PYTHONPATH": str(extended), "NUMBA_CACHE_DIR": str(extended / "numba_cache")}
-    code = ("from planar_mbs.kernel import contact, constraints, integrators; from planar_mbs import model; "
+    code = ("from planar_mbs.kernel import contact, constraints, integrators; from planar_mbs.mechanism import model; "
             "print(contact.N_LAWS, len(constraints._JOINT_ROWS), len(integrators.END_STAGE), "
             "len(model.ContactLaw), len(model.JointType), len(model.Integrator), "
             "bool(contact.is_cylindrical.py_func(contact.N_LAWS - 1)))")

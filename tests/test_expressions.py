@@ -241,7 +241,7 @@ def test_tables_from_files_are_checked(tmp_path):
 
 
 def test_interpolations_against_their_definitions():
-    from planar_mbs.language.tables import evaluate, knots
+    from planar_mbs.mechanism.tables import evaluate, knots
 
     xs = np.array([0.0, 1.0, 2.5, 3.0, 4.0])
     ys = 2.0 * xs - 1.0

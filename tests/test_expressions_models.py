@@ -31,7 +31,7 @@ def test_crank_shaper_quick_return_and_work_of_the_cut():
 def test_engine_work_balance():
     """Gas force (the table, evaluated here from the file) times the piston's speed, plus the brake's
     -c omega^2, integrated over the run, equals the change of kinetic energy."""
-    from planar_mbs.language.tables import evaluate, knots, read_csv
+    from planar_mbs.mechanism.tables import evaluate, knots, read_csv
 
     model = mbs.load_model(MODELS / "single_cylinder_engine.mbs", interpolation="linear")
     res = mbs.simulate(model, t_end="0.1 s", output_step="20 us")

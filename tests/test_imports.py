@@ -92,3 +92,29 @@ def test_the_cycle_finder_finds_a_cycle():
 def test_no_import_cycle():
     cycle = find_cycle(graph())
     assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+# The package's folders in the order of the data flow, lowest first (docs/architecture.md):
+# a module imports from its own folder and the folders before it, never from one after it.
+STAGES = ["catalog", "errors", "pykernel", "language", "mechanism", "kernel", "results", "run", "sweep",
+          "outputs", "cli"]
+
+
+def upward_imports(g: dict[str, set[str]]) -> list[str]:
+    def stage(m):
+        parts = m.split(".")
+        return STAGES.index(parts[1]) if len(parts) > 1 and parts[1] in STAGES else None
+
+    return sorted(f"{a} -> {b}" for a, targets in g.items() for b in targets
+                  if stage(a) is not None and stage(b) is not None and stage(b) > stage(a))
+
+
+def test_every_module_lives_in_a_stage_folder():
+    folders = {m.split(".")[1] for m in modules() if m.count(".") >= 1}
+    assert folders <= set(STAGES), folders - set(STAGES)
+
+
+def test_the_stage_folders_import_only_back_up_the_data_flow():
+    assert upward_imports({"planar_mbs.language.parse": {"planar_mbs.run.simulation"}}) == [
+        "planar_mbs.language.parse -> planar_mbs.run.simulation"]  # the check can fail
+    assert upward_imports(graph()) == []

@@ -63,7 +63,7 @@ def _motion_program():
     """The program of the EXPRESSION driver: functions, a quotient and a table of t, so that the
     finite differences below check its f' and f'' (dual numbers) too."""
     from planar_mbs.language.evaluate import Evaluator
-    from planar_mbs.language.expressions import Context, Programs
+    from planar_mbs.mechanism.expressions import Context, Programs
     from planar_mbs.language.parse import parse_expression
     from planar_mbs.language.units import ANGLE
 

@@ -38,7 +38,7 @@ def test_settings_take_the_cli_unit_strings():
     m = mbs.load_model(MODELS / "slider_crank.mbs")
     res = mbs.simulate(m, t_end="3 ms", output_step="0.5 ms", integrator="DOP853", rtol="1e-9")
     np.testing.assert_allclose(res.time, np.arange(7) * 0.5e-3, atol=1e-15)
-    assert res.attrs["settings"]["integrator"] == mbs.simulation.Integrator.DOP853
+    assert res.attrs["settings"]["integrator"] == mbs.run.simulation.Integrator.DOP853
     assert res.attrs["settings"]["rtol"] == 1e-9
 
 

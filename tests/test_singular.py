@@ -17,7 +17,7 @@ import chains
 import planar_mbs as mbs
 from planar_mbs.cli.app import app
 from planar_mbs.mechanism.compile import compile_text
-from planar_mbs.mechanism.ordering import profile
+from planar_mbs.kernel.workspace import envelope_size as profile
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 runner = CliRunner()

@@ -1,5 +1,5 @@
 """The interpreter of expression programs: loads and motions written as expressions of time,
-parameters and the state (`planar_mbs.language.expressions` compiles them, docs/language.md).
+parameters and the state (`planar_mbs.mechanism.expressions` compiles them, docs/language.md).
 
 A program is a run of rows of ``km.expr_code`` (``model.ExprOp``, three operands); row ``i``
 writes register ``km.expr_reg[i]``, so a program is evaluated in one pass in order, with no stack

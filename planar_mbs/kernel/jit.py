@@ -68,7 +68,7 @@ from numba import njit
 _HERE = Path(__file__).resolve().parent
 # every file a kernel is compiled from: the kernel modules, the model's codes and layouts, and
 # the catalog the kernels' constants (law count, rows per joint type, stage buffers) come from
-KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "model.py", _HERE.parent / "catalog.py")
+KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "mechanism" / "model.py", _HERE.parent / "catalog.py")
 # the numba releases whose private caching code the fast path was read against and tested on: the
 # same code in every release between them (0.61 had other class names)
 CHECKED_NUMBA = ((0, 62), (0, 68))

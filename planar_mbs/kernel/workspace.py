@@ -169,3 +169,12 @@ def make_workspace(km: KernelModel) -> Workspace:
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
         res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(),
     )
+
+
+def envelope_size(km: KernelModel) -> int:
+    """Entries of the envelope of S (sum over rows of r - first[r] + 1): the memory and,
+    squared per row, the work of one envelope factorisation."""
+    from .constraints import row_bodies
+
+    first, _ = envelope(row_bodies(km))
+    return int(np.sum(np.arange(len(first)) - first + 1))

@@ -73,7 +73,7 @@ from .model import (
     Settings,
     SourceRef,
 )
-from ..language.expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
+from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
 from .ordering import reorder
 from ..language.parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from ..language.spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector

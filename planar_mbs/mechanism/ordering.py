@@ -89,13 +89,3 @@ def reorder(km: KernelModel) -> KernelModel:
     """The same model with its constraint rows in the fill-reducing order."""
     jrow, drow = row_order(km.joint_type, km.joint_body, km.driver_body)
     return km._replace(joint_row=jrow, driver_row=drow)
-
-
-def profile(km: KernelModel) -> int:
-    """Entries of the envelope of S (sum over rows of r - first[r] + 1): the memory and,
-    squared per row, the work of one envelope factorisation."""
-    from ..kernel.constraints import row_bodies
-    from ..kernel.workspace import envelope
-
-    first, _ = envelope(row_bodies(km))
-    return int(np.sum(np.arange(len(first)) - first + 1))

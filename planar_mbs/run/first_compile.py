@@ -173,7 +173,7 @@ def helper_main() -> None:
 
     from ..mechanism.compile import compile_text
     from ..kernel import make_workspace
-    from ..sweep.server import die_with_parent
+    from .children import die_with_parent
 
     die_with_parent()
     km = compile_text(_TINY).kernel

@@ -651,7 +651,7 @@ def end_with_parent(parent: int) -> None:
     import signal
     import threading
 
-    from .server import die_with_parent
+    from ..run.children import die_with_parent
 
     die_with_parent()
 

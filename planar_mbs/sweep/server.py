@@ -22,6 +22,8 @@ import os
 import sys
 from pathlib import Path
 
+from ..run.children import die_with_parent
+
 _STARTED: list[bool] = []
 SERVER_ENV = "PLANAR_MBS_SWEEP_SERVER"  # set for the server only: the pid of the sweep that started it
 
@@ -92,19 +94,6 @@ def remove_temp_folder() -> None:
     folder = process.current_process()._config.get("tempdir")
     if folder and Path(folder).name.startswith(f"{TEMP_PREFIX}{os.getpid()}-"):
         shutil.rmtree(folder, ignore_errors=True)
-
-
-def die_with_parent() -> bool:
-    """Have the kernel send SIGKILL to this process when its parent process ends (prctl
-    PR_SET_PDEATHSIG); False where that does not exist (not Linux)."""
-    try:
-        import ctypes
-        import signal
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return False
-    return True
 
 
 def die_with_the_sweep() -> None:

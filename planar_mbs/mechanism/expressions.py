@@ -16,11 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import units as U
+from ..language import units as U
 from ..errors import did_you_mean
-from .evaluate import EXPRESSION_FUNCTIONS, Evaluator, Scalar, Symbol
-from ..mechanism.model import BQ_OMEGA, BQ_PHI, BQ_VX, BQ_VY, BQ_X, BQ_Y, ExprOp
-from .spec import BinOp, Call, Compare, Expr, Name, Neg, Number, Pos, SignalRef, String, Vector
+from ..language.evaluate import EXPRESSION_FUNCTIONS, Evaluator, Scalar, Symbol
+from .model import BQ_OMEGA, BQ_PHI, BQ_VX, BQ_VY, BQ_X, BQ_Y, ExprOp
+from ..language.spec import BinOp, Call, Compare, Expr, Name, Neg, Number, Pos, SignalRef, String, Vector
 
 ONE = U.Dimensionality((0.0,) * 7)
 FUNCTIONS = EXPRESSION_FUNCTIONS

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import units as U
+from ..language import units as U
 from ..errors import ModelError, did_you_mean
-from ..mechanism.model import ExprOp
-from .spec import Call, Name, String, Vector
+from .model import ExprOp
+from ..language.spec import Call, Name, String, Vector
 
 INTERPOLATIONS = ("linear", "cubic", "akima")
 TABLE_ARGS = ("x", "x_unit", "y_unit", "xs", "ys", "interpolation", "periodic")
