@@ -7,6 +7,7 @@ another model, 3 at least one case failed (its results up to the failure are kep
 130 interrupted, 143 stopped by SIGTERM (finished cases are kept; rerunning the command resumes).
 """
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -188,7 +189,8 @@ def sweep(
         keep_list = None if keep is not None and keep.strip() == "all" else \
             [k.strip() for k in (keep or "").split(",") if k.strip()]  # none by default
         _check_sweep_files(model, output, set_ or [], keep_list)
-        with _interruptible(), _SweepProgress(quiet) as bar, _cluster(scheduler) as executor:
+        workers = None if scheduler else jobs or os.cpu_count() or 1  # a cluster's: unknown here
+        with _interruptible(), _SweepProgress(quiet, workers) as bar, _cluster(scheduler) as executor:
             summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
                                 jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
@@ -351,38 +353,47 @@ def _print_table(rows, params) -> None:
 
 
 class _SweepProgress:
-    """A rich bar over the cases; shows the last case's verdict."""
+    """The progress line of a sweep (`sweep.progress.ProgressTally`: cases done and failed, the CPU the
+    cases get, the time left) with a bar and the last case's verdict on a terminal; elsewhere (a log
+    file, `nohup`) the same line once a minute."""
 
-    def __init__(self, quiet: bool):
+    EVERY = 60.0  # seconds between two lines when stderr is not a terminal
+
+    def __init__(self, quiet: bool, workers=None):
+        from planar_mbs.sweep.progress import ProgressTally
+
         self.quiet = quiet
-        self.failed = 0
+        self.tally = ProgressTally(workers)
         self.bar = None
         self.task = None
+        self.printed = None
 
     def __enter__(self):
         return self
 
     def update(self, done: int, total: int, outcome) -> None:
+        self.tally.update(done, total, outcome)
         if self.quiet:
             return
+        console = _console(stderr=True)
+        if not console.is_terminal:
+            now = self.tally.elapsed()
+            if now - (self.printed or 0.0) >= self.EVERY or (done == total and self.printed is not None):
+                console.print(f"sweep: {self.tally.line()}", markup=False, highlight=False, soft_wrap=True)
+                self.printed = now
+            return
         if self.bar is None:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, \
-                TimeRemainingColumn
+            from rich.progress import BarColumn, Progress, TextColumn
 
-            self.bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                                TimeRemainingColumn(), TextColumn("{task.fields[last]}"),
-                                console=_console(stderr=True), transient=True)
+            self.bar = Progress(TextColumn("sweep"), BarColumn(), TextColumn("{task.fields[tally]}"),
+                                TextColumn("{task.fields[last]}"), console=console, transient=True)
             self.bar.start()
-            self.task = self.bar.add_task("sweep", total=total, completed=done, last="")
+            self.task = self.bar.add_task("sweep", total=total, completed=done, tally="", last="")
         last = ""
-        if outcome is not None and outcome.status != "finished":
-            self.failed += 1
         if outcome is not None:
             vals = ", ".join(f"{k}={v}" for k, v in outcome.values.items())
-            last = f"{vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
-        if self.failed:
-            last = f"{self.failed} failed  {last}"
-        self.bar.update(self.task, completed=done, last=last)
+            last = f"  last: {vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
+        self.bar.update(self.task, completed=done, tally=self.tally.line(), last=last)
 
     def __exit__(self, *exc):
         if self.bar is not None:

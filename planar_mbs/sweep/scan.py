@@ -892,8 +892,19 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
     pending = [s for s in numbered if rows.get(s.key, {}).get("status") not in done_status]
     skipped = [s.index for s in numbered if s not in pending]
     expected = check_cases(pending, output, force)
-    order = sorted(range(len(pending)), key=lambda i: -expected[i])  # longest first: no core finishes alone
-    return _Plan(rows, merged, numbered, [pending[i] for i in order], skipped, fresh)
+    return _Plan(rows, merged, numbered, run_order(pending, expected), skipped, fresh)
+
+
+def run_order(specs: Sequence[CaseSpec], expected: Sequence[float]) -> list[CaseSpec]:
+    """The cases longest expected first (their output rows), so no core finishes alone; cases of equal
+    length in an order fixed by a hash of their key, spread over every parameter instead of the
+    order of the axes (all of the lowest speed first): the cases finished so far are then a fair sample
+    of those left, for the progress line's time left, and the same cases run in the same order again."""
+    def spread(spec: CaseSpec) -> bytes:
+        return hashlib.blake2b(spec.key.encode(), digest_size=8).digest()
+
+    order = sorted(range(len(specs)), key=lambda i: (-expected[i], spread(specs[i])))
+    return [specs[i] for i in order]
 
 
 def _pending_row(spec: CaseSpec) -> dict:
