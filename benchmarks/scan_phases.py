@@ -64,7 +64,7 @@ def child() -> None:
     """Run `mbs sweep` (argv after --child) in this process with the phases wrapped; at its exit write
     this process's CPU seconds per phase to the file named in $SCAN_PHASES_REPORT."""
     from planar_mbs.cli import entry, sweep_commands
-    from planar_mbs.sweep import scan, store, worker
+    from planar_mbs.sweep import scan, server, store
 
     spent: dict[str, float] = {}
     stack: list[float] = []
@@ -77,16 +77,20 @@ def child() -> None:
 
     scan.run_sweep = begin
     for owner, name, phase in [(scan.ModelSnapshot, "of", "model"), (scan, "plan", "model"),
-                               (scan, "check_cases", "checks"), (worker, "warm_up", "kernels"),
+                               (scan, "check_cases", "checks"),
                                (scan, "run_case", "cases"), (scan, "store_outcome", "journal"),
                                (store, "gather", "gather"), (store, "write_table", "table"),
                                (sweep_commands, "_print_table", "table")]:
         _wrap(owner, name, phase, spent, stack)
     start = scan._start
 
-    def warm_first(pending, folder, jobs, *rest):  # -j 1: the kernels load before the first case, not in it
-        if jobs == 1 or len(pending) <= 1:
-            worker.warm_up()
+    def warm_first(pending, folder, jobs, *rest):
+        """-j 1: the kernels load (importing `sweep.worker` does) before the first case, not in it; with a
+        pool they load in the fork server, and in this process only if that did not start."""
+        t0 = time.process_time()
+        if jobs == 1 or len(pending) <= 1 or not server.started():
+            from planar_mbs.sweep import worker  # noqa: F401
+        spent["kernels"] = time.process_time() - t0
         return start(pending, folder, jobs, *rest)
 
     scan._start = warm_first

@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/scan_scaling.py                 # both scans, -j 1,2,4,8,16
     .venv/bin/python benchmarks/scan_scaling.py --jobs 1,2 --rounds 3
+    .venv/bin/python benchmarks/scan_scaling.py --cases 32 --revolutions 200 --jobs 1,2 --rounds 3   # one scan
     .venv/bin/python benchmarks/scan_scaling.py --serial      # the serial fraction and its Amdahl bound
 
 Two scans of models/slider_crank_clearance_a.mbs at 180 samples per revolution: 32 cases x 40
@@ -79,6 +80,8 @@ def main() -> None:
     ap.add_argument("--jobs", default="1,2,4,8,16")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--only", choices=list(SCANS), default=None)
+    ap.add_argument("--cases", type=int, default=None, help="instead: one scan of this many speeds ...")
+    ap.add_argument("--revolutions", type=int, default=200, help="... of this many revolutions each")
     ap.add_argument("--serial", action="store_true", help="measure the serial fraction (on any machine)")
     args = ap.parse_args()
     if args.serial:
@@ -89,8 +92,10 @@ def main() -> None:
     cores = os.cpu_count() or 1
     jobs = [j for j in map(int, args.jobs.split(",")) if j <= cores]
     print(f"{cores} cores, python {sys.version.split()[0]}")
+    scans = {f"{args.cases} x {args.revolutions} rev": (f"speed=500rpm..6000rpm:{args.cases}", args.revolutions)} \
+        if args.cases else SCANS
     with tempfile.TemporaryDirectory() as tmp:
-        for name, (param, revolutions) in SCANS.items():
+        for name, (param, revolutions) in scans.items():
             if args.only and name != args.only:
                 continue
             times = {j: [] for j in jobs}
