@@ -128,3 +128,16 @@ def test_a_sweep_off_a_terminal_prints_the_line(tmp_path, monkeypatch, quiet):
     else:
         assert lines[0].startswith("sweep: 0/2 cases") and lines[-1].startswith("sweep: 2/2 cases, 1 worker at")
         assert lines[-1].endswith("about 0:00:00 left")
+
+
+def test_between_cases_the_time_left_counts_down_to_zero_at_most():
+    now = [0.0]
+    tally = ProgressTally(1, clock=lambda: now[0])
+    tally.update(0, 3, None)
+    now[0] = 10.0
+    tally.update(1, 3, _Outcome("finished", 10.0, 10.0, {}))
+    assert tally.remaining_seconds() == 20.0
+    now[0] = 15.0
+    assert tally.remaining_seconds() == 15.0 and tally.line().endswith("0:00:15 elapsed, about 0:00:15 left")
+    now[0] = 40.0  # the next case is late: no negative time
+    assert tally.remaining_seconds() == 0.0

@@ -383,17 +383,22 @@ class _SweepProgress:
                 self.printed = now
             return
         if self.bar is None:
-            from rich.progress import BarColumn, Progress, TextColumn
+            from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn
+            from rich.text import Text
 
-            self.bar = Progress(TextColumn("sweep"), BarColumn(), TextColumn("{task.fields[tally]}"),
-                                TextColumn("{task.fields[last]}"), console=console, transient=True)
+            class Tally(ProgressColumn):  # drawn at every refresh: the clock and the time left move between cases
+                def render(column, task):
+                    return Text(self.tally.line())
+
+            self.bar = Progress(TextColumn("sweep"), BarColumn(), Tally(), TextColumn("{task.fields[last]}"),
+                                console=console, transient=True)
             self.bar.start()
-            self.task = self.bar.add_task("sweep", total=total, completed=done, tally="", last="")
+            self.task = self.bar.add_task("sweep", total=total, completed=done, last="")
         last = ""
         if outcome is not None:
             vals = ", ".join(f"{k}={v}" for k, v in outcome.values.items())
             last = f"  last: {vals}: {outcome.status}" + (f", {outcome.verdict.headline()}" if outcome.verdict else "")
-        self.bar.update(self.task, completed=done, tally=self.tally.line(), last=last)
+        self.bar.update(self.task, completed=done, last=last)
 
     def __exit__(self, *exc):
         if self.bar is not None:

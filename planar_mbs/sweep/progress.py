@@ -8,7 +8,8 @@ finished says little about the rate of a pool that has several running); from th
 cases actually finished at since the first started, which also counts what the pool loses (a
 machine shared with other work, the parent's gathering, cores that wait).  Cases run longest
 expected first and equal ones in an order spread over the parameters (`scan.run_order`), so the
-cases finished so far are a fair sample of those left.
+cases finished so far are a fair sample of those left.  Between two cases the estimate counts down
+from the last one made (never below zero).
 """
 from __future__ import annotations
 
@@ -30,11 +31,13 @@ class ProgressTally:
     cpu: float = 0.0  # CPU seconds of the cases finished in this call
     wall: float = 0.0  # their wall seconds, each in its worker
     started: Optional[float] = field(default=None)
+    updated: Optional[float] = field(default=None)  # the clock at the last update
 
     def update(self, done: int, total: int, outcome=None) -> None:
         """One `run_sweep` progress call: the first (outcome None) starts the clock."""
+        self.updated = self.clock()
         if self.started is None:
-            self.started = self.clock()
+            self.started = self.updated
         self.done, self.total = done, total
         if outcome is None:
             return
@@ -58,8 +61,10 @@ class ProgressTally:
         if self.ran == 0:
             return None
         if self.workers and self.ran < self.workers:
-            return self.wall / self.ran * left / min(self.workers, left)
-        return self.elapsed() / self.ran * left
+            estimate = self.wall / self.ran * left / min(self.workers, left)
+        else:
+            estimate = (self.updated - self.started) / self.ran * left
+        return max(estimate - (self.clock() - self.updated), 0.0)
 
     def line(self) -> str:
         """e.g. ``12/1000 cases, 1 failed, 2 workers at 97% CPU, 0:03:10 elapsed, about 4:12:00 left``."""
