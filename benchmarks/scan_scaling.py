@@ -99,14 +99,17 @@ def main() -> None:
             if args.only and name != args.only:
                 continue
             times = {j: [] for j in jobs}
+            load = os.getloadavg()[0]
             for _ in range(args.rounds):
                 for j in jobs:
                     times[j].append(one(param, revolutions, j, Path(tmp)))
             base = statistics.median(times[jobs[0]]) * jobs[0]
-            print(f"\n{name}\n| -j | wall [s] | speed-up | efficiency |\n| --- | --- | --- | --- |")
+            print(f"\n{name} (load average {load:.1f} before, {os.getloadavg()[0]:.1f} after)\n"
+                  "| -j | wall [s] | speed-up | efficiency | speed-up in each round |\n| --- | --- | --- | --- | --- |")
             for j in jobs:
                 t = statistics.median(times[j])
-                print(f"| {j} | {t:.2f} | {base / t:.2f} | {base / t / j:.0%} |")
+                rounds = ", ".join(f"{a * jobs[0] / b:.2f}" for a, b in zip(times[jobs[0]], times[j]))
+                print(f"| {j} | {t:.2f} | {base / t:.2f} | {base / t / j:.0%} | {rounds} |")
 
 
 if __name__ == "__main__":
