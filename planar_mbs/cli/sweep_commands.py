@@ -355,7 +355,7 @@ def _print_table(rows, params) -> None:
 class _SweepProgress:
     """The progress line of a sweep (`sweep.progress.ProgressTally`: cases done and failed, the CPU the
     cases get, the time left) with a bar and the last case's verdict on a terminal; elsewhere (a log
-    file, `nohup`) the same line once a minute."""
+    file, `nohup`) the same line as cases finish, at most once a minute."""
 
     EVERY = 60.0  # seconds between two lines when stderr is not a terminal
 
