@@ -141,3 +141,35 @@ def test_between_cases_the_time_left_counts_down_to_zero_at_most():
     assert tally.remaining_seconds() == 15.0 and tally.line().endswith("0:00:15 elapsed, about 0:00:15 left")
     now[0] = 40.0  # the next case is late: no negative time
     assert tally.remaining_seconds() == 0.0
+
+
+def test_the_sweep_holds_no_finished_case():
+    """The wait over a scan's futures keeps only the unfinished ones: the futures' list used to keep every
+    finished case's outcome (summary, verdict; a cluster's whole results) to the end of the scan."""
+    import gc
+    import weakref
+    from concurrent.futures import Future
+
+    from planar_mbs.sweep.scan import _completed
+
+    class Outcome:
+        pass
+
+    queue = [Future() for _ in range(5)]
+    waiting = _completed(list(queue), None)  # the sweep hands over its list of every case's future
+    refs = []
+
+    def finish():  # the next case ends
+        outcome = Outcome()
+        refs.append(weakref.ref(outcome))
+        queue.pop(0).set_result(outcome)
+
+    finish()
+    got = next(waiting)
+    for k in range(1, 5):
+        finish()
+        del got  # the sweep is done with the case before
+        got = next(waiting)
+        gc.collect()
+        assert [r() is None for r in refs[:k]] == [True] * k  # every earlier outcome is gone
+    assert got.result() is refs[4]()
