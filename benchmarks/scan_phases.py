@@ -80,8 +80,10 @@ def child() -> None:
                                (scan, "check_cases", "checks"),
                                (scan, "run_case", "cases"), (scan, "store_outcome", "journal"),
                                (store, "gather", "gather"), (store, "write_table", "table"),
+                               (scan, "gather", "gather"), (scan, "write_table", "table"),  # where imported by name
                                (sweep_commands, "_print_table", "table")]:
-        _wrap(owner, name, phase, spent, stack)
+        if hasattr(owner, name):
+            _wrap(owner, name, phase, spent, stack)
     start = scan._start
 
     def warm_first(pending, folder, jobs, *rest):
