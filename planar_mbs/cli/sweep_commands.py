@@ -390,8 +390,8 @@ class _SweepProgress:
                 def render(column, task):
                     return Text(self.tally.line())
 
-            # twice a second: at rich's default 10 the bar was most of the sweep process's CPU (42 s of
-            # the 45 s it used over a 58-minute scan of 969 cases; its own work is 3 ms a case)
+            # twice a second, not rich's default 10: over a 58-minute scan of 969 cases the sweep's process
+            # used 45 CPU s where its own work is about 3 s (benchmarks/scan_phases.py); the rest is the redraws
             self.bar = Progress(TextColumn("sweep"), BarColumn(), Tally(), TextColumn("{task.fields[last]}"),
                                 console=console, transient=True, refresh_per_second=2)
             self.bar.start()
