@@ -117,7 +117,7 @@ def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     """What `plain_run` reads is exactly what the typer command hands to `run_model`."""
     from typer.testing import CliRunner
 
-    from planar_mbs.cli import run_command
+    from planar_mbs.cli import run_command, run_options
     from planar_mbs.cli.app import app
 
     params = inspect.signature(run_command.run_model).parameters
@@ -126,7 +126,7 @@ def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     res = CliRunner().invoke(app, argv)
     assert res.exit_code == 0, res.output
     defaults = dict(seen[0])
-    fast = run_command.plain_run(argv)
+    fast = run_options.plain_run(argv)
     assert fast is not None
     assert {k: v for k, v in defaults.items() if v is not None and v is not False and k in fast} == fast
     for k, v in defaults.items():  # every option not given is the typer default, which run_model shares
@@ -144,7 +144,7 @@ def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     ["run", "m.mbs", "-"], ["run", "m.mbs", "--output", ""], ["check", "m.mbs"], ["sweep", "m.mbs"], [],
 ])
 def test_any_other_run_command_line_goes_to_typer(argv):
-    from planar_mbs.cli.run_command import plain_run
+    from planar_mbs.cli.run_options import plain_run
 
     assert plain_run(argv) is None
 

@@ -2,7 +2,7 @@
 
 A plain ``mbs check MODEL [--set NAME=VALUE]...`` runs `check_command.check_model` without loading
 typer: typer's argument handling imports pydantic, which costs more than parsing, compiling and
-assembling a model.  Likewise a plain ``mbs run MODEL [OPTIONS]`` that `run_command.plain_run` reads
+assembling a model.  Likewise a plain ``mbs run MODEL [OPTIONS]`` that `run_options.plain_run` reads
 completely runs `run_command.run_model`.  Every other command line (another command, ``--help``, an
 unusual spelling of an option, a mistake) goes unchanged to the typer app in `app`, which owns usage,
 help and errors.  ``mbs sweep`` on several cores first starts the fork server of its workers
@@ -151,7 +151,8 @@ def main() -> None:
             sweep_server.start()  # the workers' kernels load on another core while typer reads the command
     args = plain_check(sys.argv[1:])
     if args is None and sys.argv[1:2] == ["run"]:
-        from .run_command import plain_run, run_plain
+        from .run_command import run_plain
+        from .run_options import plain_run
 
         kwargs = plain_run(sys.argv[1:])
         if kwargs is not None:

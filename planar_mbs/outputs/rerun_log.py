@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .plot import (
+from ..results.views import (
     PlotError,
     clearance_names,
     contact_onsets,
