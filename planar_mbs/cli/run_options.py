@@ -85,7 +85,8 @@ def merged(kwargs: dict) -> dict:
     kwargs = dict(kwargs)
     for opt in RUN_OPTIONS:
         if opt.into is not None and opt.param in kwargs:
-            kwargs[opt.into] = kwargs.get(opt.into, False) or kwargs.pop(opt.param)
+            old = kwargs.pop(opt.param)
+            kwargs[opt.into] = kwargs.get(opt.into, False) or old
     return kwargs
 
 
