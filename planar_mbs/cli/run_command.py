@@ -220,11 +220,10 @@ def _recording_key(out: Path) -> str:
 def _beside_another_run(o: SimpleNamespace, m) -> Path:
     """`run.output_names.beside_another_run` with the options given, said on stdout when it moves."""
     from planar_mbs.run.output_names import beside_another_run
-    from planar_mbs.run.simulation import run_settings
 
     given = {"n": o.revolutions, "t-end": o.t_end, "per-rev": o.per_rev, "output-step": o.output_step,
              "integrator": o.integrator, "rtol": o.rtol, "atol": o.atol, "step": o.step}
-    beside = beside_another_run(o.out, run_settings(m, **o.changes), given)
+    beside = beside_another_run(o.out, m, o.changes, given)
     if beside != o.out:
         _console().print(f"{o.out} holds a run with other settings: this one goes to {beside}", markup=False)
     return beside

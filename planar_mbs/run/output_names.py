@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ..results.hdf5 import read_results
+from .simulation import run_settings
 
 _COMPARED = ("t_end", "output_step", "integrator", "rtol", "atol", "step")  # a run that differs only in its time
 
@@ -24,16 +25,18 @@ def default_output(model: Path, sets: dict[str, str]) -> Path:
     return Path("results") / f"{model.stem}{tag}.h5"
 
 
-def beside_another_run(out: Path, settings, given: dict) -> Path:
-    """The default output `out`; or, when it holds a run with other `settings` (another `-n`, `--t-end`,
-    step or tolerance), a name beside it carrying the options `given` (results/a_n=100.h5): a default
-    name never replaces the results of a run that differs in more than its time."""
+def beside_another_run(out: Path, model, changes: dict, given: dict) -> Path:
+    """The default output `out`; or, when it holds a run with settings other than the `model`'s with
+    its `changes` (another `-n`, `--t-end`, step or tolerance), a name beside it carrying the options
+    `given` (results/a_n=100.h5): a default name never replaces the results of a run that differs in
+    more than its time."""
     if not out.is_file():
         return out
     try:
         before = dict(read_results(out).attrs.get("settings") or {})
     except Exception:  # noqa: BLE001  (not a results file: the checks of the output deal with it)
         return out
+    settings = run_settings(model, **changes)
     now = {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
     if all(k in before and (before[k] == now[k] or (isinstance(now[k], float) and math.isclose(before[k], now[k])))
            for k in _COMPARED):
