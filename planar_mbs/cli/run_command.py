@@ -36,7 +36,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               overwrite: bool = False) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as in `run_options.RUN_OPTIONS`);
     the exit code."""
-    o = SimpleNamespace(**locals(), out=output, m=None)
+    o = SimpleNamespace(**locals(), out=output, m=None)  # the options, and what `_prepare` adds to them
     from planar_mbs.run.first_compile import announce_if_cold
 
     announce_if_cold()  # a first run says at once that it compiles the solver (before reading the model)
