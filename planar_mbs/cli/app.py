@@ -26,7 +26,6 @@ from .common import internal_error
 from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
 from .run_options import RUN_OPTIONS, SET_HELP, Opt, merged
 
-_INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
 EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
           "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed or is not physical, or a "
           "limit was reached (results kept) · "
@@ -104,7 +103,7 @@ def _option(opt: Opt):
         extra["min"] = opt.low
     if opt.hidden:
         extra["hidden"] = True
-    return Annotated[kind, typer.Option(*opt.flags, help=opt.help or _INTEGRATOR_HELP, **extra)]
+    return Annotated[kind, typer.Option(*opt.flags, help=opt.help, **extra)]
 
 
 def _run(**options) -> None:

@@ -13,6 +13,8 @@ import math
 import re
 from pathlib import Path
 
+from planar_mbs import catalog
+
 
 class Opt:
     """One option: `param` (the keyword of `run_command.run_model`), its `flags`, its `kind` (path,
@@ -45,7 +47,8 @@ RUN_OPTIONS = (
         show_default=SIMULATE_BLOCK),
     Opt("per_rev", ("--per-rev",), "int",
         "Stored samples per period of the crank's driver (instead of --output-step).", low=1, show_default=False),
-    Opt("integrator", ("--integrator",), "str", "", show_default=f"{SIMULATE_BLOCK}, else dopri5"),  # help: catalog
+    Opt("integrator", ("--integrator",), "str", "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + ".",
+        show_default=f"{SIMULATE_BLOCK}, else dopri5"),
     Opt("rtol", ("--rtol",), "float",
         "Relative tolerance of the adaptive integrator (floor: 10 x machine epsilon, 2.2e-15).",
         show_default=f"{SIMULATE_BLOCK}, else 1e-6"),
