@@ -2,8 +2,7 @@
 as planar_mbs.cli), with the imports inside functions and the lazily declared ones
 (``name = lazy(".module", __package__)``, `planar_mbs/lazy.py`) counted too, read with `ast`.
 
-The package's own ``__init__`` (the public facade, which imports its modules only inside its
-functions) is not a node: ``from . import __version__`` in a module is not a dependency cycle."""
+The package's own ``__init__`` (the public facade, which declares its modules lazily) is not a node: ``from . import __version__`` in a module is not a dependency cycle."""
 from __future__ import annotations
 
 import ast

@@ -17,7 +17,7 @@ space the write needs (`reserve_space`): a full disk stops the run *between* two
 chunks with `DiskFull`, and the file stays readable up to the last whole chunk
 (HDF5 has no journal: a write that fails halfway leaves a file it cannot read).
 `FileResults` reads a written run back lazily, one signal at a time, so a run
-that streams to a file never holds all its rows in memory.  h5py is imported only here.
+that streams to a file never holds all its rows in memory.  h5py is imported on first use (`planar_mbs.lazy`).
 
 One dataset per entity, not per signal: a file's cost (datasets created, resized and written at
 each flush) grows with the entities, not the signals (a 40-link chain: 81 datasets instead of
