@@ -13,10 +13,13 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..errors import MbsError, did_you_mean
+from ..mechanism.model import CP_KIND, PairKind
+from .hdf5 import Results
+from .section import AnalysisError, clock_body, crossings, poincare_section
+from .section import slider_body as _slider
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model
-    from .hdf5 import Results
 
 
 class PlotError(MbsError):
@@ -49,8 +52,6 @@ def clearance_names(results: "Results") -> list[str]:
 def is_journal(model, name: str) -> bool:
     """Is clearance element `name` a journal in a bearing (whose orbit is a figure), rather than a contact
     between outlines or a corner of a translational clearance joint?  True when the model is unknown."""
-    from ..mechanism.model import CP_KIND, PairKind
-
     if model is None or name not in model.clearance_names:
         return True
     kind = int(model.kernel.clearance_param[model.clearance_names.index(name), CP_KIND])
@@ -73,23 +74,17 @@ def check_signals(results: "Results", names: Sequence[str]) -> None:
 
 def slider_body(results: "Results", model: "Model | None" = None) -> str | None:
     """The body shown as "the slider" (`planar_mbs.results.section.slider_body`, the one rule)."""
-    from .section import slider_body as _slider
-
     return _slider(results, model) if body_names(results) or model is not None else None
 
 
 def turning_body(results: "Results", model: "Model | None" = None) -> str | None:
     """The body whose revolutions clock the Poincaré section (`planar_mbs.results.section.clock_body`)."""
-    from .section import clock_body
-
     return clock_body(results, model)
 
 
 def revolution_times(time: np.ndarray, phi: np.ndarray, skip: int = 1) -> np.ndarray:
     """Times at which ``phi - phi[0]`` crosses ``±2 pi k``, the first ``skip`` dropped
     (`planar_mbs.results.section.crossings`)."""
-    from .section import crossings
-
     return crossings(time, phi)[skip:]
 
 
@@ -109,8 +104,6 @@ def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: 
     """Poincaré points ``(x, y)``, one per revolution of `body` after the first `skip`:
     the section of `planar_mbs.results.section.poincare_section` (the one used by sweeps and
     `mbs analyze`)."""
-    from .section import AnalysisError, poincare_section
-
     check_signals(results, [x, y])
     body = body or turning_body(results, model)
     if body is None or f"{body}.phi" not in results:
@@ -177,8 +170,6 @@ class _WindowSignals(dict):
 
 def time_window(results: "Results", t_from: float | None = None, t_to: float | None = None) -> "Results":
     """The samples with ``t_from <= t <= t_to`` (either end open when None), as `Results`."""
-    from .hdf5 import Results
-
     if t_from is None and t_to is None:
         return results
     t = np.asarray(results.time)
