@@ -19,13 +19,20 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
+import secrets
+import stat
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from ..errors import did_you_mean
+from ..lazy import lazy
+from ..results.analysis import VERDICT_COLOURS, read_section
+from ..results.hdf5 import HDF5_SIGNATURE, SIGNALS, open_results, read_results
+from ..results.section import crossings
 from ..results.views import (
     PlotError,
     PoincareSet,
@@ -39,6 +46,12 @@ from ..results.views import (
     time_window,
     turning_body,
 )
+
+# figures only: `import planar_mbs.outputs.plot` (and `mbs plot --list`) loads no matplotlib
+matplotlib = lazy("matplotlib")
+mpl_figure = lazy("matplotlib.figure")
+plt = lazy("matplotlib.pyplot")
+scan = lazy("..sweep.scan", __package__)  # 0.1 s of sockets and threads: only the verdicts of a sweep's cases
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model
@@ -176,9 +189,7 @@ def envelope(x: np.ndarray, y: np.ndarray, max_points: int = MAX_LINE_POINTS) ->
 
 
 def _figure(width: float = 8.0, height: float = 4.0):
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width, height), layout="constrained", dpi=110)
+    return mpl_figure.Figure(figsize=(width, height), layout="constrained", dpi=110)
 
 
 def _title(results: "Results", width: float = 8.0) -> str:
@@ -226,8 +237,6 @@ def startup_end(results: "Results", transient: int = 1, model: "Model | None" = 
     body = turning_body(results, model)
     if body is None or f"{body}.phi" not in results or transient < 1:
         return None
-    from ..results.section import crossings
-
     times = crossings(results.time, results[f"{body}.phi"])
     return float(times[transient - 1]) if len(times) > LONG_RUN_REVOLUTIONS else None
 
@@ -335,16 +344,12 @@ def orbit_figure(results: "Results", joint: str):
 
 
 def is_sweep(path: str | Path) -> bool:
-    from ..results.hdf5 import SIGNALS, open_results
-
     with open_results(path) as f:
         return "cases" in f and SIGNALS not in f
 
 
 def sweep_cases(path: str | Path) -> list[tuple[str, "Results"]]:
     """``(case key, Results)`` of every ``/cases/<k>`` group, in numeric order."""
-    from ..results.hdf5 import open_results, read_results
-
     with open_results(path) as f:
         keys = sorted(f["cases"].keys(), key=lambda k: (not k.isdigit(), int(k) if k.isdigit() else 0, k))
     return [(k, read_results(f"{path}:/cases/{k}")) for k in keys]
@@ -457,12 +462,6 @@ def _save(fig, path: Path, written: list[Path]) -> None:
     """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data.  The
     figure is written beside `path` and moved over it once whole, so a full disk or a kill leaves
     the previous figure (or none), never half a file in its place."""
-    import os
-    import secrets
-    import stat
-
-    from ..results.hdf5 import HDF5_SIGNATURE
-
     tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -479,8 +478,6 @@ def _save(fig, path: Path, written: list[Path]) -> None:
     except OSError as exc:
         raise PlotError(f"error: cannot write {path}: {exc.strerror or exc}") from None
     finally:
-        import matplotlib.pyplot as plt
-
         plt.close(fig)
         tmp.unlink(missing_ok=True)
     written.append(path)
@@ -520,8 +517,6 @@ def plot_file(
     velocity-acceleration Poincaré map).  A sweep file (``/cases/<k>``) gives one grid
     per signal, a grid of Poincaré maps and a bifurcation diagram.
     """
-    from ..results.hdf5 import read_results
-
     path = Path(path)
     if fmt not in FORMATS:
         raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
@@ -645,17 +640,10 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
     parameter ``param``, from the ``poincare`` groups of a sweep file; points coloured by the
     verdict of their case (the stored sections: the points `mbs plot` draws for the same file).  ``where`` keeps only cases whose other parameters have these
     values (text, as in the case table).  ``scale`` multiplies the parameter (e.g. to rpm)."""
-    import matplotlib
-
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..results.analysis import VERDICT_COLOURS, read_section
-    from ..sweep.scan import parameter_number, parameter_si, read_case_table
-
-    table = read_case_table(sweep_path)
+    table = scan.read_case_table(sweep_path)
     # plot numbers in the unit the values were given in when they share one, else in SI
-    parsed = [parameter_number(r["values"].get(param, "")) for r in table]
+    parsed = [scan.parameter_number(r["values"].get(param, "")) for r in table]
     units = {p[1] for p in parsed if p is not None}
     same_unit = len(units) == 1 and None not in parsed
     if same_unit and not unit:
@@ -664,8 +652,6 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(8, 4))
     seen = set()
-    from ..results.hdf5 import open_results
-
     with open_results(sweep_path) as f:
         for row in table:
             if where and any(row["values"].get(k) != v for k, v in where.items()):
@@ -676,7 +662,7 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
             sec, verdict = read_section(g)
             name = signal or sec.names[0]
             text = row["values"][param]
-            p = (parameter_number(text)[0] if same_unit else parameter_si(text)) * scale
+            p = (scan.parameter_number(text)[0] if same_unit else scan.parameter_si(text)) * scale
             v = verdict.verdict if verdict else "undetermined"
             ax.plot(np.full(len(sec), p), sec.points[name], ".", ms=2, color=VERDICT_COLOURS[v],
                     label=v if v not in seen else None)

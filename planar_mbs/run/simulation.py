@@ -26,11 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__, catalog
-from ..errors import ModelError, SimulationError
+from ..errors import ModelError, SimulationError, did_you_mean
+from ..lazy import lazy
+from ..language.units import parse_quantity
 from ..mechanism.kinematics import assemble, assembly_changes
 from ..mechanism.model import (
     CFG_SKIP,
+    CP_CLEARANCE,
     CT_MODE,
+    JOINT_ROWS,
     TOUCHING,
     ST_CONTACT_EVENTS,
     ST_INFO,
@@ -39,16 +43,26 @@ from ..mechanism.model import (
     ST_RHS,
     ST_STEPS,
     N_STATS,
+    ForceType,
     Integrator,
     Model,
     Settings,
     Status,
+    lost_bound,
     observation_size,
 )
+from .first_compile import first_call
 from .output_size import MAX_ROWS, estimate
 from .settings_check import check_memory, check_settings, check_stop, given_settings as _given
 from ..results.hdf5 import DiskFull, FileResults, Results, ResultsWriter
+from ..results.section import driver_period
 from ..results.signals import signal_table, skip_bits
+
+# numba: `mbs check` and `import planar_mbs` read this module's settings without loading the kernels
+kernel = lazy("..kernel", __package__)
+dynamics = lazy("..kernel.dynamics", __package__)
+integrators = lazy("..kernel.integrators", __package__)
+workspace = lazy("..kernel.workspace", __package__)
 
 CALL_SECONDS = 0.1  # wall time of one kernel call (a work budget in right-hand sides calibrated per call)
 FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibration
@@ -110,8 +124,6 @@ def check_tolerances(settings: Settings) -> None:
     precision.  As in Hairer's DOPRI5/DOP853 codes: rtol > 10 eps (below it the error
     estimate is rounding noise and the step shrinks until it underflows, or forever) and
     atol > 0."""
-    from ..errors import ModelError
-
     if not catalog.INTEGRATORS[int(settings.integrator)].adaptive:
         return
     if not (settings.rtol > RTOL_FLOOR):
@@ -130,9 +142,6 @@ _RATE_SETTINGS = ("alpha", "beta")
 
 def _setting(model: Model, name: str, value):
     """One `simulate` setting in SI from a number or from text with units (as on the command line)."""
-    from ..errors import ModelError, did_you_mean
-    from ..language.units import parse_quantity
-
     fields = [f.name for f in dataclasses.fields(Settings)]
     where = f"simulate({name}=...)"
     if name not in fields:
@@ -170,12 +179,8 @@ def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Set
     ``output_step="10 us"``, ``integrator="dop853"``).  ``revolutions`` sets t_end and
     ``per_rev`` the output step from the period of the model's constant-speed rotation driver
     (the crank)."""
-    from ..errors import ModelError
-
     changes = {k: _setting(model, k, v) for k, v in changes.items() if v is not None}
     if revolutions is not None or per_rev is not None:
-        from ..results.section import driver_period
-
         found = driver_period(model)
         what = "revolutions" if revolutions is not None else "per_rev"
         if found is None:
@@ -209,9 +214,6 @@ OTHER_INTEGRATOR_NAMES = {"rk45": "dopri5", "ode45": "dopri5", "dopri": "dopri5"
 def integrator_of(name: str, where: str = "integrator") -> Integrator:
     """The integrator called `name` (catalog.INTEGRATORS); a ModelError naming the valid ones
     (and the closest) otherwise.  `where` labels the error (e.g. "--integrator")."""
-    from .. import catalog
-    from ..errors import ModelError, did_you_mean
-
     names = catalog.names(catalog.INTEGRATORS)
     if str(name).lower() not in names:
         ours = OTHER_INTEGRATOR_NAMES.get(str(name).lower())
@@ -233,9 +235,7 @@ def _state_name(model: Model, i: int) -> str:
 
 
 def _bad_method() -> int:
-    from ..kernel.integrators import BAD_METHOD
-
-    return BAD_METHOD
+    return integrators.BAD_METHOD
 
 
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
@@ -262,14 +262,10 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
     if status == Status.SINGULAR:
         return f"the constraint matrix became singular {at}{_row_owner(model, info)}: a toggle or locked position"
     if status == Status.DRIFT:
-        from ..kernel.dynamics import DRIFT_POSITION, DRIFT_VELOCITY
-
-        return (f"the constraints drifted beyond |C| = {DRIFT_POSITION:g} or |C'| = {DRIFT_VELOCITY:g} (m, rad, "
+        return (f"the constraints drifted beyond |C| = {dynamics.DRIFT_POSITION:g} or |C'| = {dynamics.DRIFT_VELOCITY:g} (m, rad, "
                 f"per second for C') {at}{_row_owner(model, info)}: the fixed RK4 step is too long for this "
                 "motion, or a singular position was crossed (use a shorter step, or dopri5/dop853)")
     if status == Status.CONSTRAINTS_LOST:
-        from ..mechanism.model import lost_bound
-
         return (f"the constraints gave way {at}{_row_owner(model, info)}: a residual beyond "
                 f"{lost_bound(settings.rtol):g} of the mechanism's size ({model.size:.3g} m) or of its speed; "
                 "a driver pushed past a limit position (toggle, dead centre) the mechanism cannot pass, or the "
@@ -297,16 +293,14 @@ def _near_singular(model: Model, y: np.ndarray, t: float, y0: np.ndarray) -> str
     """When a run stalls (step underflow, blow-up), say so if the constraint matrix has
     become nearly singular there (a toggle or locked position): its smallest relative
     singular value (mass-scaled Jacobian) fell below a tenth of the initial pose's."""
-    from ..kernel import constraint_eval, constraint_rows
-
-    m = constraint_rows(model.kernel)
+    m = kernel.constraint_rows(model.kernel)
     n = model.ncoord
     if m == 0 or not np.all(np.isfinite(y)):
         return ""
 
     def scaled(state, tt):
         C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
-        if constraint_eval(model.kernel, state[:n], state[n:], tt, C, Cq, Ct, g) != 0:
+        if kernel.constraint_eval(model.kernel, state[:n], state[n:], tt, C, Cq, Ct, g) != 0:
             return None
         return Cq * np.sqrt(model.kernel.minv)
 
@@ -325,8 +319,6 @@ def _near_singular(model: Model, y: np.ndarray, t: float, y0: np.ndarray) -> str
 
 
 def _row_owner(model: Model, row: int) -> str:
-    from ..mechanism.model import JOINT_ROWS
-
     k = model.kernel
     for j, name in enumerate(model.joint_names):
         if k.joint_row[j] <= row < k.joint_row[j] + JOINT_ROWS[k.joint_type[j]]:
@@ -342,8 +334,6 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     deeper than the radial clearance (too soft a contact for that clearance, e.g. a
     stiffness of 1e6 N/m^1.5 or a clearance of 1 µm with steel).  ``deepest`` holds
     the largest penetration of each clearance joint over the run (`_deepest`)."""
-    from ..mechanism.model import CP_CLEARANCE
-
     warnings = []
     for c, name in enumerate(model.clearance_names):
         clearance = float(model.kernel.clearance_param[c, CP_CLEARANCE])
@@ -376,12 +366,10 @@ def _absurd_state(model: Model, y: np.ndarray, t: float) -> str:
 
 def _projection_note(settings: Settings, ws) -> list[str]:
     """`projection = auto` turned the projection on: say when (a singular position or redundant joints)."""
-    from ..kernel.workspace import DN_PROJECT_FROM, FL_PROJECTING
-
-    t = float(ws.dense[DN_PROJECT_FROM])
+    t = float(ws.dense[workspace.DN_PROJECT_FROM])
     if settings.projection != "auto" or np.isnan(t):
         return []
-    if ws.flags[FL_PROJECTING] == 2:
+    if ws.flags[workspace.FL_PROJECTING] == 2:
         return [f"the constraint residuals drifted past their bound at t = {t:.9g} s: the positions and "
                 "velocities are projected onto the constraints from then on (projection = auto)"]
     return [f"the constraints lost rank at t = {t:.9g} s (a singular position or redundant joints): the "
@@ -393,8 +381,6 @@ ENERGY_PER_RTOL = 1e3  # a workless mechanism's energy may drift by this many rt
 
 def _workless(model: Model) -> bool:
     """No driver, no clearance joint, no damper or actuator: the total energy is conserved."""
-    from ..mechanism.model import ForceType
-
     k = model.kernel
     if model.ndriver or model.nclearance:
         return False
@@ -463,8 +449,6 @@ def select_signals(table, wanted):
     """The signals of `table` named in `wanted` (full names ``slider.x`` or whole
     entities ``slider``), with their columns renumbered onto the kept columns.
     Returns (table, kept column indices)."""
-    from ..errors import ModelError, did_you_mean
-
     names = {s.name for s in table}
     entities = {s.entity for s in table}
     for w in wanted:
@@ -534,10 +518,7 @@ class _Run:
     the file closed) and `outcome` (the `Results`, or the exception that carries them)."""
 
     def __init__(self, model: Model, settings: Settings, output, signals, overwrite: bool):
-        from .first_compile import first_call
-        from ..kernel import advance, make_workspace
-
-        self.model, self.settings, self.advance = model, settings, advance
+        self.model, self.settings, self.advance = model, settings, kernel.advance
         q, qd = assemble(model)
         self.changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
         self.y0 = np.concatenate([q, qd])
@@ -546,14 +527,14 @@ class _Run:
         self.clock[3] = FIRST_BUDGET
         self.contact = np.zeros((model.nclearance, 3))
         self.stats = np.zeros(N_STATS, dtype=np.int64)
-        self.ws = make_workspace(self.km)
+        self.ws = kernel.make_workspace(self.km)
         self.nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
         # with a file, the kernel writes its rows straight into the block that goes to the file next
         self.rows_held = flush_rows(self.nobs) if output is not None else BUFFER_ROWS
         self.out_t, self.out = np.zeros(self.rows_held), np.zeros((self.rows_held, self.nobs))
         self.table, self.cols = signal_selection(model, signals, self.cfg)
         # compile (or load from the cache) outside the timed loop, on throw-away copies
-        first_call(advance, self.km, self.cfg, self.y.copy(), self.clock.copy(), self.contact.copy(),
+        first_call(kernel.advance, self.km, self.cfg, self.y.copy(), self.clock.copy(), self.contact.copy(),
                    self.stats.copy(), self.ws, 0.0, self.out_t[:1], self.out[:1])
         self.attrs = _header(model, settings)
         self.writer = ResultsWriter(output, self.table, self.attrs, overwrite=overwrite,
@@ -712,9 +693,6 @@ class Simulation:
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
                  overwrite: bool = False, **settings_changes):
-        from .first_compile import first_call
-        from ..kernel import advance, make_workspace
-
         self.model = model
         self.settings = run_settings(model, **settings_changes)
         check_settings(self.settings, given=_given(settings_changes), source=model.source_path)
@@ -729,7 +707,7 @@ class Simulation:
         self._clock = np.zeros(3)
         self._contact = np.zeros((model.nclearance, 3))
         self._stats = np.zeros(N_STATS, dtype=np.int64)
-        self._ws = make_workspace(self._km)
+        self._ws = kernel.make_workspace(self._km)
         nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
         self._out_t, self._out = np.zeros(BUFFER_ROWS), np.zeros((BUFFER_ROWS, nobs))
         self._table, self._cols = signal_selection(model, signals, self._cfg)
@@ -739,9 +717,9 @@ class Simulation:
         self._wall = 0.0
         self._status = int(Status.DONE)
         self._failure = ""
-        first_call(advance, self._km, self._cfg, self._y.copy(), self._clock.copy(),  # compile first
+        first_call(kernel.advance, self._km, self._cfg, self._y.copy(), self._clock.copy(),  # compile first
                    self._contact.copy(), self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
-        self._ws = make_workspace(self._km)
+        self._ws = kernel.make_workspace(self._km)
         self._attrs = {
             "model_source": model.source_text, "model_path": model.source_path, "parameters": model.parameters,
             "version": __version__,
@@ -766,8 +744,6 @@ class Simulation:
         """Advance to time `t` (seconds or text with units).  ``callback(sim)`` runs after every
         chunk the time loop hands back (about 200 per run: a live plot, a progress line);
         if it returns True the run stops there, before `t`."""
-        from ..kernel import advance
-
         t_stop = _seconds(t, "t")
         check_stop(t_stop, self.t_end)
         if self._failure:
@@ -780,7 +756,7 @@ class Simulation:
         with _deferred_interrupts() as received:
             while not received:  # until DONE: a long step may have outputs still to hand back
                 start = _time.perf_counter()
-                status, n = advance(self._km, self._cfg, self._y, self._clock, self._contact, self._stats,
+                status, n = kernel.advance(self._km, self._cfg, self._y, self._clock, self._contact, self._stats,
                                     self._ws, t_stop, self._out_t[:cap], self._out[:cap])
                 self._wall += _time.perf_counter() - start
                 self._status = int(status)
@@ -811,9 +787,6 @@ class Simulation:
     def set_load(self, name: str, value) -> None:
         """Change a force element for the rest of the run (SI): the torque of a `torque`, the
         (fx, fy) of a `constant` force, the actuator of a spring-damper."""
-        from ..errors import ModelError, did_you_mean
-        from ..mechanism.model import ForceType
-
         if name not in self.model.force_names:
             raise ModelError(f"no force element `{name}`", "set_load",
                              hint=did_you_mean(name, self.model.force_names) or
@@ -846,8 +819,6 @@ class Simulation:
     def __getitem__(self, name: str) -> np.ndarray:
         """A signal's samples so far (as `Results`)."""
         if name not in self._where:
-            from ..errors import did_you_mean
-
             hint = did_you_mean(name, self._where)
             raise KeyError(f"no signal {name!r}" + (f"; {hint}" if hint else ""))
         return self._where[name].extract(self._rows())
@@ -905,7 +876,5 @@ class Simulation:
 def _seconds(value, name: str) -> float:
     """A time in seconds from a number or from text with units (``"1 ms"``)."""
     if isinstance(value, str):
-        from ..language.units import parse_quantity
-
         return parse_quantity(value, "time", where=f"{name}=")
     return float(value)

@@ -15,8 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ModelError
 from ..mechanism.model import ST_CONTACT_EVENTS, ST_REJECTED, ST_RHS, ST_STEPS
 from ..results.hdf5 import Results, write_beside
+from ..results.section import driver_period, settling_of_results
+from .simulation import signal_selection
 from .stepper import Stepper
 
 CHECK_EVERY = 50  # revolutions between two settling checks of a run --until-settled
@@ -41,13 +44,8 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
     ``min_revolutions``, where the section points have settled on a periodic orbit; chaotic
     motion runs to the end, since chaos can stop after hundreds of revolutions).  ``signals`` keeps only
     those signals (names or entities, as in `simulate`)."""
-    from ..results.section import driver_period, settling_of_results
-    from .simulation import signal_selection
-
     found = driver_period(model)
     if found is None:
-        from ..errors import ModelError
-
         raise ModelError("a run by revolutions needs a rotation driver at constant speed", model.source_path)
     period = found[0]
     st = Stepper(model, output_step=period / per_rev, t_end=revolutions * period, **settings)
