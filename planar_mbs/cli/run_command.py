@@ -9,11 +9,19 @@ module checks the options, calls them in order and prints.
 """
 from __future__ import annotations
 
+import errno
 import math
+import os
+import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
 
+from planar_mbs.errors import MbsError, ModelError, SimulationError
+from planar_mbs.lazy import lazy
+from planar_mbs.run.first_compile import announce_if_cold
+
+from .check_command import print_assembly
 from .common import (
     MAX_REVOLUTIONS,
     ExitCode,
@@ -25,6 +33,23 @@ from .common import (
     positive_time,
 )
 from .common import console as _console
+from .common import internal_error
+
+# Loaded once `announce_if_cold` has said that the solver compiles (lark, numpy, h5py come with the
+# model), or only by the option that needs them (rerun, typer, the sweep's scan, rich's progress bar).
+compiler = lazy("planar_mbs.mechanism.compile")
+hdf5 = lazy("planar_mbs.results.hdf5")
+analysis = lazy("planar_mbs.results.analysis")
+output_names = lazy("planar_mbs.run.output_names")
+output_size = lazy("planar_mbs.run.output_size")
+settings_check = lazy("planar_mbs.run.settings_check")
+simulation = lazy("planar_mbs.run.simulation")
+study = lazy("planar_mbs.run.study")
+scan = lazy("planar_mbs.sweep.scan")
+rerun_log = lazy("planar_mbs.outputs.rerun_log")
+plot_commands = lazy(".plot_commands", __package__)
+rich_progress = lazy("rich.progress")
+rich_utils = lazy("typer.rich_utils")
 
 
 def run_model(model: Path, output: Path | None = None, set_: list[str] | None = None, t_end: str | None = None,
@@ -37,11 +62,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
     """Simulate `model` with the options of `mbs run` (parameters named as in `run_options.RUN_OPTIONS`);
     the exit code."""
     o = SimpleNamespace(**locals(), out=output, m=None)  # the options, and what `_prepare` adds to them
-    from planar_mbs.run.first_compile import announce_if_cold
-
     announce_if_cold()  # a first run says at once that it compiles the solver (before reading the model)
-    from planar_mbs.errors import MbsError, SimulationError
-
     try:
         _prepare(o)
         res = _execute(o)
@@ -62,16 +83,10 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
 def _prepare(o: SimpleNamespace) -> None:
     """Every check before the run, in the order a user meets them: the options, the model, its
     settings, the outputs (names, places, size); sets ``o.m``, ``o.out``, ``o.changes``, ``o.signals``."""
-    from planar_mbs.mechanism.compile import load_model
-    from planar_mbs.results.hdf5 import refuse_replacing
-    from planar_mbs.run.output_names import default_output, make_results_folder
-    from planar_mbs.run.output_size import check_output as check_size, estimate
-    from planar_mbs.run.simulation import run_settings
-
     _needs_rerun(o.view_, o.rerun)
     sets = parse_sets(o.set_ or [])
-    o.out = o.output or default_output(o.model, sets)
-    o.m = m = load_model(o.model, sets)
+    o.out = o.output or output_names.default_output(o.model, sets)
+    o.m = m = compiler.load_model(o.model, sets)
     o.changes = _changes(o, m)
     o.signals = _kept(m, o.keep, o.rerun, o.until_settled)
     o.rerun_signals = check_choice(o.rerun_signals, ("envelope", "full"), "--rerun-signals")
@@ -88,21 +103,17 @@ def _prepare(o: SimpleNamespace) -> None:
     if o.rerun is not None:
         _check_rerun(o.rerun, o.out, inputs, o.force)
     if not make_folder:
-        refuse_replacing(o.out, overwrite=o.overwrite, inputs=m.source_files)
+        hdf5.refuse_replacing(o.out, overwrite=o.overwrite, inputs=m.source_files)
     if not o.until_settled:  # too many rows or more disk than is free: refused before running
-        check_size(estimate(m, run_settings(m, **o.changes)), o.out, str(o.model), force=o.force)
+        output_size.check_output(output_size.estimate(m, simulation.run_settings(m, **o.changes)), o.out, str(o.model), force=o.force)
     if make_folder:
-        make_results_folder(o.out.parent)
+        output_names.make_results_folder(o.out.parent)
         check_output(o.out, "--output", inputs)
 
 
 def _changes(o: SimpleNamespace, m) -> dict:
     """The settings the options change (`simulate`'s keywords), each checked on its own and against the
     others (an end time or revolutions, not both)."""
-    from planar_mbs.errors import ModelError
-    from planar_mbs.results.analysis import driver_period
-    from planar_mbs.run.simulation import integrator_of
-
     changes = dict(
         t_end=positive_time(o.t_end, "--t-end"),
         step=positive_time(o.step, "--step"),
@@ -115,24 +126,22 @@ def _changes(o: SimpleNamespace, m) -> dict:
         raise ModelError("give --t-end or --revolutions, not both", "--revolutions", hint="drop one of them")
     if o.output_step is not None and o.per_rev is not None:
         raise ModelError("give --output-step or --per-rev, not both", "--per-rev", hint="drop one of them")
-    if (o.revolutions is not None or o.per_rev is not None) and driver_period(m) is None:
+    if (o.revolutions is not None or o.per_rev is not None) and analysis.driver_period(m) is None:
         raise ModelError(f"{'--revolutions' if o.revolutions is not None else '--per-rev'} needs a rotation "
                          "driver at constant speed", str(o.model), hint="give --t-end / --output-step instead")
     check_number(o.revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS, hint="e.g. `--revolutions 60`")
     changes.update(revolutions=o.revolutions, per_rev=o.per_rev)
     if o.integrator is not None:
-        integrator_of(o.integrator, "--integrator")
+        simulation.integrator_of(o.integrator, "--integrator")
     return changes
 
 
 def _execute(o: SimpleNamespace):
     """The run itself, with a progress bar: `simulate`, or `run_until_settled` and its verdict printed."""
-    from planar_mbs import simulate
-
     if o.until_settled:
         return _run_until_settled(o)
     with _Progress(o.quiet) as progress:
-        return simulate(o.m, output=o.out, progress=progress.update, max_rows=math.inf, signals=o.signals,
+        return simulation.simulate(o.m, output=o.out, progress=progress.update, max_rows=math.inf, signals=o.signals,
                         overwrite=o.overwrite, **o.changes)
 
 
@@ -154,8 +163,6 @@ def _failed(o: SimpleNamespace, err) -> int:
 def _record(o: SimpleNamespace, res) -> int:
     """The --rerun recording of `res` (`outputs.rerun_log`), if asked for: 0, or the exit code of a
     recording that could not be written (the results are written; the recording is not)."""
-    from planar_mbs.errors import MbsError
-
     if o.rerun is None:
         return 0
     try:
@@ -169,8 +176,6 @@ def _record(o: SimpleNamespace, res) -> int:
 def _kept(model, keep: str | None, rerun: Path | None, until_settled: bool) -> list[str] | None:
     """The signal names of ``--keep`` (None: every signal), checked against the model before the run:
     full names (``slider.vx``) or entities (``slider``), as `mbs sweep --keep` reads them."""
-    from planar_mbs.errors import ModelError
-
     if keep is None:
         return None
     names = [k.strip() for k in keep.split(",") if k.strip()]
@@ -180,23 +185,17 @@ def _kept(model, keep: str | None, rerun: Path | None, until_settled: bool) -> l
         if other:
             raise ModelError(f"give --keep or {flag}, not both", "--keep",
                              hint=f"{flag} needs every signal (the mechanism's motion, the Poincaré section)")
-    from planar_mbs.sweep.scan import kept_signals
-
-    kept_signals(model, names)
+    scan.kept_signals(model, names)
     return names
 
 
 def record_run(*args, **kwargs):
     """`plot_commands.record_run` (typer and rerun load only when a recording is asked for)."""
-    from .plot_commands import record_run as record
-
-    return record(*args, **kwargs)
+    return plot_commands.record_run(*args, **kwargs)
 
 
 def _needs_rerun(view_: bool, rerun: Path | None) -> None:
     """--open without --rerun cannot act: refused (exit 2) rather than ignored."""
-    from planar_mbs.errors import ModelError
-
     if view_ and rerun is None:
         raise ModelError("--open opens the viewer on the run's rerun recording, and no --rerun is given",
                          "--open", hint="add `--rerun FILE.rrd`, or later `mbs view RESULTS.h5 --open`")
@@ -205,25 +204,19 @@ def _needs_rerun(view_: bool, rerun: Path | None) -> None:
 def _check_rerun(rerun: Path, out: Path, inputs: list, force: bool) -> None:
     """The --rerun file: a writable place (missing folders are made) that holds no recording of other
     results, unless --force (`rerun_log.check_replace`)."""
-    from planar_mbs.outputs.rerun_log import check_replace, recording_key
-
     check_output(rerun, "--rerun", inputs, [("the results file (--output)", out)], make_parents=True)
-    check_replace(rerun, recording_key(out), force, "--rerun")
+    rerun_log.check_replace(rerun, rerun_log.recording_key(out), force, "--rerun")
 
 
 def _recording_key(out: Path) -> str:
-    from planar_mbs.outputs.rerun_log import recording_key
-
-    return recording_key(out)
+    return rerun_log.recording_key(out)
 
 
 def _beside_another_run(o: SimpleNamespace, m) -> Path:
     """`run.output_names.beside_another_run` with the options given, said on stdout when it moves."""
-    from planar_mbs.run.output_names import beside_another_run
-
     given = {"n": o.revolutions, "t-end": o.t_end, "per-rev": o.per_rev, "output-step": o.output_step,
              "integrator": o.integrator, "rtol": o.rtol, "atol": o.atol, "step": o.step}
-    beside = beside_another_run(o.out, m, o.changes, given)
+    beside = output_names.beside_another_run(o.out, m, o.changes, given)
     if beside != o.out:
         _console().print(f"{o.out} holds a run with other settings: this one goes to {beside}", markup=False)
     return beside
@@ -232,28 +225,23 @@ def _beside_another_run(o: SimpleNamespace, m) -> Path:
 def _check_settings(m, changes: dict, model: Path, until_settled: bool) -> None:
     """The run's settings through the validation `simulate` applies (`planar_mbs.run.settings_check`),
     worded for the command line."""
-    from planar_mbs.run.settings_check import CLI, check_settings, given_settings
-    from planar_mbs.run.simulation import run_settings
-
     given = {k: v for k, v in changes.items() if not (until_settled and k == "t_end")}
-    settings = run_settings(m, **given)
-    check_settings(settings, given=given_settings(given), style=CLI, source=str(model))
+    settings = simulation.run_settings(m, **given)
+    settings_check.check_settings(settings, given=settings_check.given_settings(given), style=settings_check.CLI,
+                                  source=str(model))
 
 
 def _run_until_settled(o: SimpleNamespace):
     """`run.study.run_until_settled` (the results written to ``o.out``), and its verdict printed as
     `mbs analyze` prints it."""
-    from planar_mbs.results.analysis import analyze, report
-    from planar_mbs.run.study import run_until_settled
-
     changes = {k: v for k, v in o.changes.items() if k != "t_end" and v is not None}
     with _Progress(o.quiet, "revolution", "revolution {task.fields[t]:.0f}") as progress:
-        run = run_until_settled(o.m, o.out, o.max_revolutions, lambda done, total: progress.update(done, total),
+        run = study.run_until_settled(o.m, o.out, o.max_revolutions, lambda done, total: progress.update(done, total),
                                 overwrite=o.overwrite, **changes)
     stop = ("stopped: the section settled on a periodic orbit" if run.settled_at is not None
             else "no periodic orbit found (--max-revolutions)")
     _console().print(f"{run.revolutions} revolutions run; {stop}", markup=False)
-    for line in report(*analyze(run.results)):  # the verdict as `mbs analyze` gives it on the file
+    for line in analysis.report(*analysis.analyze(run.results)):  # the verdict as `mbs analyze` gives it on the file
         _console().print(line, markup=False)
     return run.results
 
@@ -263,9 +251,6 @@ def _exit_now(code: int) -> int:
     interpreter's teardown, which takes about 2 s once the compiled kernels are loaded
     (native code, no Python frame), so that Ctrl-C/SIGTERM end a run within a second.
     Inside a test runner (no real stdout) it returns the code, to exit as usual."""
-    import os
-    import sys
-
     try:
         sys.stdout.fileno()
         sys.stderr.fileno()
@@ -277,12 +262,8 @@ def _exit_now(code: int) -> int:
 
 
 def _print_summary(res, out: Path) -> None:
-    from planar_mbs.results.hdf5 import peak, row_count
-
-    from .check_command import print_assembly
-
     a = res.attrs
-    worst = (f"{peak(res, 'system.position_error'):.3g}" if "system.position_error" in res.signals
+    worst = (f"{hdf5.peak(res, 'system.position_error'):.3g}" if "system.position_error" in res.signals
              else "not kept (--keep)")
     con = _console()
     state = "finished" if a.get("complete") else f"stopped ({a.get('status', '?')})"
@@ -292,7 +273,7 @@ def _print_summary(res, out: Path) -> None:
         f"rhs evaluations {a.get('n_rhs', 0):,}   contact events {a.get('n_contact_events', 0):,}"
     )
     con.print(f"  time-loop wall time {a.get('wall_time', 0.0):.3f} s   "
-              f"largest constraint error {worst}   outputs {row_count(res):,}")
+              f"largest constraint error {worst}   outputs {hdf5.row_count(res):,}")
     print_assembly(list(a.get("assembly_changes", [])))
     for warning in a.get("warnings") or []:
         _console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
@@ -318,11 +299,10 @@ class _Progress:
         if self.bar is None:
             if time.perf_counter() - self.start < self.DELAY:
                 return
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-            self.bar = Progress(
-                TextColumn(self.what), BarColumn(), TextColumn(self.field),
-                TimeElapsedColumn(), TimeRemainingColumn(), console=_console(stderr=True), transient=True,
+            bars = rich_progress
+            self.bar = bars.Progress(
+                bars.TextColumn(self.what), bars.BarColumn(), bars.TextColumn(self.field),
+                bars.TimeElapsedColumn(), bars.TimeRemainingColumn(), console=_console(stderr=True), transient=True,
             )
             self.bar.start()
             self.task = self.bar.add_task("run", total=t_end, t=t)
@@ -341,8 +321,6 @@ class _PacifyFlush:
         self.wrapped = wrapped
 
     def flush(self) -> None:
-        import errno
-
         try:
             self.wrapped.flush()
         except OSError as exc:
@@ -356,19 +334,12 @@ class _PacifyFlush:
 def run_plain(kwargs: dict) -> int:
     """`run_model(**kwargs)` ended as the typer command ends: Ctrl-C before the time loop exits
     130, a closed output pipe 1, an unexpected error one message (`common.internal_error`)."""
-    import errno
-    import sys
-
-    from .common import internal_error
-
     try:
         try:
             return run_model(**kwargs)
         except KeyboardInterrupt:
             return int(ExitCode.INTERRUPTED)
         except EOFError:
-            from typer import rich_utils
-
             print(file=sys.stderr)
             rich_utils.rich_abort_error()
             return 1

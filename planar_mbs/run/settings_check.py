@@ -12,8 +12,11 @@ import math
 
 from .. import catalog
 from ..errors import ModelError
-from ..results.hdf5 import memory_budget
-from .output_size import estimate
+from ..lazy import lazy
+
+# numpy: `mbs --help` and `mbs check` read this module's bounds (`MAX_T_END`) without loading it
+hdf5 = lazy("..results.hdf5", __package__)
+output_size = lazy(".output_size", __package__)
 
 MAX_T_END = 1e6  # s of simulated time (11.6 days): beyond it a typo is far likelier than a wish
 CLI, API = "cli", "api"
@@ -112,10 +115,10 @@ def _example(n: str, style: str, given) -> str:
 def check_memory(model, settings, what: str = "Simulation") -> None:
     """A run that keeps every row in memory (`Simulation`) is refused when its rows to t_end
     would not fit in half of the physical memory -- known before it starts."""
-    est = estimate(model, settings)
-    if est.bytes > memory_budget():
+    est = output_size.estimate(model, settings)
+    if est.bytes > hdf5.memory_budget():
         raise ModelError(f"{what} keeps every output row in memory: {est.describe()} to t_end = "
-                         f"{settings.t_end:g} s would not fit ({memory_budget() / 2**30:.1f} GiB allowed)",
+                         f"{settings.t_end:g} s would not fit ({hdf5.memory_budget() / 2**30:.1f} GiB allowed)",
                          f"{what}(...)", hint="a larger output_step, a shorter t_end, or `simulate(..., "
                          "output=...)`, which streams its rows to a file")
 
