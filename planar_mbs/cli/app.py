@@ -15,16 +15,22 @@ The modules that define typer commands (this one, `plot_commands`, `sweep_comman
 text again, twice per command, on each start (about 0.02 s of `mbs --help`).
 """
 import inspect
+import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from planar_mbs import catalog
+from planar_mbs import __version__, catalog
+from planar_mbs.lazy import lazy
 
 from .common import internal_error
 from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
 from .run_options import RUN_OPTIONS, SET_HELP, Opt, merged
+
+# lark, numpy, the kernels: loaded when a command runs, never by `mbs --help`
+check_command = lazy(".check_command", __package__)
+run_command = lazy(".run_command", __package__)
 
 EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
           "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed or is not physical, or a "
@@ -53,8 +59,6 @@ use_one_error_style()
 
 def _version(value: bool) -> None:
     if value:
-        from planar_mbs import __version__
-
         print(f"mbs (planar_mbs) {__version__}")
         raise typer.Exit()
 
@@ -85,9 +89,7 @@ _CHECK_HELP = (
 @app.command(help=_CHECK_HELP, cls=ReadableCommand)
 def check(model: ModelArg, set_: SetOpt = None) -> None:
     """Compile a model and print it (help text: _CHECK_HELP, from the catalog)."""
-    from .check_command import check_model
-
-    code = check_model(model, set_ or [])
+    code = check_command.check_model(model, set_ or [])
     if code:
         raise typer.Exit(code)
 
@@ -111,8 +113,6 @@ def _run(**options) -> None:
 
     Example: mbs run models/slider_crank_clearance_a.mbs --revolutions 60 --per-rev 720 --set speed=2500rpm
     """
-    from . import run_command
-
     code = run_command.run_model(**merged(options))
     if code:
         raise typer.Exit(code)
@@ -145,8 +145,6 @@ def main() -> None:
     """The `mbs` entry point.  Every expected failure is reported by the commands themselves;
     anything else (a bug) still ends with one message instead of a traceback, unless
     MBS_TRACEBACK=1 asks for it."""
-    import sys
-
     route(sys.argv)
     try:
         app()

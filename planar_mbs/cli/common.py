@@ -343,3 +343,12 @@ def model_files(path) -> list:
     except (OSError, MbsError):
         return [Path(path)]
     return [Path(path), *spec.include_files]
+
+
+def print_assembly(changes) -> None:
+    """What the assembly changed in the stated initial state (beyond the tolerance): `mbs check` and
+    `mbs run` print it."""
+    if changes:
+        con = console()
+        for line in changes:
+            con.print(line, markup=False)

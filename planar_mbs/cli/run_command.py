@@ -21,7 +21,6 @@ from planar_mbs.errors import MbsError, ModelError, SimulationError
 from planar_mbs.lazy import lazy
 from planar_mbs.run.first_compile import announce_if_cold
 
-from .check_command import print_assembly
 from .common import (
     MAX_REVOLUTIONS,
     ExitCode,
@@ -33,7 +32,7 @@ from .common import (
     positive_time,
 )
 from .common import console as _console
-from .common import internal_error
+from .common import internal_error, print_assembly
 
 # Loaded once `announce_if_cold` has said that the solver compiles (lark, numpy, h5py come with the
 # model), or only by the option that needs them (rerun, typer, the sweep's scan, rich's progress bar).
