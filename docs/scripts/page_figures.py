@@ -21,6 +21,11 @@ IMAGES = ROOT / "docs" / "images"
 PLOTS_RUN = "mbs run models/slider_crank_clearance_a.mbs -o a_5000.h5 --t-end 0.36s"
 PLOTS_DEFAULT = "mbs plot a_5000.h5 -o docs/images"
 PLOTS_AGAINST = "mbs plot a_5000.h5 slider.ax A.contact_force crank_speed.torque --against crank.phi"
+SWEEP_RUN = ("mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm,1200rpm,2500rpm,5000rpm -n 30 "
+             "--keep slider,crank -o sweep_a.h5")
+SWEEP_PLOT = "mbs plot sweep_a.h5 -o docs/images"
+SWEEP = ["sweep_a_grid_slider.ax.png", "sweep_a_poincare_grid_slider.vx_slider.ax.png",
+         "sweep_a_bifurcation_slider.vx.png"]
 TUTORIAL_RUN = "mbs run four_bar.mbs"
 TUTORIAL_PLOT = "mbs plot results/four_bar.h5 rocker_link.phi motor.torque --against crank_link.phi"
 
@@ -32,6 +37,7 @@ AGAINST = "a_5000_slider.ax_A.contact_force_crank_speed.torque_vs_crank.phi.png"
 PAGES = {
     "docs/plots.md": ([PLOTS_RUN, PLOTS_DEFAULT, PLOTS_AGAINST],
                       {**{f"docs/images/{n}": n for n in A_5000}, f"a_5000_plots/{AGAINST}": AGAINST}),
+    "docs/plots.md#sweeps": ([SWEEP_RUN, SWEEP_PLOT], {f"docs/images/{n}": n for n in SWEEP}),
     "docs/tutorial.md": ([TUTORIAL_RUN, TUTORIAL_PLOT],
                          {"results/four_bar_plots/four_bar_rocker_link.phi_motor.torque_vs_crank_link.phi.png":
                           "tutorial_four_bar.png"}),
