@@ -70,3 +70,26 @@ def test_the_readme_poincare_count():
     points = int(re.search(r"a Poincaré map of (\d+) points", text)[1])
     res = mbs.simulate(mbs.load_model(SHIPPED), revolutions=60, per_rev=90)
     assert len(P.poincare(res, "slider.vx", "slider.ax").t) == points
+
+
+def test_the_python_block_of_the_plots_page_runs(tmp_path, monkeypatch):
+    """docs/plots.md "From Python": its block runs as written on a run's file, draws the figures it
+    names, and matplotlib is imported only once a figure is drawn."""
+    import subprocess
+    import sys
+
+    from planar_mbs.results.section import driver_period
+
+    text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
+    block = re.search(r"### From Python\n\n```python\n(.*?)```", text, re.S)[1]
+    revolutions, points = (int(n) for n in re.search(
+        r"slider-cranks with clearance\s+stop after (\d+) revolutions, which leaves (\d+) points", text).groups())
+    model = mbs.load_model(SHIPPED)
+    assert round(model.settings.t_end / driver_period(model)[0], 9) == revolutions
+    monkeypatch.chdir(tmp_path)
+    mbs.simulate(model, output="a.h5")
+    probe = "import sys, planar_mbs.outputs.plot\nassert 'matplotlib' not in sys.modules\n"
+    done = subprocess.run([sys.executable, "-c", probe + block + f"\nassert len(ps.t) == {points}\n"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "orbit.pdf").stat().st_size > 0 and list((tmp_path / "figs").glob("a_slider.ax*.png"))
