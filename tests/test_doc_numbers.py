@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 import planar_mbs as mbs
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,3 +95,26 @@ def test_the_python_block_of_the_plots_page_runs(tmp_path, monkeypatch):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "orbit.pdf").stat().st_size > 0 and list((tmp_path / "figs").glob("a_slider.ax*.png"))
+
+
+def test_the_tolerance_table_of_numerics_is_the_scripts_data_and_the_programs():
+    """docs/numerics.md "Tolerances of the shipped models": the table is the one docs/scripts/tolerances.py
+    prints from docs/tolerances_data.json (its shipped rtol read from the models), and the data's row of
+    `slider_crank_clearance_a.mbs` at its shipped rtol is what the program gives now (error and steps)."""
+    import json
+    import sys
+
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT / "docs" / "scripts"))
+    import tolerances as T
+
+    data = json.loads((ROOT / "docs" / "tolerances_data.json").read_text(encoding="utf-8"))
+    assert T.table(data) in (ROOT / "docs" / "numerics.md").read_text(encoding="utf-8")
+    name = SHIPPED.name
+    rtol = mbs.load_model(SHIPPED).settings.rtol
+    row = next(r for r in data[name]["rows"] if r["rtol"] == rtol)
+    ref, _, _ = T.one(name, "slider.vx", None, 1e-12, 1e-15, "dop853")
+    v, _, steps = T.one(name, "slider.vx", None, rtol, rtol * 1e-3)
+    assert steps == row["steps"]
+    assert float(np.max(np.abs(v - ref)) / np.max(np.abs(ref))) == pytest.approx(row["error"], rel=1e-6)
