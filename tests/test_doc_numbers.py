@@ -151,3 +151,29 @@ def test_the_peaks_of_the_laws_on_the_replication_page_are_the_programs():
             r = [table[(joint, t)][column] / ln for t in ("Hertz", "Dubowsky–Freudenstein", "ESDU-78035")]
             ratios += [f"{min(r):.1f}", f"{max(r):.1f}"]
     assert list(quoted) == ratios
+
+
+def test_the_hdf5_layout_of_the_signals_page_is_the_files(tmp_path):
+    """docs/signals.md "HDF5 layout of one run": the attributes it lists are those of a run's file, and
+    the chain it counts has the entity datasets and signals it states."""
+    import sys
+
+    import h5py
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from chains import pendulum_chain
+
+    text = (ROOT / "docs" / "signals.md").read_text(encoding="utf-8")
+    block = text[text.index('attributes of "/":'):text.index("```", text.index('attributes of "/":'))]
+    names = [line.split("  ")[1] for line in block.splitlines()[1:] if re.match(r"  [a-z]", line)]
+    listed = {name for column in names for name in re.findall(r"[a-z_]+", column)}
+    out = tmp_path / "a.h5"
+    mbs.simulate(mbs.load_model(SHIPPED), t_end="1 ms", output=str(out))
+    with h5py.File(out) as f:
+        assert listed == set(f.attrs)
+    bars, datasets, signals = (int(n) for n in re.search(
+        r"a pendulum chain of (\d+) bars has (\d+) entity datasets\n?.*?not (\d+)\.", text, re.S).groups())
+    mbs.simulate(mbs.compile_text(pendulum_chain(bars)), t_end="1 ms", output=str(out))
+    with h5py.File(out) as f:
+        assert len(f["signals"]) == datasets
+        assert sum(len(f["signals"][k].dtype.names) for k in f["signals"]) == signals
