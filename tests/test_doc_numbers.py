@@ -201,3 +201,21 @@ def test_the_measured_column_of_validation_is_the_programs():
            np.max(np.abs(res["slider.ax"] - ref["ax"])) / np.max(np.abs(ref["ax"])),
            np.max(np.abs(res["crank_speed.torque"] - torque)) / np.max(np.abs(torque))]
     assert [f"{g:.1e}" for g in got] == [f"{float(r):.1e}" for r in rows]
+
+
+def test_the_counts_of_the_ln_memory_study_are_its_data():
+    """docs/contact.md, "The Lankarani–Nikravesh law has a memory": the number of stored velocities and of
+    those ending on a periodic orbit (section points equal to 1e-5 m/s over the last 10 revolutions), and
+    the stored values after new impacts, are those of docs/contact_ln_memory.json (docs/scripts/ln_memory.py)."""
+    import json
+
+    import numpy as np
+
+    text = (ROOT / "docs" / "contact.md").read_text(encoding="utf-8")
+    data = json.loads((ROOT / "docs" / "contact_ln_memory.json").read_text(encoding="utf-8"))["cases"]
+    counts = re.search(r"Of the (\d+) stored velocities, (\d+) end on a periodic", text).groups()
+    total, periodic = (int(n) for n in counts)
+    settled = [c for c in data if np.ptp(c["section_vx"]) <= 1e-5]
+    assert (total, periodic) == (len(data), len(settled))
+    renewed = re.search(r"close the contact with a new stored value\s+\(([\d., ]+) m/s\)", text)[1]
+    assert renewed.split(", ") == [f"{c['final_stored']:.3g}" for c in settled if not c["permanent"]]
