@@ -219,3 +219,34 @@ def test_the_counts_of_the_ln_memory_study_are_its_data():
     assert (total, periodic) == (len(data), len(settled))
     renewed = re.search(r"close the contact with a new stored value\s+\(([\d., ]+) m/s\)", text)[1]
     assert renewed.split(", ") == [f"{c['final_stored']:.3g}" for c in settled if not c["permanent"]]
+
+
+def _short(x: float) -> str:
+    """1.5e-8, as the pages write it (not 1.5e-08)."""
+    return re.sub(r"e([-+])0*(\d)", r"e\1\2", f"{x:.1e}").replace("e+", "e")
+
+
+def test_the_singular_passage_numbers_of_numerics_are_the_programs(monkeypatch):
+    """docs/numerics.md, the N = 2 parallelogram chain (20 s, rtol 1e-12) as docs/scripts/singular_passages.py
+    runs it: the crank-tip errors with and without the kinetic energy given back, the energy lost without it
+    and the energy error with it, for DOPRI5 and DOP853, are the page's."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "scripts"))
+    import singular_passages as S
+
+    monkeypatch.delenv("PLANAR_MBS_SOLVER", raising=False)
+    err, energy = {}, {}
+    for restore in (False, True):
+        for integrator in ("dopri5", "dop853"):
+            with monkeypatch.context() as m:
+                m.setenv("PLANAR_MBS_SOLVER", "")  # restored by the context whatever S.run sets
+                _, e, de, _ = S.run(integrator, restore)
+            err[restore, integrator], energy[restore, integrator] = _short(e.max()), _short(abs(de[-1]))
+    text = (ROOT / "docs" / "numerics.md").read_text(encoding="utf-8")
+    pair = lambda d, r: f"{d[r, 'dopri5']} / {d[r, 'dop853']}"  # noqa: E731
+    assert f"| the orthogonal projection alone: `ε` = 1e-8, 2 sweeps | {pair(err, False)} |" in text
+    assert f"| **kinetic energy given back after the projection (shipped)** | **{pair(err, True)}** |" in text
+    assert f"({energy[False, 'dopri5']} J over 20 s with DOPRI5, {energy[False, 'dop853']} J with DOP853, N = 2)" \
+        in text
+    assert f"| {pair(err, True)} | 2.8e-9 / 2.0e-9 | {pair(energy, True).replace(' /', ' J /')} J of 35.8 J |" in text
