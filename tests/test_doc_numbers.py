@@ -250,3 +250,22 @@ def test_the_singular_passage_numbers_of_numerics_are_the_programs(monkeypatch):
     assert f"({energy[False, 'dopri5']} J over 20 s with DOPRI5, {energy[False, 'dop853']} J with DOP853, N = 2)" \
         in text
     assert f"| {pair(err, True)} | 2.8e-9 / 2.0e-9 | {pair(energy, True).replace(' /', ' J /')} J of 35.8 J |" in text
+
+
+def test_the_longest_shipped_model_of_the_language_page():
+    """docs/language.md §12 names the longest shipped model and its size in names, numbers and symbols
+    (with its included files, as the parser counts them against its limit): the largest, to within 10 %."""
+    from planar_mbs.language import parse as P
+
+    text = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
+    name, stated = re.search(r"the longest shipped model, `([\w.]+)`, about (\d+)\)", text).groups()
+    sizes = {}
+    for path in (ROOT / "models").glob("*.mbs"):
+        left, files = [10**9], [path]
+        while files:
+            source = files.pop().read_text(encoding="utf-8")
+            P._check_tokens(source, None, str(path), left)
+            files += [path.parent / inc for inc in re.findall(r'^include "([^"]+)"', source, re.M)]
+        sizes[path.name] = 10**9 - left[0]
+    assert max(sizes, key=sizes.get) == name
+    assert abs(sizes[name] - int(stated)) <= 0.1 * int(stated)
