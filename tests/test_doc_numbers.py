@@ -269,3 +269,19 @@ def test_the_longest_shipped_model_of_the_language_page():
         sizes[path.name] = 10**9 - left[0]
     assert max(sizes, key=sizes.get) == name
     assert abs(sizes[name] - int(stated)) <= 0.1 * int(stated)
+
+
+def test_the_readme_layout_is_the_packages_stages():
+    """README "Layout": the folders of planar_mbs/ in the order of the layering tests/test_imports.py
+    checks (each imports only from those before it), and every folder of the package named."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_imports import STAGES
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text[text.index("## Layout"):text.index("Documentation (in `docs/`)")]
+    named = re.findall(r"^  (\w+)(?:/|\.py)", block, re.M)
+    folders = {p.name for p in (ROOT / "planar_mbs").iterdir() if (p / "__init__.py").exists()}
+    assert folders <= set(named), folders - set(named)
+    assert [s for s in named if s in folders] == [s for s in STAGES if s in folders]
