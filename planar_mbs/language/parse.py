@@ -586,7 +586,7 @@ def _check_depth(tree, text: str, path: str) -> None:
 
 
 # ------------------------------------------------------------ entry points
-MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~300)
+MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~600)
 _TOKEN = re.compile(r'"[^"\n]*"?|[\w.\u00b5\u03bc]+|[^\s\w#]')  # comments are skipped below
 
 
@@ -604,7 +604,7 @@ def _check_tokens(text: str, code: str, path: str, left: list[int]) -> None:
             raise ModelError(f"the model is too long: more than {MAX_TOKENS:,} names, numbers and symbols "
                              "(with its included files)", path, line, m.start() - start + 1,
                              source_line=text[start:end if end >= 0 else len(text)],
-                             hint="is this really a model file? The longest shipped model has about 300")
+                             hint="is this really a model file? The longest shipped model has about 600")
     left[0] -= n
 
 

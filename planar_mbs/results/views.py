@@ -106,9 +106,12 @@ def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: 
     `mbs analyze`)."""
     check_signals(results, [x, y])
     body = body or turning_body(results, model)
-    if body is None or f"{body}.phi" not in results:
-        raise PlotError(f"error: no body `{body}` to clock the Poincaré section"
-                        + (f"\nhint: {did_you_mean(str(body), body_names(results))}" if body else ""))
+    if body is None:
+        raise PlotError("error: no body angle in the results to clock the Poincaré section\nhint: keep the "
+                        "driven body's angle (`--keep slider,crank`) or name a body with `--clock`")
+    if f"{body}.phi" not in results:
+        raise PlotError(f"error: no body `{body}` to clock the Poincaré section\n"
+                        f"hint: {did_you_mean(str(body), body_names(results))}")
     try:
         sec = poincare_section(results, (x, y) if x != y else (x,), clock=body, transient=skip, model=model)
     except AnalysisError as err:
