@@ -3,7 +3,7 @@
 `run_model` is the command; it returns the exit code and imports neither typer nor the kernels
 until it needs them.  Its options are read by the typer command `app.run` or, for a plain command
 line, by `run_options.plain_run` (both from the one table `run_options.RUN_OPTIONS`).  The work is
-the library's: `planar_mbs.simulate`, `run.study.run_until_settled`, the size of the outputs
+the library's: `run.simulation.simulate`, `run.study.run_until_settled`, the size of the outputs
 (`run.output_size`), their names (`run.output_names`), the recording (`outputs.rerun_log`); this
 module checks the options, calls them in order and prints.
 """
