@@ -1,5 +1,6 @@
-"""Functions fit on a screen: no function or method in planar_mbs/ is longer than 80 lines (from its
-`def` to its last line, decorators not counted), read with `ast` over the whole package."""
+"""The package's shape: functions fit on a screen (no function or method in planar_mbs/ is longer than
+80 lines from its `def` to its last line, decorators not counted, read with `ast` over the whole
+package), and every folder of modules is a package that an install ships."""
 from __future__ import annotations
 
 import ast
@@ -59,3 +60,14 @@ def test_no_function_is_longer_than_a_screen():
 def test_the_list_of_known_long_functions_only_shrinks():
     stale = KNOWN_LONG - set(long_functions())
     assert not stale, f"split now, remove from KNOWN_LONG: {sorted(stale)}"
+
+
+def test_every_folder_of_modules_is_installed():
+    """A folder of modules without ``__init__.py`` is a namespace package, which setuptools'
+    `find_packages` (pyproject.toml) leaves out of a regular install: `pip install .` would ship
+    planar_mbs without it (results/ was such a folder)."""
+    from setuptools import find_packages
+
+    folders = {".".join(p.parent.relative_to(ROOT.parent).parts) for p in ROOT.rglob("*.py")
+               if "__pycache__" not in p.parts}
+    assert folders <= set(find_packages(str(ROOT.parent), include=["planar_mbs*"]))
