@@ -26,7 +26,7 @@ import re
 import numpy as np
 
 from ..errors import ModelError
-from .model import JOINT_ROWS, JointType, KernelModel, Model
+from .model import JOINT_ROWS, JP_PHI0, JointType, KernelModel, Model
 
 MAX_NEWTON = 50
 POSITION_TOL = 1e-12  # m (and rad): residual of C at an assembled pose
@@ -93,7 +93,7 @@ def assembly_kernel(model: Model, use=None, offset=None, slides=True) -> tuple[K
     if offset is not None and nc:
         cpoint[:, 0, :] += np.asarray(offset, dtype=np.float64)[use]
     spar = np.zeros((ns, k.joint_param.shape[1]))
-    spar[:, 0] = [a[6] for a in slides]  # JP_PHI0
+    spar[:, JP_PHI0] = [a[6] for a in slides]
     jt = np.concatenate([k.joint_type, np.full(ns, int(JointType.TRANSLATIONAL), dtype=np.int64),
                          np.full(nc, int(JointType.REVOLUTE), dtype=np.int64)])
     jb = np.concatenate([k.joint_body, np.array([a[1:3] for a in slides], dtype=np.int64).reshape(ns, 2),
