@@ -2,8 +2,9 @@
 
 Everything else is derived from these three tables: the integer enums of
 `model` (`ContactLaw`, `JointType`, `Integrator`) and their groups, the
-kernel's constants (number of laws, rows per joint type, stage buffers), the
-compiler's field tables and allowed law arguments, the CLI's choices and
+columns of the joints' settings (`model.JP`), the kernel's constants (number of
+laws, rows per joint type, stage buffers, tableaux), the compiler's field tables,
+how it reads a joint's settings and the allowed law arguments, the CLI's choices and
 tables, the signal names, how `rerun_log` draws a joint, and the generated
 lists in docs/language.md (`python -m planar_mbs.catalog --docs` rewrites them;
 a test checks they are in step).

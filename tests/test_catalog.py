@@ -100,6 +100,33 @@ def test_every_law_has_its_formula_and_every_integrator_its_tableau_in_the_kerne
     assert not integrators.method_ok(len(catalog.INTEGRATORS))
 
 
+def test_joint_settings_are_read_as_the_catalog_describes_them():
+    """Every setting's unit is a dimension the compiler checks (or a direction); each number lands in
+    its column, its default from the pose; a setting that must be positive is refused at its place."""
+    from planar_mbs.language import units as U
+    from planar_mbs.mechanism.model import JP
+
+    for spec in catalog.JOINTS:
+        for s in spec.settings:
+            assert s.unit == "direction" or isinstance(getattr(U, s.unit.upper()), U.Dim), (spec.name, s.name)
+            assert s.unit == "direction" or s.column in JP
+    base = """body a { mass = 1 kg  inertia = 1 kg*m^2  position = (0.3, 0.4)  angle = 20 deg }
+body b { mass = 1 kg  inertia = 1 kg*m^2  position = (0, 0) }
+"""
+    k = compile_text(base + "joint L = revolute_revolute(a, b)\njoint W = weld(a, b)\n").kernel
+    by_type = {int(t): row for t, row in zip(k.joint_type, k.joint_param)}
+    assert by_type[JointType.REVOLUTE_REVOLUTE][JP["length"]] == pytest.approx(0.5)
+    assert by_type[JointType.WELD][JP["phi0"]] == pytest.approx(-np.radians(20))
+    assert compile_text(base + "joint L = revolute_revolute(a, b, length = 2 cm)").kernel.joint_param[0, JP["length"]] \
+        == pytest.approx(0.02)
+    with pytest.raises(ModelError, match="the length of joint `L` .* must be positive") as info:
+        compile_text(base + "joint L = revolute_revolute(a, b, length = -2 cm)")
+    assert info.value.line == 3 and info.value.source_line.index("-2 cm") == info.value.column - 1
+    with pytest.raises(ModelError, match="the length of joint `L` .* must be positive") as info:
+        compile_text(base + "joint L = revolute_revolute(a (0, 0), b (0.3, 0.4))")
+    assert "coincide" in info.value.hint
+
+
 def test_the_dissipative_laws_are_the_ones_the_kernel_damps():
     """The group says which laws need restitution; the kernel's chi is nonzero exactly for them."""
     for s in catalog.LAWS:
