@@ -10,13 +10,22 @@ including file, with cycle detection.
 from __future__ import annotations
 
 import functools
+import hashlib
+import itertools
+import os
 import re
+import stat
+import tempfile
+from importlib.util import find_spec
 from pathlib import Path
 
-from lark import Lark, Token, Transformer, v_args
+import lark
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
 from ..errors import ModelError, did_you_mean
+from ..lazy import lazy
+from .units import UnitError, parse_unit
 from .spec import (
     BinOp,
     Call,
@@ -34,6 +43,8 @@ from .spec import (
     String,
     Vector,
 )
+
+resources = lazy("importlib.resources")  # the grammar's fallback reader: costs more than a parse
 
 KEYWORDS = ("param", "material", "body", "joint", "driver", "force", "gravity",
             "simulate", "include", "override")
@@ -74,15 +85,12 @@ def parser() -> Lark:
 def _grammar_text() -> str:
     """planar_mbs/language/grammar/mbs.lark, read from the package folder (importlib.resources, which also reads packages
     inside zip files, costs more to import than a model costs to parse; it is the fallback)."""
-    from importlib.util import find_spec
-
     spec = find_spec("planar_mbs.language.grammar")
     for folder in (spec.submodule_search_locations or []) if spec is not None else []:
         try:
             return (Path(folder) / "mbs.lark").read_text(encoding="utf-8")
         except OSError:
             pass
-    from importlib import resources
 
     return resources.files("planar_mbs.language.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
 
@@ -95,10 +103,6 @@ def _grammar() -> tuple[str, dict]:
 
 def tables_name() -> str:
     """File name of the saved parser: changes with the grammar, its options and lark's version."""
-    import hashlib
-
-    import lark
-
     text, options = _grammar()
     return "grammar-" + hashlib.sha256(f"{text}\0{lark.__version__}\0{sorted(options.items())}".encode()
                                        ).hexdigest()[:24] + ".lark"
@@ -107,9 +111,6 @@ def tables_name() -> str:
 def _private_cache(name: str) -> str | None:
     """A path in the user's own cache folder ($XDG_CACHE_HOME or ~/.cache, then planar_mbs/),
     or None when that folder is not a real folder owned by this user with mode 0700."""
-    import os
-    import stat
-
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     folder = os.path.join(base, "planar_mbs")
     try:
@@ -125,9 +126,6 @@ def _private_cache(name: str) -> str | None:
 def _load_tables(path: str) -> Lark | None:
     """The parser saved at `path`, if that is a regular file (not a link) of this user that no
     one else may write; else None (and it is rebuilt)."""
-    import os
-    import stat
-
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
     except OSError:
@@ -144,9 +142,6 @@ def _load_tables(path: str) -> Lark | None:
 
 def _save_tables(built: Lark, path: str) -> None:
     """Save the parser next to `path` and move it into place (readers never see half a file)."""
-    import os
-    import tempfile
-
     try:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
         with os.fdopen(fd, "wb") as f:
@@ -354,7 +349,6 @@ def _spaced_unit(prev: str) -> tuple[str, str] | None:
     m = _SPACED_UNIT.search(prev)
     if m is None:
         return None
-    from .units import UnitError, parse_unit
 
     try:
         parse_unit(m.group(2))
@@ -363,132 +357,171 @@ def _spaced_unit(prev: str) -> tuple[str, str] | None:
     return m.group(1), m.group(2)
 
 
-def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0,
-                  code: str | None = None) -> ModelError:
-    lines = text.splitlines() or [""]
-    line = getattr(e, "line", None) or len(lines)
-    column = getattr(e, "column", None) or 1
-    src = lines[line - 1] if 0 < line <= len(lines) else ""
-    width = 1
-    code = _code(text) if code is None else code
+class _Site:
+    """Where a syntax error is: the text, its code (comments and strings blanked), the line lark
+    reported and the brackets still open at the error (`_open_brackets`)."""
+
+    def __init__(self, text: str, code: str, line: int, offset: int):
+        self.text, self.code, self.line = text, code, line
+        self.stack = _open_brackets(code, offset)
+
+    def where(self, off: int) -> str:
+        ln = self.text.count("\n", 0, off) + 1
+        return f"line {ln}, column {off - (self.text.rfind(chr(10), 0, off) + 1) + 1}"
+
+    def unclosed(self, before_line: bool) -> str:
+        """'the `{` opened on line 3 is still open' when a bracket opened earlier is unclosed."""
+        if not self.stack:
+            return ""
+        b, off = self.stack[-1]
+        if before_line and self.text.count("\n", 0, off) + 1 >= self.line:
+            return ""
+        close = "}" if b == "{" else ")"
+        return f"is a `{close}` missing? the `{b}` at {self.where(off)} is still open"
+
+
+def _error_offset(e: UnexpectedInput, text: str) -> int:
+    """The offset in `text` of the error: the unexpected token's start, else lark's position, else the end."""
     offset = getattr(e, "pos_in_stream", None)
     if isinstance(e, UnexpectedToken) and e.token.type != "$END":
         offset = e.token.start_pos
     if offset is None or e.__class__ is UnexpectedToken and e.token.type == "$END":
         offset = len(text)
-    stack = _open_brackets(code, offset)
+    return offset
 
-    def where(off: int) -> str:
-        ln = text.count("\n", 0, off) + 1
-        return f"line {ln}, column {off - (text.rfind(chr(10), 0, off) + 1) + 1}"
 
-    def unclosed(before_line: bool) -> str:
-        """'the `{` opened on line 3 is still open' when a bracket opened earlier is unclosed."""
-        if not stack:
-            return ""
-        b, off = stack[-1]
-        if before_line and text.count("\n", 0, off) + 1 >= line:
-            return ""
-        close = "}" if b == "{" else ")"
-        return f"is a `{close}` missing? the `{b}` at {where(off)} is still open"
-
-    if isinstance(e, UnexpectedToken):
-        tok = e.token
-        expected = set(e.expected)
-        if tok.type == "$END":
-            line, column = len(lines), len(lines[-1].rstrip()) + 1
-            src = lines[-1]
-            message = ("the value ends too early" if path == "--set"
-                       else "the text ends in the middle of a statement")
-            hint = f"expected {_readable(expected)}; " + (unclosed(False) or "is a `)` or `}` missing?")
-        else:
-            width = len(str(tok))
-            shown = f"`{_clip(str(tok))}`"
-            message = f"unexpected {shown}"
-            hint = f"expected {_readable(expected)}"
-            prev = code[:tok.start_pos].rstrip()
-            if tok.type in ("RBRACE", "RPAR") and (not stack or stack[-1][0] != ("{" if tok.type == "RBRACE" else "(")):
-                other = "{" if tok.type == "RBRACE" else "("
-                if stack:
-                    message = f"this `{tok}` does not match the `{stack[-1][0]}` at {where(stack[-1][1])}"
-                    hint = f"close the `{stack[-1][0]}` first, or remove this `{tok}`"
-                else:
-                    message = f"this `{tok}` closes nothing"
-                    hint = f"remove it, or add the `{other}` it should close; " + hint
-            elif tok.type == "COMMA" and prev[-1:].isdigit() and code[tok.end_pos:tok.end_pos + 1].isdigit():
-                hint = "decimals are written with a point (`1.5`), not a comma"
-            elif tok.type == "COMMA" and "RBRACE" in expected:
-                hint = "fields inside `{ }` are separated by spaces or new lines, not commas"
-            elif tok.type == "EQUAL" and re.search(r"([-+*/^])\s*(\w+)$", prev):
-                op, name = re.search(r"([-+*/^])\s*(\w+)$", prev).groups()
-                message = f"unexpected `=`: `{name}` was read as the operand of the `{op}` before it"
-                hint = f"the value before `{name}` ends with a trailing `{op}`: finish or remove it"
-            elif expected == {"EQUAL"} and _spaced_unit(prev):  # `1e-5 kg m^2`: `m` read as a field name
-                unit, name = _spaced_unit(prev)
-                message = f"unexpected {shown}: the unit `{name}` after `{unit}` was read as a new field"
-                tail = re.match(r"[*/^][\w.*/^]*", text[tok.start_pos:])  # the rest of the unit: `^2`
-                hint = f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`"
-            elif tok.type == "NAME" and "EQUAL" not in expected and _spaced_unit(f"{prev} {tok}"):  # `2 N m)`
-                unit, name = _spaced_unit(f"{prev} {tok}")
-                message = f"unexpected `{tok}`: a second unit after `{unit}`, separated by a space"
-                tail = re.match(r"[*/^][\w.*/^]*", text[tok.end_pos:])
-                hint = f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`"
-            elif tok.type == "STRING":
-                hint = 'quoted text is only used by `include "file.mbs"`; write names without quotes (`law = hertz`)'
-            elif tok.type == "QUANTITY" and "PARAM" in expected:
-                message = f"unexpected `{tok}`: a statement starts with a keyword"
-                hint = "statements start with: " + ", ".join(KEYWORDS) + "; is this value part of the line before?"
-            elif tok.type == "NAME" and "PARAM" in expected:
-                close = did_you_mean(str(tok), KEYWORDS)
-                message = f"unexpected `{tok}`: a statement starts with a keyword"
-                hint = close or "statements start with: " + ", ".join(KEYWORDS)
-            elif tok.type.lower() in KEYWORDS and "NAME" in expected:
-                message = f"`{tok}` is a keyword and cannot be used as a name here"
-                hint = "choose another name"
-            elif tok.type == "QUANTITY" and "NAME" in expected and re.match(r"\d+[A-Za-z_]", str(tok)):
-                message = f"`{tok}` is not a name"
-                hint = "names start with a letter or `_` (letters, digits and `_` follow)"
-            elif tok.type == "QUANTITY" and expected == {"EQUAL"}:
-                hint = ("write `param NAME = value`" if re.search(r"(?:^|\W)param\s+\w+$", prev)
-                        else "write fields as `key = value`")
-                message = f"unexpected `{tok}`: a `=` is missing"
-            elif tok.type in ("LPAR", "QUANTITY") and "NAME" in expected and "EQUAL" not in expected:
-                hint = ("a unit goes right after its number without spaces inside "
-                        "(`2.5e-4 kg*m^2`); otherwise " + hint)
-            # a statement keyword read as a field name: the block before it was not closed
-            missing = unclosed(True)
-            kw_before = re.search(r"(?:^|[^\w])(" + "|".join(KEYWORDS) + r")\s*$", prev)
-            if missing and stack[-1][0] == "{" and kw_before:
-                message = (f"unexpected {shown}: `{kw_before.group(1)}` starts a new statement, "
-                           f"but the block before it is not closed")
-                hint = missing
-            elif missing and tok.type.lower() in KEYWORDS:
-                message = f"unexpected {shown}: a new statement starts, but the one before it is not finished"
-                hint = missing
-            elif missing and tok.type not in ("RBRACE", "RPAR"):
-                hint = f"{hint}; {missing}"
+def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0,
+                  code: str | None = None) -> ModelError:
+    """A lark syntax error as a `ModelError` in words: what was found, what was expected instead
+    (`_readable`), the likely cause (`_token_rules`, `_unclosed_block`), a caret under the text."""
+    lines = text.splitlines() or [""]
+    line = getattr(e, "line", None) or len(lines)
+    column = getattr(e, "column", None) or 1
+    src = lines[line - 1] if 0 < line <= len(lines) else ""
+    width = 1
+    site = _Site(text, _code(text) if code is None else code, line, _error_offset(e, text))
+    if isinstance(e, UnexpectedToken) and e.token.type == "$END":
+        line, column, src = len(lines), len(lines[-1].rstrip()) + 1, lines[-1]
+        message = ("the value ends too early" if path == "--set"
+                   else "the text ends in the middle of a statement")
+        hint = f"expected {_readable(set(e.expected))}; " + (site.unclosed(False) or "is a `)` or `}` missing?")
+    elif isinstance(e, UnexpectedToken):
+        width = len(str(e.token))
+        message, hint = _unexpected_token(site, e.token, set(e.expected))
     else:
         assert isinstance(e, UnexpectedCharacters)
-        ch = text[e.pos_in_stream] if e.pos_in_stream < len(text) else "?"
-        message = f"unexpected character `{ch}`" if ch.isprintable() else f"unexpected character {ch!r}"
-        if ch == ";":
-            hint = "no `;` is needed: separate statements and fields with spaces or new lines"
-        elif ch == '"' and '"' not in text[e.pos_in_stream + 1:].split("\n", 1)[0]:
-            message = "the quoted file name is not closed"
-            hint = 'end it with `"` on the same line: `include "file.mbs"`'
-        elif ch == '"':
-            hint = 'quoted text is only used by `include "file.mbs"`'
-        elif ch == ",":
-            hint = "fields inside `{ }` are separated by spaces or new lines, not commas"
-        elif ch != "\n" and not ch.isprintable() and ch not in "\t\r":
-            hint = "the file contains a control character: is it a text file? remove the character"
-        elif ch == "\ufffd":
-            message = "a character that is not valid UTF-8"
-            hint = "save the file as UTF-8"
-        else:
-            hint = "names are letters, digits and `_`; numbers may carry a unit like `0.3 mm`"
+        message, hint = _unexpected_character(text, e.pos_in_stream)
     return ModelError(message, path, line + line_offset, column, hint=hint, source_line=src,
                       width=width)
+
+
+def _unexpected_token(site: _Site, tok: Token, expected: set[str]) -> tuple[str, str]:
+    """(message, hint) for a token the grammar does not allow where it stands."""
+    shown = f"`{_clip(str(tok))}`"
+    prev = site.code[:tok.start_pos].rstrip()
+    default = (f"unexpected {shown}", f"expected {_readable(expected)}")
+    for rule in (_bracket_rules, _unit_rules, _statement_rules):
+        found = rule(site, tok, expected, prev, shown, default[1])
+        if found is not None:
+            return _unclosed_block(site, tok, prev, shown, *found)
+    return _unclosed_block(site, tok, prev, shown, *default)
+
+
+def _bracket_rules(site: _Site, tok: Token, expected: set[str], prev: str, shown: str, hint: str):
+    """A closing bracket that closes nothing or the wrong bracket; a comma where none belongs."""
+    stack, code = site.stack, site.code
+    if tok.type in ("RBRACE", "RPAR") and (not stack or stack[-1][0] != ("{" if tok.type == "RBRACE" else "(")):
+        other = "{" if tok.type == "RBRACE" else "("
+        if stack:
+            return (f"this `{tok}` does not match the `{stack[-1][0]}` at {site.where(stack[-1][1])}",
+                    f"close the `{stack[-1][0]}` first, or remove this `{tok}`")
+        return f"this `{tok}` closes nothing", f"remove it, or add the `{other}` it should close; " + hint
+    if tok.type == "COMMA" and prev[-1:].isdigit() and code[tok.end_pos:tok.end_pos + 1].isdigit():
+        return f"unexpected {shown}", "decimals are written with a point (`1.5`), not a comma"
+    if tok.type == "COMMA" and "RBRACE" in expected:
+        return f"unexpected {shown}", "fields inside `{ }` are separated by spaces or new lines, not commas"
+    return None
+
+
+def _unit_rules(site: _Site, tok: Token, expected: set[str], prev: str, shown: str, hint: str):
+    """A `=` read as the end of an expression; a unit after a space read as a field name or a second unit."""
+    text = site.text
+    if tok.type == "EQUAL" and re.search(r"([-+*/^])\s*(\w+)$", prev):
+        op, name = re.search(r"([-+*/^])\s*(\w+)$", prev).groups()
+        return (f"unexpected `=`: `{name}` was read as the operand of the `{op}` before it",
+                f"the value before `{name}` ends with a trailing `{op}`: finish or remove it")
+    if expected == {"EQUAL"} and _spaced_unit(prev):  # `1e-5 kg m^2`: `m` read as a field name
+        unit, name = _spaced_unit(prev)
+        tail = re.match(r"[*/^][\w.*/^]*", text[tok.start_pos:])  # the rest of the unit: `^2`
+        return (f"unexpected {shown}: the unit `{name}` after `{unit}` was read as a new field",
+                f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`")
+    if tok.type == "NAME" and "EQUAL" not in expected and _spaced_unit(f"{prev} {tok}"):  # `2 N m)`
+        unit, name = _spaced_unit(f"{prev} {tok}")
+        tail = re.match(r"[*/^][\w.*/^]*", text[tok.end_pos:])
+        return (f"unexpected `{tok}`: a second unit after `{unit}`, separated by a space",
+                f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`")
+    return None
+
+
+def _statement_rules(site: _Site, tok: Token, expected: set[str], prev: str, shown: str, hint: str):
+    """Quoted text, a statement that does not start with a keyword, a keyword or number used as a
+    name, a missing `=`, a unit with spaces inside."""
+    if tok.type == "STRING":
+        return (f"unexpected {shown}",
+                'quoted text is only used by `include "file.mbs"`; write names without quotes (`law = hertz`)')
+    if tok.type == "QUANTITY" and "PARAM" in expected:
+        return (f"unexpected `{tok}`: a statement starts with a keyword",
+                "statements start with: " + ", ".join(KEYWORDS) + "; is this value part of the line before?")
+    if tok.type == "NAME" and "PARAM" in expected:
+        return (f"unexpected `{tok}`: a statement starts with a keyword",
+                did_you_mean(str(tok), KEYWORDS) or "statements start with: " + ", ".join(KEYWORDS))
+    if tok.type.lower() in KEYWORDS and "NAME" in expected:
+        return f"`{tok}` is a keyword and cannot be used as a name here", "choose another name"
+    if tok.type == "QUANTITY" and "NAME" in expected and re.match(r"\d+[A-Za-z_]", str(tok)):
+        return f"`{tok}` is not a name", "names start with a letter or `_` (letters, digits and `_` follow)"
+    if tok.type == "QUANTITY" and expected == {"EQUAL"}:
+        return (f"unexpected `{tok}`: a `=` is missing",
+                "write `param NAME = value`" if re.search(r"(?:^|\W)param\s+\w+$", prev)
+                else "write fields as `key = value`")
+    if tok.type in ("LPAR", "QUANTITY") and "NAME" in expected and "EQUAL" not in expected:
+        return (f"unexpected {shown}",
+                "a unit goes right after its number without spaces inside (`2.5e-4 kg*m^2`); otherwise " + hint)
+    return None
+
+
+def _unclosed_block(site: _Site, tok: Token, prev: str, shown: str, message: str, hint: str) -> tuple[str, str]:
+    """(message, hint) said again when a bracket opened on an earlier line is still open: a statement
+    keyword read as a field name means the block before it was not closed."""
+    missing = site.unclosed(True)
+    kw_before = re.search(r"(?:^|[^\w])(" + "|".join(KEYWORDS) + r")\s*$", prev)
+    if missing and site.stack[-1][0] == "{" and kw_before:
+        return (f"unexpected {shown}: `{kw_before.group(1)}` starts a new statement, "
+                f"but the block before it is not closed"), missing
+    if missing and tok.type.lower() in KEYWORDS:
+        return f"unexpected {shown}: a new statement starts, but the one before it is not finished", missing
+    if missing and tok.type not in ("RBRACE", "RPAR"):
+        return message, f"{hint}; {missing}"
+    return message, hint
+
+
+def _unexpected_character(text: str, pos: int) -> tuple[str, str]:
+    """(message, hint) for a character no token starts with: `;`, a stray quote, a comma, a control
+    character, bytes that are not UTF-8."""
+    ch = text[pos] if pos < len(text) else "?"
+    message = f"unexpected character `{ch}`" if ch.isprintable() else f"unexpected character {ch!r}"
+    if ch == ";":
+        return message, "no `;` is needed: separate statements and fields with spaces or new lines"
+    if ch == '"' and '"' not in text[pos + 1:].split("\n", 1)[0]:
+        return "the quoted file name is not closed", 'end it with `"` on the same line: `include "file.mbs"`'
+    if ch == '"':
+        return message, 'quoted text is only used by `include "file.mbs"`'
+    if ch == ",":
+        return message, "fields inside `{ }` are separated by spaces or new lines, not commas"
+    if ch != "\n" and not ch.isprintable() and ch not in "\t\r":
+        return message, "the file contains a control character: is it a text file? remove the character"
+    if ch == "\ufffd":
+        return "a character that is not valid UTF-8", "save the file as UTF-8"
+    return message, "names are letters, digits and `_`; numbers may carry a unit like `0.3 mm`"
 
 
 def _clip(word: str, n: int = 40) -> str:
@@ -539,8 +572,6 @@ def _open_brackets(code: str, end: int) -> list[tuple[str, int]]:
 
 def _check_depth(tree, text: str, path: str) -> None:
     """Reject expressions nested deeper than MAX_DEPTH (without recursing ourselves)."""
-    from lark import Tree
-
     todo = [(tree, 0)]
     while todo:
         node, depth = todo.pop()
@@ -555,7 +586,7 @@ def _check_depth(tree, text: str, path: str) -> None:
 
 
 # ------------------------------------------------------------ entry points
-MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~300)
+MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~600)
 _TOKEN = re.compile(r'"[^"\n]*"?|[\w.\u00b5\u03bc]+|[^\s\w#]')  # comments are skipped below
 
 
@@ -563,8 +594,6 @@ def _check_tokens(text: str, code: str, path: str, left: list[int]) -> None:
     """Refuse text with more than ``left[0]`` tokens (stopping at the first one too many), so that
     the parser's time -- linear, but some 50 µs a token -- stays bounded; subtract the count
     from ``left[0]``."""
-    import itertools
-
     n = 0
     tokens = (m for m in _TOKEN.finditer(_NOT_COMMENT.sub(_blank, text)))
     for n, m in enumerate(itertools.islice(tokens, left[0] + 1), 1):
@@ -575,7 +604,7 @@ def _check_tokens(text: str, code: str, path: str, left: list[int]) -> None:
             raise ModelError(f"the model is too long: more than {MAX_TOKENS:,} names, numbers and symbols "
                              "(with its included files)", path, line, m.start() - start + 1,
                              source_line=text[start:end if end >= 0 else len(text)],
-                             hint="is this really a model file? The longest shipped model has about 300")
+                             hint="is this really a model file? The longest shipped model has about 600")
     left[0] -= n
 
 
@@ -662,15 +691,11 @@ def parse_model(text: str, path: str = "<string>", sources: dict[str, str] | Non
 
 def _lexical(path: str) -> str:
     """An absolute path without resolving symlinks (the key of an included file's text)."""
-    import os
-
     return os.path.normpath(os.path.abspath(path))
 
 
 def _expand(text: str, path: str, stack: tuple[Path, ...], key: str | None, spec: ModelSpec,
             sources: dict[str, str] | None, budget: list[int]) -> list[Statement]:
-    import os
-
     here = Path(path).resolve() if sources is None and not path.startswith("<") else None
     out = []
     tokens = budget[1:]
@@ -709,9 +734,6 @@ def _expand(text: str, path: str, stack: tuple[Path, ...], key: str | None, spec
 
 def _read_include(st: Statement, target: Path, base: Path, budget: list[int]) -> bytes:
     """The bytes of an included file: a regular file, within what is left of the size budget."""
-    import os
-    import stat
-
     try:
         info = os.stat(target)
         if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened
