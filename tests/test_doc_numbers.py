@@ -35,7 +35,7 @@ def test_the_poincare_count_of_the_plots_page():
     """docs/plots.md: the shipped model run as the page runs it (`--t-end 0.36s`, 30 revolutions at
     5000 rpm) gives the number of Poincaré points the page states, and the page's revolutions are
     the run's."""
-    from planar_mbs.outputs import plot as P
+    from planar_mbs.results import views as P
 
     text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
     assert "mbs run models/slider_crank_clearance_a.mbs -o a_5000.h5 --t-end 0.36s" in text
@@ -50,7 +50,7 @@ def test_contact_events_and_onsets_in_the_samples():
     """docs/plots.md: the run's contact events (onsets the integrator located) against the onsets
     seen in the output samples: equal at a fine output step, fewer at a coarse one, as the page says
     (its numbers are these)."""
-    from planar_mbs.outputs import plot as P
+    from planar_mbs.results import views as P
 
     text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
     events, fine, coarse = (int(n) for n in re.search(
@@ -65,7 +65,7 @@ def test_contact_events_and_onsets_in_the_samples():
 def test_the_readme_poincare_count():
     """README: the first command (60 revolutions of the shipped model) draws a Poincaré map of the
     number of points it states."""
-    from planar_mbs.outputs import plot as P
+    from planar_mbs.results import views as P
 
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     assert "--revolutions 60" in text.split("```")[1]  # the first command
