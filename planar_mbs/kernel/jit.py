@@ -9,7 +9,7 @@
   the old contact physics; here every kernel's cache stamp also holds a hash of
   all the sources the kernels are compiled from (`KERNEL_SOURCES`), so a change
   to any of them recompiles every kernel.
-  First compilation of all kernels: about 30 s (docs/benchmarks.md).
+  First compilation of all kernels: docs/benchmarks.md ("Start-up").
 * ``error_model="numpy"``: a division by zero gives inf/NaN, which the time
   loop reports as a non-finite state, instead of raising inside compiled code.
 * ``_nrt=False``: no numba runtime reference counting.  The kernels never
@@ -30,6 +30,17 @@
   of 3 x 11, interleaved) for 7 s more of first compilation, which every model pays (`advance`
   compiles all methods): not taken.  Inlining small helpers
   (`jac_dot`) made it slower: each use is measured, not assumed.
+* A kernel that is not inlined is a library of its own, into which numba links the code of every
+  kernel it calls and then optimises and emits machine code for all of it again.  The stage loop
+  `integrators.rk_stages` (with `rhs` inlined) was so compiled six times (in itself, `fixed_step`,
+  `passage_check`, `dense_prepare`, `_emit` and `advance`) and `rhs` five times.  `fixed_step`,
+  `passage_check`, `dense_prepare` and `initial_step`, small in themselves, are inlined into their
+  callers instead: `rk_stages` is compiled three times, `rhs` twice, the machine code of the time loop
+  the same (bit-identical results); the first compilation before and after is in docs/benchmarks.md
+  ("Start-up").
+* The steps of `loop.advance` (`_resume`, `_adaptive`, `_contact_event`, `_end_step`, ...) are
+  inlined at their one call site each: the loop reads as named steps and compiles to what it was as
+  one function (bit-identical results on every shipped model, same speed: docs/benchmarks.md).
 * `observe` is inlined at its one call site in the time loop (`loop.observe_inlined` in `loop._emit`,
   which also writes a run's first row and a last sample off the grid): one output row of the
   slider-crank with every signal 0.94 -> 0.70-0.80 us in the loop (1.27 -> 1.01-1.21 us with the
