@@ -226,7 +226,7 @@ def end_stage(method, km, cfg, t, h, contact, ws, stats):
     return rhs(km, cfg, t + h, ws.yb, contact, ws, stats, ws.K[ke])
 
 
-@kernel(inline=True)
+@kernel
 def fixed_step(method, km, cfg, t, y, h, contact, ws, stats):
     """One step of a fixed-step method: result in ws.yb, f(yb) in ws.K[END_STAGE].  Returns a Status
     code (NONFINITE on NaN/inf)."""
@@ -250,7 +250,7 @@ def dense_pending(ws):
     return ws.flags[FL_DENSE_READY] == 0 and 0 <= method < N_METHODS and EXTRA_STAGES[method] > 0
 
 
-@kernel(inline=True)
+@kernel
 def dense_prepare(km, cfg, contact, ws, stats):
     """The stages that only the dense output of the last accepted step reads (DOP853's three), and its
     rows ws.F; once per step (ws.flags[FL_DENSE_READY] = 1).  Methods without such stages leave their
@@ -301,7 +301,7 @@ def hermite_eval(ws, theta, out, kend):
         out[i] = h00 * ws.ya[i] + h01 * ws.yb[i] + h * (h10 * K[0, i] + h11 * K[kend, i])
 
 
-@kernel(inline=True)
+@kernel
 def initial_step(km, cfg, t, y, contact, ws, stats, hmax, order):
     """Hairer's starting step (hinit) for a method of the given order from
     ws.f = f(t, y); uses ws.ys, ws.yt."""

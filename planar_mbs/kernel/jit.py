@@ -31,13 +31,13 @@
   compiles all methods): not taken.  Inlining small helpers
   (`jac_dot`) made it slower: each use is measured, not assumed.
 * A kernel that is not inlined is a library of its own, into which numba links the code of every
-  kernel it calls and then optimises and emits machine code for all of it again.  The stage loop
-  `integrators.rk_stages` (with `rhs` inlined) was so compiled six times (in itself, `fixed_step`,
-  `passage_check`, `dense_prepare`, `_emit` and `advance`) and `rhs` five times.  `fixed_step`,
-  `passage_check`, `dense_prepare` and `initial_step`, small in themselves, are inlined into their
-  callers instead: `rk_stages` is compiled three times, `rhs` twice, the machine code of the time loop
-  the same (bit-identical results); the first compilation before and after is in docs/benchmarks.md
-  ("Start-up").
+  kernel it calls and then optimises and emits machine code for all of it again (`advance`'s own
+  LLVM work, re-optimising everything it links, is about a sixth of the first compilation, measured
+  with numba's compile events).  Inlining the small kernels between `advance` and the stage loop
+  (`fixed_step`, `passage_check`, `dense_prepare`, `initial_step`: `rk_stages` then linked into three
+  libraries instead of six) did not shorten it: 101.6 s of CPU against 94.5 s for everything in one
+  process, back to back on a busy machine; the front end then types and lowers each inlined copy.
+  Not taken.
 * The steps of `loop.advance` (`_resume`, `_adaptive`, `_contact_event`, `_end_step`, ...) are
   inlined at their one call site each: the loop reads as named steps and compiles to what it was as
   one function (bit-identical results on every shipped model, same speed: docs/benchmarks.md).

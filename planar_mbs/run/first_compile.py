@@ -143,8 +143,9 @@ def first_call(dispatcher, *args):
 # The kernels that numba's typing of `advance` reaches last (order measured with numba's compile events
 # on a cold cache): a helper process compiles them, the first one first, while this process compiles the
 # time loop from its start; when the typing reaches one of them it loads it from the cache instead.
-HELPER_KERNELS = (("loop", "_finish_step"), ("dynamics", "rhs"), ("events", "event_possible"),
-                  ("events", "locate_event"), ("loop", "lost_check"), ("events", "locate_switch"))
+HELPER_KERNELS = (("loop", "_finish_step"), ("events", "locate_event"), ("events", "event_possible"),
+                  ("integrators", "rk_stages"), ("integrators", "fixed_step"),
+                  ("integrators", "initial_step"))
 # any model gives the kernels the same argument types (arrays of fixed dtype and rank)
 _TINY = ("body crank { mass = 1 kg  inertia = 1 kg*m^2  position = (0.5, 0)  angle = 0 deg }\n"
          "joint O = revolute(ground (0, 0), crank (-0.5, 0))\n"
@@ -162,7 +163,7 @@ def _signature(dispatcher, km, ws) -> tuple:
                "stats": typeof(np.zeros(1, np.int64)), "kend": types.int64, "method": types.int64,
                "first": types.int64, "last": types.int64}
     vector = typeof(np.zeros(1))
-    return tuple(by_name.get(p, vector if p in ("cfg", "y", "ydot", "y0", "qd") else types.float64)
+    return tuple(by_name.get(p, vector if p in ("cfg", "y", "ydot", "y0") else types.float64)
                  for p in inspect.signature(dispatcher.py_func).parameters)
 
 
