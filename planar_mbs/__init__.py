@@ -20,56 +20,54 @@ from __future__ import annotations
 __version__ = "0.1.0"
 __all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results", "__version__"]
 
+from .lazy import lazy  # noqa: E402  (after __version__, which the modules below read from here)
+
+# Each loads on first use (lark, numpy, numba, h5py): `import planar_mbs` loads none of them.
+_re = lazy("re")
+_errors = lazy(".errors", __package__)
+_compile = lazy(".mechanism.compile", __package__)
+_parse = lazy(".language.parse", __package__)
+_simulation = lazy(".run.simulation", __package__)
+_hdf5 = lazy(".results.hdf5", __package__)
+
 
 def _python_error(err, overrides: dict, func: str):
     """A `--set`-worded override error re-worded for a Python keyword argument."""
-    import re
-
-    from .errors import ModelError
-
-    if not isinstance(err, ModelError) or err.file != "--set":
+    if not isinstance(err, _errors.ModelError) or err.file != "--set":
         return err
-    m = re.search(r"`--set (\w+)(?:=\.\.\.)?`", err.message)
+    m = _re.search(r"`--set (\w+)(?:=\.\.\.)?`", err.message)
     name = m.group(1) if m else next((k for k, v in overrides.items()
                                       if err.source_line and str(v).strip() == err.source_line.strip()), None)
-    message = re.sub(r"^`--set (\w+)(?:=\.\.\.)?`: ", "", err.message)
-    message = re.sub(r"`--set (\w+)(?:=\.\.\.)?`", r"`\1=`", message)
+    message = _re.sub(r"^`--set (\w+)(?:=\.\.\.)?`: ", "", err.message)
+    message = _re.sub(r"`--set (\w+)(?:=\.\.\.)?`", r"`\1=`", message)
     place = f"{func}({name}=...)" if name else f"{func}(...)"
     shown = f" (`{name}={overrides[name]!r}`)" if name in overrides and m is None else ""
     hint = err.hint if err.hint != "docs/language.md describes every statement, field and unit" else ""
-    return ModelError(message + shown, place, hint=hint)
+    return _errors.ModelError(message + shown, place, hint=hint)
 
 
 def load_model(path, **overrides):
     """Parse and compile a `.mbs` file; keyword arguments override its `param`s
     (values are text with units, e.g. ``speed="2500 rpm"``, ``law="hertz"``)."""
-    from .mechanism.compile import load_model as _load
-    from .errors import ModelError
-
     overrides = {k: str(v) for k, v in overrides.items()}
     try:
-        return _load(path, overrides)
-    except ModelError as err:
+        return _compile.load_model(path, overrides)
+    except _errors.ModelError as err:
         raise _python_error(err, overrides, "load_model") from None
 
 
 def compile_text(text, path="<string>", **overrides):
     """Parse and compile model text held in a string (``path`` names it in error messages and
     resolves its includes); keyword arguments override its `param`s, as in `load_model`."""
-    from .mechanism.compile import compile_text as _compile
-    from .errors import ModelError
-
     overrides = {k: str(v) for k, v in overrides.items()}
     if isinstance(text, (bytes, bytearray)):  # the bytes of a file: decoded as a model file is
-        from .language.parse import decode_model
-
-        text = decode_model(bytes(text), str(path))
+        text = _parse.decode_model(bytes(text), str(path))
     elif not isinstance(text, str):
-        raise ModelError(f"compile_text takes the model's text (a str), not {type(text).__name__}",
-                         "compile_text(...)", hint="load a file with load_model(path)")
+        raise _errors.ModelError(f"compile_text takes the model's text (a str), not {type(text).__name__}",
+                                 "compile_text(...)", hint="load a file with load_model(path)")
     try:
-        return _compile(text, str(path), overrides)
-    except ModelError as err:
+        return _compile.compile_text(text, str(path), overrides)
+    except _errors.ModelError as err:
         raise _python_error(err, overrides, "compile_text") from None
 
 
@@ -83,21 +81,15 @@ def simulate(model, output=None, progress=None, signals=None, **settings):
     (and the time loop computes only what they read: no accelerations, reactions or driver efforts
     asked for, no `accelerations` call per output row); ``progress(t, t_end)`` is called after each
     chunk.  See `planar_mbs.run.simulation.simulate`."""
-    from .run.simulation import simulate as _simulate
-
-    return _simulate(model, output=output, progress=progress, signals=signals, **settings)
+    return _simulation.simulate(model, output=output, progress=progress, signals=signals, **settings)
 
 
 def read_results(path):
     """Load an HDF5 results file written by `simulate` or `mbs run`."""
-    from .results.hdf5 import read_results as _read
-
-    return _read(path)
+    return _hdf5.read_results(path)
 
 
 def __getattr__(name):  # Simulation loads the numba kernels: only on first use
     if name == "Simulation":
-        from .run.simulation import Simulation
-
-        return Simulation
+        return _simulation.Simulation
     raise AttributeError(f"module 'planar_mbs' has no attribute {name!r}")

@@ -4,6 +4,8 @@
     .venv/bin/python docs/scripts/replicate.py --draw     # only draw and fill, from the runs in --work
     .venv/bin/python docs/scripts/replicate.py --full     # also the tighter-tolerance runs of 1200 and 800 rpm,
                                                           # of 207 MPa, and the 207 MPa bifurcation scans
+    .venv/bin/python docs/scripts/replicate.py --short    # only the short sweeps: Figs. 5-11 and 13-15, the
+                                                          # peaks and laws tables (minutes; no long run)
 
 The claims of Muvengei, Kihiu and Ikua, "Effects of input speed on the dynamic response of
 planar multi-body systems with differently located frictionless revolute clearance joints",
@@ -315,6 +317,28 @@ def make_figures(work: Path, files: dict, summaries: list[dict]) -> tuple[list[P
         written.append(p)
         return p
 
+    series_figures(files, save)
+    for joint, base in (("A", 9), ("B", 13)):
+        for tag, modulus in MODULI.items():
+            poincare_grid(work, joint, modulus, f"Fig. {base + 3}: Poincaré maps (slider vx against ax, once per "
+                          f"revolution, {REVOLUTIONS}-revolution runs), 0.3 mm clearance at {joint}, E = {modulus}",
+                          save(f"fig{base + 3:02d}_{joint}_poincare_{tag}"))
+    bif = {}
+    for tag, modulus in MODULI.items():
+        for joint in "AB":
+            if not any((work / f"{R.job_name('long', joint, modulus, s)}.npz").exists() for s in BIF_SPEEDS
+                       if s not in SPEEDS):
+                continue
+            bif[f"{joint}_{tag}"] = bifurcation(
+                work, joint, modulus, f"Bifurcation diagram, 0.3 mm clearance at {joint}, E = {modulus}: slider vx "
+                f"and ax once per revolution\nafter the motion settled (grey: before), {REVOLUTIONS}-revolution runs",
+                save(f"bifurcation_{joint}_{tag}"))
+    convergence_figure(summaries, save("lyapunov_convergence"))
+    return written, bif
+
+
+def series_figures(files: dict, save) -> None:
+    """Figs. 5-11 and 13-15: the time series of the short sweeps (revolutions 2-5)."""
     law_label = lambda row: LAW_TITLES.get(row["values"]["law"], row["values"]["law"])  # noqa: E731
     for joint, fig_v, fig_t in (("A", 5, 6), ("B", 7, 8)):
         path = files["laws"][joint]
@@ -335,21 +359,6 @@ def make_figures(work: Path, files: dict, summaries: list[dict]) -> tuple[list[P
                         save(f"fig{base + 1:02d}_{joint}_force_{tag}"))
             series_grid(path, [("crank_speed.torque", "N m")], speed_label, f"Fig. {base + 2}: crank torque, {e}",
                         save(f"fig{base + 2:02d}_{joint}_torque_{tag}"))
-            poincare_grid(work, joint, modulus, f"Fig. {base + 3}: Poincaré maps (slider vx against ax, once per "
-                          f"revolution, {REVOLUTIONS}-revolution runs), 0.3 mm clearance at {joint}, E = {modulus}",
-                          save(f"fig{base + 3:02d}_{joint}_poincare_{tag}"))
-    bif = {}
-    for tag, modulus in MODULI.items():
-        for joint in "AB":
-            if not any((work / f"{R.job_name('long', joint, modulus, s)}.npz").exists() for s in BIF_SPEEDS
-                       if s not in SPEEDS):
-                continue
-            bif[f"{joint}_{tag}"] = bifurcation(
-                work, joint, modulus, f"Bifurcation diagram, 0.3 mm clearance at {joint}, E = {modulus}: slider vx "
-                f"and ax once per revolution\nafter the motion settled (grey: before), {REVOLUTIONS}-revolution runs",
-                save(f"bifurcation_{joint}_{tag}"))
-    convergence_figure(summaries, save("lyapunov_convergence"))
-    return written, bif
 
 
 # ---------------------------------------------------------------- numbers
@@ -397,23 +406,9 @@ def _agree_lyapunov(s: dict) -> str:
     return ""
 
 
-def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: list[Path], wall: float) -> dict[str, str]:
-    gen, data = {}, {"cases": summaries, "bifurcation": bif, "peaks": {}, "laws": {}}
-    lines = ["| joint | E | speed | paper says | verdict after the transient | settled at revolution | revolutions run "
-             "| λ Benettin per rev (mean ± sd) | λ nearest-neighbour | K | rtol 1e-8 gives | agrees with paper | note |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-    for s in summaries:
-        paper = PAPER_CLAIMS[s["joint"]][s["speed"]]
-        ok = "yes" if s["class"] == paper else "no"
-        nn = "–" if s["lyapunov"] != s["lyapunov"] else f"{s['lyapunov']:.2f}"
-        settled = _settled(s["class"], s["settled_revolution"], s["revolutions"])
-        t = s.get("tight")
-        tight = (f"{t['verdict']}, {_settled(t['class'], t['settled_revolution'], t['revolutions'], True)}"
-                 + (f" ({t['revolutions']} rev)" if t["revolutions"] != s["revolutions"] else "")) if t else "not run"
-        note = "; ".join(filter(None, [_agree_lyapunov(s), s["note"] if not s["agree"] else ""]))
-        lines.append(f"| {s['joint']} | {s['E']} | {s['speed']} | {paper} | **{s['verdict']}** | {settled} | "
-                     f"{s['revolutions']} | {_lam(s.get('benettin'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")
-    gen["verdicts"] = "\n".join(lines)
+def short_tables(files: dict) -> tuple[dict[str, str], dict]:
+    """The "peaks" and "laws" tables (and their numbers) from the short sweeps of `short_sweeps`."""
+    gen, data = {}, {"peaks": {}, "laws": {}}
     lines = ["| joint | E | quantity | " + " | ".join(SPEEDS) + " | grows with speed |",
              "| --- | --- | --- | " + " | ".join("---" for _ in SPEEDS) + " | --- |"]
     for (joint, tag), path in files["speeds"].items():
@@ -434,6 +429,29 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
             lines.append(f"| {joint} | {LAW_TITLES[law]} | {p[law]['ax']:.4g} | {p[law]['force']:.4g} | "
                          f"{p[law]['torque']:.4g} |")
     gen["laws"] = "\n".join(lines)
+    return gen, data
+
+
+def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: list[Path], wall: float) -> dict[str, str]:
+    gen, data = {}, {"cases": summaries, "bifurcation": bif, "peaks": {}, "laws": {}}
+    lines = ["| joint | E | speed | paper says | verdict after the transient | settled at revolution | revolutions run "
+             "| λ Benettin per rev (mean ± sd) | λ nearest-neighbour | K | rtol 1e-8 gives | agrees with paper | note |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for s in summaries:
+        paper = PAPER_CLAIMS[s["joint"]][s["speed"]]
+        ok = "yes" if s["class"] == paper else "no"
+        nn = "–" if s["lyapunov"] != s["lyapunov"] else f"{s['lyapunov']:.2f}"
+        settled = _settled(s["class"], s["settled_revolution"], s["revolutions"])
+        t = s.get("tight")
+        tight = (f"{t['verdict']}, {_settled(t['class'], t['settled_revolution'], t['revolutions'], True)}"
+                 + (f" ({t['revolutions']} rev)" if t["revolutions"] != s["revolutions"] else "")) if t else "not run"
+        note = "; ".join(filter(None, [_agree_lyapunov(s), s["note"] if not s["agree"] else ""]))
+        lines.append(f"| {s['joint']} | {s['E']} | {s['speed']} | {paper} | **{s['verdict']}** | {settled} | "
+                     f"{s['revolutions']} | {_lam(s.get('benettin'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")
+    gen["verdicts"] = "\n".join(lines)
+    short_gen, short_data = short_tables(files)
+    gen.update(short_gen)
+    data.update(short_data)
     lines = ["| joint | E | speeds run | periodic | quasi-periodic | chaotic | not settled |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
     for key, rows in bif.items():
@@ -490,13 +508,33 @@ def _json(x):
     return str(x)
 
 
+def main_short(jobs: int | None) -> None:
+    """`--short`: the short sweeps run afresh, Figs. 5-11 and 13-15 drawn, the "peaks" and "laws" blocks of
+    the page and their numbers in docs/replication_data.json replaced; the long runs' results stay."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as work:
+        files = short_sweeps(Path(work), jobs)
+        series_figures(files, lambda name: IMAGES / f"replication_{name}.png")
+        gen, numbers = short_tables(files)
+    path = ROOT / "docs" / "replication_data.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    data.update(numbers)
+    path.write_text(json.dumps(data, indent=1, default=_json))
+    fill_page(gen)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--jobs", type=int, default=2, help="parallel processes for the runs")
     ap.add_argument("--work", type=Path, default=ROOT / "build" / "replication", help="where the runs are kept")
     ap.add_argument("--draw", action="store_true", help="run nothing: draw and fill the page from the runs in --work")
     ap.add_argument("--full", action="store_true", help="also the optional runs (see the module docstring)")
+    ap.add_argument("--short", action="store_true", help="only the short sweeps: their figures, the peaks and laws "
+                    "tables (no long run needed; fresh sweeps in a temporary folder)")
     args = ap.parse_args()
+    if args.short:
+        return main_short(args.jobs)
     jobs, lyap = long_jobs(args.full)
     if not args.draw:
         R.main(jobs, args.work, args.jobs)

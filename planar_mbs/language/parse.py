@@ -10,13 +10,22 @@ including file, with cycle detection.
 from __future__ import annotations
 
 import functools
+import hashlib
+import itertools
+import os
 import re
+import stat
+import tempfile
+from importlib.util import find_spec
 from pathlib import Path
 
-from lark import Lark, Token, Transformer, v_args
+import lark
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
 from ..errors import ModelError, did_you_mean
+from ..lazy import lazy
+from .units import UnitError, parse_unit
 from .spec import (
     BinOp,
     Call,
@@ -34,6 +43,8 @@ from .spec import (
     String,
     Vector,
 )
+
+resources = lazy("importlib.resources")  # the grammar's fallback reader: costs more than a parse
 
 KEYWORDS = ("param", "material", "body", "joint", "driver", "force", "gravity",
             "simulate", "include", "override")
@@ -74,15 +85,12 @@ def parser() -> Lark:
 def _grammar_text() -> str:
     """planar_mbs/language/grammar/mbs.lark, read from the package folder (importlib.resources, which also reads packages
     inside zip files, costs more to import than a model costs to parse; it is the fallback)."""
-    from importlib.util import find_spec
-
     spec = find_spec("planar_mbs.language.grammar")
     for folder in (spec.submodule_search_locations or []) if spec is not None else []:
         try:
             return (Path(folder) / "mbs.lark").read_text(encoding="utf-8")
         except OSError:
             pass
-    from importlib import resources
 
     return resources.files("planar_mbs.language.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
 
@@ -95,10 +103,6 @@ def _grammar() -> tuple[str, dict]:
 
 def tables_name() -> str:
     """File name of the saved parser: changes with the grammar, its options and lark's version."""
-    import hashlib
-
-    import lark
-
     text, options = _grammar()
     return "grammar-" + hashlib.sha256(f"{text}\0{lark.__version__}\0{sorted(options.items())}".encode()
                                        ).hexdigest()[:24] + ".lark"
@@ -107,9 +111,6 @@ def tables_name() -> str:
 def _private_cache(name: str) -> str | None:
     """A path in the user's own cache folder ($XDG_CACHE_HOME or ~/.cache, then planar_mbs/),
     or None when that folder is not a real folder owned by this user with mode 0700."""
-    import os
-    import stat
-
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     folder = os.path.join(base, "planar_mbs")
     try:
@@ -125,9 +126,6 @@ def _private_cache(name: str) -> str | None:
 def _load_tables(path: str) -> Lark | None:
     """The parser saved at `path`, if that is a regular file (not a link) of this user that no
     one else may write; else None (and it is rebuilt)."""
-    import os
-    import stat
-
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
     except OSError:
@@ -144,9 +142,6 @@ def _load_tables(path: str) -> Lark | None:
 
 def _save_tables(built: Lark, path: str) -> None:
     """Save the parser next to `path` and move it into place (readers never see half a file)."""
-    import os
-    import tempfile
-
     try:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
         with os.fdopen(fd, "wb") as f:
@@ -354,7 +349,6 @@ def _spaced_unit(prev: str) -> tuple[str, str] | None:
     m = _SPACED_UNIT.search(prev)
     if m is None:
         return None
-    from .units import UnitError, parse_unit
 
     try:
         parse_unit(m.group(2))
@@ -539,8 +533,6 @@ def _open_brackets(code: str, end: int) -> list[tuple[str, int]]:
 
 def _check_depth(tree, text: str, path: str) -> None:
     """Reject expressions nested deeper than MAX_DEPTH (without recursing ourselves)."""
-    from lark import Tree
-
     todo = [(tree, 0)]
     while todo:
         node, depth = todo.pop()
@@ -555,7 +547,7 @@ def _check_depth(tree, text: str, path: str) -> None:
 
 
 # ------------------------------------------------------------ entry points
-MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~300)
+MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~600)
 _TOKEN = re.compile(r'"[^"\n]*"?|[\w.\u00b5\u03bc]+|[^\s\w#]')  # comments are skipped below
 
 
@@ -563,8 +555,6 @@ def _check_tokens(text: str, code: str, path: str, left: list[int]) -> None:
     """Refuse text with more than ``left[0]`` tokens (stopping at the first one too many), so that
     the parser's time -- linear, but some 50 µs a token -- stays bounded; subtract the count
     from ``left[0]``."""
-    import itertools
-
     n = 0
     tokens = (m for m in _TOKEN.finditer(_NOT_COMMENT.sub(_blank, text)))
     for n, m in enumerate(itertools.islice(tokens, left[0] + 1), 1):
@@ -575,7 +565,7 @@ def _check_tokens(text: str, code: str, path: str, left: list[int]) -> None:
             raise ModelError(f"the model is too long: more than {MAX_TOKENS:,} names, numbers and symbols "
                              "(with its included files)", path, line, m.start() - start + 1,
                              source_line=text[start:end if end >= 0 else len(text)],
-                             hint="is this really a model file? The longest shipped model has about 300")
+                             hint="is this really a model file? The longest shipped model has about 600")
     left[0] -= n
 
 
@@ -662,15 +652,11 @@ def parse_model(text: str, path: str = "<string>", sources: dict[str, str] | Non
 
 def _lexical(path: str) -> str:
     """An absolute path without resolving symlinks (the key of an included file's text)."""
-    import os
-
     return os.path.normpath(os.path.abspath(path))
 
 
 def _expand(text: str, path: str, stack: tuple[Path, ...], key: str | None, spec: ModelSpec,
             sources: dict[str, str] | None, budget: list[int]) -> list[Statement]:
-    import os
-
     here = Path(path).resolve() if sources is None and not path.startswith("<") else None
     out = []
     tokens = budget[1:]
@@ -709,9 +695,6 @@ def _expand(text: str, path: str, stack: tuple[Path, ...], key: str | None, spec
 
 def _read_include(st: Statement, target: Path, base: Path, budget: list[int]) -> bytes:
     """The bytes of an included file: a regular file, within what is left of the size budget."""
-    import os
-    import stat
-
     try:
         info = os.stat(target)
         if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened

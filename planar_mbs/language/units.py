@@ -11,9 +11,13 @@ from __future__ import annotations
 import functools
 import math
 import re
+import sys
 from dataclasses import dataclass
 
-from ..errors import did_you_mean
+from ..errors import ModelError, did_you_mean
+from ..lazy import lazy
+
+pint = lazy("pint")  # 0.1-0.5 s: only for a unit name our table does not hold
 
 _REGISTRY = None
 
@@ -35,13 +39,11 @@ def _import_pint():
     whenever it is installed (0.11 s, and dask is a heavy import no model needs).
     A ``None`` entry in sys.modules makes pint's ``import dask`` fail as if absent;
     a process that already imported dask (sweeps) is left alone."""
-    import sys
-
     if "pint" in sys.modules or "dask" in sys.modules:
         return
     sys.modules["dask"] = None
     try:
-        import pint  # noqa: F401
+        pint.UnitRegistry  # the first access imports pint, here with dask hidden
     finally:
         del sys.modules["dask"]
 
@@ -51,7 +53,6 @@ def registry():
     global _REGISTRY
     if _REGISTRY is None:
         _import_pint()
-        import pint
 
         try:
             ureg = pint.UnitRegistry(cache_folder=":auto:")
@@ -114,7 +115,6 @@ def lookup(name: str) -> tuple[float, Dimensionality]:
     """(SI scale, dimensionality) of one unit name: from TABLE, else from pint (imported then)."""
     if name in TABLE:
         return TABLE[name]
-    import pint
 
     try:
         q = registry().Quantity(1.0, registry().parse_units(name))
@@ -360,8 +360,6 @@ def parse_quantity(text: str, dimension: str, where: str = "") -> float:
 
     Raises `ModelError` naming the option (`where`) on a bad number, unit or dimension.
     """
-    from ..errors import ModelError
-
     dim = _DIMS[dimension]
     m = _CLI_QUANTITY.match(text)
     if m is None:

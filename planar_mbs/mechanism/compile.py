@@ -14,6 +14,8 @@ evaluated by `evaluate.Evaluator` (values, units, field readers), never by Pytho
 from __future__ import annotations
 
 import math
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -84,9 +86,6 @@ __all__ = ["load_model", "compile_text"]
 # ------------------------------------------------------------------ entry points
 def load_model(path: str | Path, overrides: dict[str, str] | None = None) -> Model:
     """Read, parse and compile a `.mbs` file; `overrides` are `--set NAME=VALUE` pairs."""
-    import os
-    import stat
-
     path = str(path)
     try:
         info = os.stat(path)

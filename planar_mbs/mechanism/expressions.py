@@ -21,6 +21,7 @@ from ..errors import did_you_mean
 from ..language.evaluate import EXPRESSION_FUNCTIONS, Evaluator, Scalar, Symbol
 from .model import BQ_OMEGA, BQ_PHI, BQ_VX, BQ_VY, BQ_X, BQ_Y, ExprOp
 from ..language.spec import BinOp, Call, Compare, Expr, Name, Neg, Number, Pos, SignalRef, String, Vector
+from .tables import table_node
 
 ONE = U.Dimensionality((0.0,) * 7)
 FUNCTIONS = EXPRESSION_FUNCTIONS
@@ -370,8 +371,6 @@ class Programs:
     # ---------------------------------------------------------------- functions
     def call(self, e: Call) -> Node:
         if e.name == "table":
-            from .tables import table_node
-
             return table_node(self, e)
         if e.name not in FUNCTIONS:
             raise e.name_pos.error(f"unknown function `{e.name}`",

@@ -26,7 +26,12 @@ import re
 import numpy as np
 
 from ..errors import ModelError
-from .model import JOINT_ROWS, JointType, KernelModel, Model
+from ..lazy import lazy
+from .model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, JOINT_ROWS,
+                    JointType, KernelModel, Model, PairKind)
+
+# the constraint kernels' source run as plain Python (20 ms to import): only an assembly needs it
+pyconstraints = lazy("..pykernel.constraints", __package__)
 
 MAX_NEWTON = 50
 POSITION_TOL = 1e-12  # m (and rad): residual of C at an assembled pose
@@ -132,14 +137,12 @@ def _evaluate(km: KernelModel, q, qd, t, m):
     """C, Cq, Ct at (q, q', t) from the constraint kernels' source run as plain Python
     (`planar_mbs.pykernel`): assembly, and so `mbs check`, loads no numba.  A division by
     zero gives non-finite values (as the compiled kernels' numpy error model does)."""
-    from ..pykernel.constraints import constraint_eval
-
     n = len(q)
     C, Ct, gamma = np.zeros(m), np.zeros(m), np.zeros(m)
     Cq = np.zeros((m, n))
     with np.errstate(all="ignore"):
         try:
-            constraint_eval(km, q, qd, t, C, Cq, Ct, gamma)
+            pyconstraints.constraint_eval(km, q, qd, t, C, Cq, Ct, gamma)
         except ZeroDivisionError:
             C[:] = np.nan
     return C, Cq, Ct
@@ -388,8 +391,6 @@ def _rank_nearby(km: KernelModel, q, t, m, size: float, tries: int = 3):
 def start_gaps(model: Model, q: np.ndarray) -> np.ndarray:
     """Gap of every clearance element at pose q (> 0 apart, < 0 penetrating), the penetration of
     `kernel/contact.py` with the opposite sign, computed here without numba (for `mbs check`)."""
-    from .model import CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, PairKind
-
     k = model.kernel
     out = np.zeros(model.nclearance)
     for c in range(model.nclearance):

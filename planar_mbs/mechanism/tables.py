@@ -25,6 +25,9 @@ from ..language import units as U
 from ..errors import ModelError, did_you_mean
 from .model import ExprOp
 from ..language.spec import Call, Name, String, Vector
+from ..lazy import lazy
+
+interpolate = lazy("scipy.interpolate")  # scipy: only for a cubic or Akima table
 
 INTERPOLATIONS = ("linear", "cubic", "akima")
 TABLE_ARGS = ("x", "x_unit", "y_unit", "xs", "ys", "interpolation", "periodic")
@@ -209,18 +212,17 @@ def knots(xs, ys, method: str, period: float) -> np.ndarray:
     if method == "linear" or n == 2:
         rows[:-1, 2] = np.diff(ys) / np.diff(xs)
         return rows
-    from scipy.interpolate import Akima1DInterpolator, CubicSpline
 
     if method == "cubic":
-        pp = CubicSpline(xs, ys, bc_type="periodic" if period > 0 else "not-a-knot")
+        pp = interpolate.CubicSpline(xs, ys, bc_type="periodic" if period > 0 else "not-a-knot")
         c = pp.c
     elif period > 0:  # Akima over the table repeated on both sides, its middle copy kept
         w = 3
         ext_x = np.concatenate([xs[-w - 1:-1] - period, xs, xs[1:w + 1] + period])
         ext_y = np.concatenate([ys[-w - 1:-1], ys, ys[1:w + 1]])
-        c = Akima1DInterpolator(ext_x, ext_y).c[:, w:w + n - 1]
+        c = interpolate.Akima1DInterpolator(ext_x, ext_y).c[:, w:w + n - 1]
     else:
-        c = Akima1DInterpolator(xs, ys).c
+        c = interpolate.Akima1DInterpolator(xs, ys).c
     rows[:-1, 2], rows[:-1, 3], rows[:-1, 4] = c[2], c[1], c[0]
     return rows
 

@@ -135,9 +135,12 @@ def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: 
 
     check_signals(results, [x, y])
     body = body or turning_body(results, model)
-    if body is None or f"{body}.phi" not in results:
-        raise PlotError(f"error: no body `{body}` to clock the Poincaré section"
-                        + (f"\nhint: {did_you_mean(str(body), body_names(results))}" if body else ""))
+    if body is None:
+        raise PlotError("error: no body angle in the results to clock the Poincaré section\nhint: keep the "
+                        "driven body's angle (`--keep slider,crank`) or name a body with `--clock`")
+    if f"{body}.phi" not in results:
+        raise PlotError(f"error: no body `{body}` to clock the Poincaré section\n"
+                        f"hint: {did_you_mean(str(body), body_names(results))}")
     try:
         sec = poincare_section(results, (x, y) if x != y else (x,), clock=body, transient=skip, model=model)
     except AnalysisError as err:
@@ -520,6 +523,10 @@ def sweep_cases(path: str | Path) -> list[tuple[str, "Results"]]:
 
     with open_results(path) as f:
         keys = sorted(f["cases"].keys(), key=lambda k: (not k.isdigit(), int(k) if k.isdigit() else 0, k))
+        if keys and all("signals" not in f["cases"][k] for k in keys):
+            raise PlotError(f"error: the cases of {path} hold no signals (a sweep stores sections, verdicts and "
+                            "statistics unless --keep)\nhint: sweep again with `--keep slider,crank` (or "
+                            "`--keep all`), or `mbs sweep replay SWEEP.h5 CASE -o case.h5` for one case")
     return [(k, read_results(f"{path}:/cases/{k}")) for k in keys]
 
 
@@ -798,6 +805,10 @@ def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
         slider = slider_body(first)
         if slider:
             pair = (f"{slider}.vx", f"{slider}.ax")
+    if not panels and pair is None:
+        raise PlotError(f"error: no slider signals in the cases of {path} for the default figures\n"
+                        "hint: name the signals (`mbs plot SWEEP.h5 slider.ax`), or keep whole bodies "
+                        "(`mbs sweep --keep slider,crank`)")
     for panel in panels:
         for name in panel:
             for _, res in cases:

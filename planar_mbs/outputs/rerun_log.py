@@ -33,15 +33,27 @@ switched off before the import.
 """
 from __future__ import annotations
 
+import hashlib
 import math
+import mmap
 import os
+import re
+import secrets
+import subprocess
+import sys
+import tempfile
 import time as _time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import catalog
+from ..errors import MbsError
+from ..lazy import lazy
+from ..mechanism.model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, PairKind
 from .plot import (
     PlotError,
     clearance_names,
@@ -51,6 +63,13 @@ from .plot import (
     slider_body,
     turning_body,
 )
+
+# rerun only once `_rerun` has switched its telemetry off (rerun.blueprint and rerun.chunk import it too)
+rerun_sdk = lazy("rerun")
+rrb = lazy("rerun.blueprint")
+rerun_chunk = lazy("rerun.chunk")
+pa = lazy("pyarrow")  # rerun's columns
+compiler = lazy("..mechanism.compile", __package__)  # lark: only to rebuild a model from its results
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model
@@ -72,11 +91,10 @@ CONTACT = (214, 39, 40)
 
 
 def _rerun():
+    """rerun, imported (on first use) with its telemetry switched off."""
     os.environ.setdefault("RERUN_TELEMETRY_ENABLED", "false")
     os.environ["RERUN_TELEMETRY_ENABLED"] = "false"
-    import rerun as rr
-
-    return rr
+    return rerun_sdk
 
 
 @dataclass
@@ -100,8 +118,6 @@ class RecordingInfo:
 def model_from_results(results: "Results") -> "Model":
     """Rebuild the Model of a results file from its stored source text and resolved
     parameters (or from `model_path` when the source is not stored)."""
-    from ..errors import MbsError
-
     attrs = results.attrs
     source = attrs.get("model_source") or ""
     mpath = str(attrs.get("model_path") or "")
@@ -109,17 +125,13 @@ def model_from_results(results: "Results") -> "Model":
     params = {k: str(v) for k, v in params.items()} if isinstance(params, dict) else {}
     try:
         if source:
-            from ..mechanism.compile import compile_text
-
             includes = attrs.get("model_includes")
             if not isinstance(includes, dict) or not all(isinstance(v, str) for v in includes.values()):
                 includes = None  # written before the included files were stored: read them from disk
-            return compile_text(source, mpath or "<results>", overrides=params, includes=includes,
+            return compiler.compile_text(source, mpath or "<results>", overrides=params, includes=includes,
                                 key=str(attrs.get("model_key") or "") or None)
         if mpath and Path(mpath).exists():
-            from ..mechanism.compile import load_model
-
-            return load_model(mpath, params)
+            return compiler.load_model(mpath, params)
     except ImportError as exc:  # the compiler is not there (yet)
         raise PlotError(f"error: cannot rebuild the model to draw it: {exc}") from None
     except MbsError as exc:
@@ -332,8 +344,6 @@ def recording_key(results_file) -> str:
     """The recording id `mbs` gives a recording of the results file `results_file` (``FILE.h5`` or
     ``FILE.h5:/cases/3``): a digest of its absolute path.  It is written into the .rrd, so that a
     recording about to be replaced can be told to be of the same results (`check_replace`)."""
-    import hashlib
-
     file, sep, group = str(results_file).partition(":/")
     where = str(Path(file).resolve()) + (sep + group if sep else "")
     return "mbs-" + hashlib.sha256(where.encode()).hexdigest()[:32]
@@ -343,8 +353,6 @@ def check_replace(path, key: str, force: bool, option: str = "--output") -> None
     """Refuse (`PlotError`, exit 2), before anything runs, to replace an existing file at `path` that is
     not a recording of the same results (its `recording_key` is not in it), unless `force`: a recording
     of another run is not replaced without a word."""
-    import mmap
-
     path = Path(path)
     if force or not path.is_file() or path.stat().st_size == 0:
         return
@@ -360,8 +368,6 @@ def check_replace(path, key: str, force: bool, option: str = "--output") -> None
 
 def _part_beside(path: Path) -> Path:
     """The hidden file a recording is written to before it replaces `path`."""
-    import secrets
-
     return path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
 
 
@@ -369,14 +375,10 @@ def _move_into_place(part: Path, path: Path) -> None:
     """Move a finished recording over `path`, once rerun's own reader finds it whole (its footer,
     a few ms): rerun writes from a thread of its own and only logs a failed write (a full disk),
     so a recording cut short would otherwise replace a good one and be reported as written."""
-    import warnings
-
-    from rerun.chunk import RrdReader
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # "no footer": the write stopped before its end
-            RrdReader(part).store()
+            rerun_chunk.RrdReader(part).store()
     except Exception as exc:  # noqa: BLE001  (whatever the reader finds wrong, the file is not whole)
         reason = str(exc).split(". ")[0]
         raise PlotError(f"error: cannot write the rerun recording {path}: rerun could not write it whole ({reason})\n"
@@ -448,8 +450,6 @@ class _Scene:
 
 def _log_mechanism(rr, rec, results, model, magnify, fps, max_frames, info: RecordingInfo) -> None:
     """The moving mechanism: bodies, centres of mass, pins and ground, clearance joints, force arrows."""
-    from .. import catalog
-
     names = model.body_names
     missing = [f"{b}.{q}" for b in names for q in ("x", "y", "phi") if f"{b}.{q}" not in results]
     if missing:
@@ -496,8 +496,6 @@ def _body_points(scene: _Scene) -> None:
 
 def _clearance_geometry(scene: _Scene, magnify: float) -> None:
     """Bearing and (magnified) journal centres, contact normals and drawn radii per frame."""
-    from ..mechanism.model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, PairKind
-
     k, pose, idx = scene.model.kernel, scene.pose, scene.idx
     for c in range(scene.model.nclearance):
         bi, bj = int(k.clearance_body[c, 0]), int(k.clearance_body[c, 1])
@@ -742,8 +740,6 @@ class _Arrow:
         return self.timeline or ""
 
     def as_arrow_array(self):
-        import pyarrow as pa
-
         if self.timeline is not None:
             return pa.array(self.values, pa.duration("ns"))
         return pa.array(self.values, pa.float64())
@@ -812,8 +808,6 @@ def _log_poincare(rr, rec, results, model, pair, skip, info: RecordingInfo) -> N
 def _blueprint(results, model, pair):
     """The viewer layout: the mechanism on the left; key signals, the Poincaré map and the
     contact log on the right; playback slowed so that a revolution takes about 2 s."""
-    import rerun.blueprint as rrb
-
     slider = slider_body(results, model)
     series = []
     if slider:
@@ -862,11 +856,6 @@ def open_viewer(path: str | Path) -> None:
     """Start the rerun viewer on a recording, detached from this process.  A viewer that ends
     within `VIEWER_WAIT` with a failure (no display, no GPU) raises `PlotError` with its exit code
     and its own last error line: the recording is written, the viewer is not open."""
-    import re
-    import subprocess
-    import sys
-    import tempfile
-
     env = dict(os.environ, RERUN_TELEMETRY_ENABLED="false")
     with tempfile.TemporaryFile() as log:
         proc = subprocess.Popen([sys.executable, "-m", "rerun", str(path)], env=env, start_new_session=True,

@@ -37,12 +37,14 @@ Rules: periodic(p) when the recurrence test passes; otherwise chaotic when
 and when they disagree the correlation dimension decides (the verdict then
 carries ``agree = False``).
 
-numpy only; matplotlib only inside the figure functions.
+numpy only; matplotlib is imported on first use by the figure functions.
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -55,6 +57,8 @@ MIN_POINTS = 20  # fewest section points classified
 
 
 # the section itself lives in planar_mbs.results.section (one rule for plots, rerun, analysis, sweeps)
+from ..lazy import lazy
+from .hdf5 import DiskFull, ResultsFileError, memory_budget, open_for_writing, release_reserve, reserve_space
 from .section import (
     MAX_PERIOD,
     TOL_PERIODIC,
@@ -70,6 +74,9 @@ from .section import (
     settling,
     snap_to_grid,
 )
+
+matplotlib = lazy("matplotlib")  # figures only
+plt = lazy("matplotlib.pyplot")  # after `matplotlib.use("Agg")`
 
 
 # ---------------------------------------------------------------- indicators
@@ -309,8 +316,6 @@ def report(sec: PoincareSection, verdict: Verdict) -> list[str]:
 # ---------------------------------------------------------------- storage
 def write_section(group, sec: PoincareSection, verdict: Verdict | None = None, name: str = "poincare") -> None:
     """Store a section (and its verdict) in an open h5py group as ``<group>/poincare``."""
-    import json
-
     if name in group:
         del group[name]
     g = group.create_group(name)
@@ -330,10 +335,6 @@ def store_section(path, group: str, sec: PoincareSection, verdict: Verdict | Non
     (another process writing it is a clean `MbsError`, never two writers), then the disk space the
     section needs reserved (a full disk is `DiskFull` before a byte is written: HDF5 failing a write
     halfway could damage the file and crashed the process), released again after."""
-    from pathlib import Path
-
-    from .hdf5 import DiskFull, open_for_writing, release_reserve, reserve_space
-
     arrays = [sec.time, np.asarray(sec.revolution), *sec.points.values()]
     nbytes = sum(np.asarray(a).nbytes for a in arrays) + 4096 * len(arrays) + (1 << 16)  # + headers, attributes
     f, lock = open_for_writing(Path(path), "r+")
@@ -355,10 +356,6 @@ def store_section(path, group: str, sec: PoincareSection, verdict: Verdict | Non
 
 def read_section(group, name: str = "poincare") -> tuple[PoincareSection, Verdict | None]:
     """Inverse of `write_section`; ``group`` is an open h5py group."""
-    import json
-
-    from .hdf5 import ResultsFileError, memory_budget
-
     g = group[name]
     a = dict(g.attrs)
     sigs = json.loads(a["signals"])
@@ -390,10 +387,7 @@ VERDICT_COLOURS = {"periodic": "tab:blue", "quasi-periodic": "tab:green", "chaot
 
 def section_figure(sec: PoincareSection, verdict: Verdict | None = None, title: str = "", ax=None):
     """Scatter of the first two section signals, titled with the verdict."""
-    import matplotlib
-
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     fig = None
     if ax is None:

@@ -17,7 +17,7 @@ space the write needs (`reserve_space`): a full disk stops the run *between* two
 chunks with `DiskFull`, and the file stays readable up to the last whole chunk
 (HDF5 has no journal: a write that fails halfway leaves a file it cannot read).
 `FileResults` reads a written run back lazily, one signal at a time, so a run
-that streams to a file never holds all its rows in memory.  h5py is imported only here.
+that streams to a file never holds all its rows in memory.  h5py is imported on first use (`planar_mbs.lazy`).
 
 One dataset per entity, not per signal: a file's cost (datasets created, resized and written at
 each flush) grows with the entities, not the signals (a 40-link chain: 81 datasets instead of
@@ -27,10 +27,14 @@ each flush) grows with the entities, not the signals (a 40-link chain: 81 datase
 """
 from __future__ import annotations
 
+import ctypes
+import errno
+import fcntl
 import json
 import math
 import os
 import re
+import shutil
 import stat
 from collections.abc import Mapping
 from contextlib import contextmanager
@@ -39,8 +43,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MbsError
+from ..errors import MbsError, ModelError, did_you_mean
+from ..lazy import lazy
 from .signals import Signal
+
+h5py = lazy("h5py")
+pd = lazy("pandas")  # optional: only `Results.to_dataframe` needs it
+resource = lazy("resource")  # POSIX only: `file_size_limit` does without it
 
 FORMAT_VERSION = 1  # attribute `format_version` of a run's group; readers refuse newer ones
 
@@ -98,8 +107,6 @@ class Results:
         try:
             return self.signals[name]
         except KeyError:
-            from ..errors import did_you_mean
-
             hint = did_you_mean(name, self.signals)
             raise KeyError(f"no signal {name!r}" + (f"; {hint}" if hint else "")) from None
 
@@ -120,7 +127,7 @@ class Results:
         by time in seconds; the units are in ``df.attrs["units"]``.  Needs pandas (not a
         dependency of planar_mbs: ``pip install 'planar_mbs[pandas]'``)."""
         try:
-            import pandas as pd
+            pd.DataFrame  # the first access imports pandas
         except ImportError:
             raise ImportError("to_dataframe needs pandas, which planar_mbs does not install by itself: "
                               "pip install 'planar_mbs[pandas]' (or pip install pandas)") from None
@@ -235,8 +242,6 @@ def _libc_fallocate():
     global _fallocate
     if _fallocate is None:
         try:
-            import ctypes
-
             fn = ctypes.CDLL(None, use_errno=True).fallocate
             fn.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int64, ctypes.c_int64]
             fn.restype = ctypes.c_int
@@ -251,8 +256,6 @@ def reserve_space(fd: int, nbytes: int, path: str | Path = "") -> int:
     (fallocate with FALLOC_FL_KEEP_SIZE), so the writes that follow cannot run out of space halfway.
     Raises `DiskFull` when the disk cannot hold them.  Where fallocate is not supported, compares
     with the free space instead.  Returns the end of the reserved range."""
-    import ctypes
-
     end = os.fstat(fd).st_size
     limit = file_size_limit()
     if end + int(nbytes) > limit:  # past it a write fails halfway (EFBIG): stop before, as on a full disk
@@ -264,8 +267,6 @@ def reserve_space(fd: int, nbytes: int, path: str | Path = "") -> int:
         return end + int(nbytes)
     err = ctypes.get_errno() if fn is not None else 0
     if err not in (0, 28):  # not supported here (EOPNOTSUPP, ...): look at the free space instead
-        import shutil
-
         try:
             free = shutil.disk_usage(Path(path).parent if path else ".").free
         except OSError:
@@ -280,8 +281,6 @@ def reserve_space(fd: int, nbytes: int, path: str | Path = "") -> int:
 def file_size_limit() -> float:
     """The largest file this process may write (RLIMIT_FSIZE, `ulimit -f`), in bytes; inf if none."""
     try:
-        import resource
-
         soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
     except (ImportError, OSError, ValueError):
         return math.inf
@@ -374,8 +373,6 @@ def write_results(target, results: Results, group: str = "/", compression: str |
     (an open h5py File/Group, or a path opened in append mode).  An existing group of that
     name is replaced.  Used by sweeps, whose worker processes return results in memory and
     whose parent process alone writes the file."""
-    import h5py
-
     if not isinstance(target, (h5py.File, h5py.Group)):
         with h5py.File(target, "a") as f:
             return write_results(f, results, group, compression)
@@ -429,9 +426,6 @@ class WriteLock:
     """
 
     def __init__(self, path: Path):
-        import fcntl
-        import os
-
         self.fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o644)
         if not stat.S_ISREG(os.fstat(self.fd).st_mode):  # a FIFO or device planted at the name
             os.close(self.fd)
@@ -443,8 +437,6 @@ class WriteLock:
             raise ResultsBusy(f"{path} is being written by another process") from None
 
     def release(self) -> None:
-        import os
-
         if self.fd >= 0:
             os.close(self.fd)  # closing the descriptor drops the flock
             self.fd = -1
@@ -463,8 +455,6 @@ def open_for_writing(path: Path, mode: str, shown: Path | None = None):
     """(h5py.File, WriteLock) for a writer; a file another process writes (`ResultsBusy`), a file size
     limit, or a file that cannot be opened is an `MbsError` (exit code 2) saying so (named as
     `shown`, the file the user named)."""
-    import h5py
-
     shown = path if shown is None else shown
     try:
         lock = WriteLock(path)
@@ -488,8 +478,6 @@ def open_for_writing(path: Path, mode: str, shown: Path | None = None):
 
 
 def _os_reason(exc: OSError) -> str:
-    import errno
-
     if exc.errno == errno.ELOOP:
         return "it is a symbolic link (results are never written through one)"
     return exc.strerror or str(exc)
@@ -505,8 +493,6 @@ def results_kind(path: Path) -> str:
     except OSError:
         return "other"
     try:
-        import h5py
-
         with h5py.File(path, "r", locking=False) as f:
             if f.attrs.get("kind") == "sweep":
                 return "sweep"
@@ -561,8 +547,6 @@ def _sticky(folder: Path) -> bool:
 
 
 def _refuse(message: str, hint: str):
-    from ..errors import ModelError
-
     raise ModelError(message, hint=hint)
 
 
@@ -813,8 +797,6 @@ def open_results(path: str | Path, locking: bool = True):
     """An h5py File opened read-only after `check_results_file`; reading errors of a damaged or
     foreign file (inside the ``with``) become `ResultsFileError`.  ``locking=False`` for a
     process that holds the file's `WriteLock` itself (HDF5's own lock would conflict with it)."""
-    import h5py
-
     path = check_results_file(path)
     if locking:
         refuse_if_being_written(path)
@@ -832,8 +814,6 @@ def refuse_if_being_written(path) -> None:
     that has not ended): HDF5 cannot read a file that another process is writing, and its own lock
     then failed in a way that `reading` reported as a damaged file.  Checked with our lock itself, so
     it holds with HDF5's locking switched off too (HDF5_USE_FILE_LOCKING=FALSE)."""
-    import fcntl
-
     try:
         fd = os.open(path, os.O_RDONLY)
     except OSError:
@@ -871,8 +851,6 @@ def check_run_layout(g, where: str, budget: int | None = None) -> int:
     dataset of float fields, or a group of datasets in the earlier layout), 1-D, one length,
     names that are names, hard links only, stored sizes that match the declared ones, and all
     of it within `budget` bytes.  Returns the bytes the run needs in memory."""
-    import h5py
-
     def bad(what: str):
         return ResultsFileError(f"{where} is not a planar_mbs results file: {what}",
                                 hint="give a results file written by `mbs run` or `mbs sweep`")
@@ -943,8 +921,6 @@ def read_results(path: str | Path) -> Results:
     """Load a run written by `ResultsWriter` (or one case of a sweep file: `file.h5:/cases/3`),
     in either layout, after checking that it is a regular HDF5 file laid out as a run
     (`check_run_layout`): a foreign or crafted file is a `ResultsFileError`, not a traceback."""
-    import h5py
-
     path = str(path)
     group = "/"
     if ":/" in path:

@@ -20,6 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..lazy import lazy
+
+kernel = lazy("..kernel", __package__)  # numba: only `tangent_perturbation` runs a kernel
+
 
 @dataclass
 class Exponent:
@@ -77,14 +81,12 @@ def tangent_perturbation(model, y: np.ndarray, t: float, rng) -> np.ndarray:
     """A random direction of (q, q') that keeps the constraints to first order: positions
     unchanged, velocities in the null space of the constraint Jacobian (a motion the joints
     allow)."""
-    from ..kernel import constraint_eval, constraint_rows
-
     n = 3 * model.nbody
-    m = constraint_rows(model.kernel)
+    m = kernel.constraint_rows(model.kernel)
     dv = rng.normal(size=n)
     if m:
         C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
-        constraint_eval(model.kernel, y[:n], y[n:], t, C, Cq, Ct, g)
+        kernel.constraint_eval(model.kernel, y[:n], y[n:], t, C, Cq, Ct, g)
         _, s, vt = np.linalg.svd(Cq)
         rank = int(np.sum(s > 1e-10 * s[0]))
         null = vt[rank:]

@@ -37,6 +37,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import MbsError
+from ..mechanism.model import DriverType, JointType, MotionType
 
 SLIDER_WORDS = ("slider", "piston", "block", "carriage", "cart", "ram", "crosshead")
 TOL_PERIODIC = 1e-3  # recurrence residual / spread below which two section points coincide
@@ -54,8 +55,6 @@ class AnalysisError(MbsError, ValueError):
 # ---------------------------------------------------------------- which body
 def driver_period(model) -> tuple[float, str] | None:
     """``(T, body name)`` of the model's first absolute rotation driver at constant speed, else None."""
-    from ..mechanism.model import DriverType, MotionType
-
     k = model.kernel
     for d in range(model.ndriver):
         if (k.driver_type[d] == DriverType.ANGLE and k.driver_body[d, 0] < 0
@@ -74,8 +73,6 @@ def clock_body(results, model=None) -> str | None:
     """The body whose revolutions clock the section: the body of the model's first absolute
     rotation driver, else the body whose angle turns most over the run (None: no angle)."""
     if model is not None:
-        from ..mechanism.model import DriverType
-
         k = model.kernel
         for d in range(model.ndriver):
             if int(k.driver_type[d]) == DriverType.ANGLE and int(k.driver_body[d, 0]) < 0:
@@ -95,8 +92,6 @@ def slider_body(results, model=None) -> str | None:
     like a slider; else None (a mechanism without a slider: figures and sections ask for signals,
     rather than showing another body's motion as the slider's)."""
     if model is not None:
-        from ..mechanism.model import JointType
-
         k = model.kernel
         for j in range(model.njoint):
             if int(k.joint_type[j]) == JointType.TRANSLATIONAL:

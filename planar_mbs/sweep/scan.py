@@ -34,32 +34,75 @@ a finished case.  Any executor with the `concurrent.futures` interface can run t
 from __future__ import annotations
 
 import dataclasses
+import errno
 import hashlib
 import itertools
 import json
 import math
 import os
 import re
+import select
+import shutil
+import signal
+import stat
 import sys
+import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor
+from concurrent.futures import FIRST_COMPLETED, Executor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from ..errors import MbsError, ModelError
+from .. import __version__
+from ..errors import MbsError, ModelError, SimulationError, did_you_mean
+from ..language.units import quantity
+from ..lazy import lazy
+from ..results.analysis import classify, read_section, write_section
 from ..results.hdf5 import (
     WRITE_CHUNK_CACHE,
     DiskFull,
+    Results,
     ResultsBusy,
     WriteLock,
     open_results,
     release_reserve,
     reserve_space,
+    write_results,
 )
+from ..results.section import AnalysisError, default_signals, driver_period, poincare_section
+from ..results.signals import signal_table
+from ..run.children import die_with_parent
+from ..run.output_size import _size, check_output, estimate, free_bytes
+from ..run.simulation import check_tolerances, run_settings, select_signals, simulate
+from .server import kernels_loaded, started
+from .store import (
+    ROW_ATTR,
+    DamagedTable,
+    JournalLock,
+    case_file_row,
+    case_files,
+    clean_leftovers,
+    gather,
+    journal_folder,
+    publish,
+    read_plan,
+    read_summary,
+    signal_summary,
+    table_rows,
+    write_plan,
+    write_summary,
+    write_table,
+)
+
+h5py = lazy("h5py")
+mp = lazy("multiprocessing")  # a local pool only
+process_pool = lazy("concurrent.futures.process")  # its ProcessPoolExecutor imports multiprocessing
+compiler = lazy("..mechanism.compile", __package__)  # the parser's lark: not for `mbs plot`/`analyze` of a sweep
+parsing = lazy("..language.parse", __package__)  # lark, as above
+worker = lazy(".worker", __package__)  # importing it loads numba and the kernels (the pool's preload)
 
 FINISHED, FAILED, PENDING = "finished", "failed", "pending"
 MAX_CASES = 1_000_000  # cases of one sweep
@@ -191,8 +234,6 @@ def parameter_si(text: str) -> float:
     if not unit:
         return number
     try:
-        from ..language.units import quantity
-
         return float(quantity(number, unit).to_base_units().magnitude)
     except Exception:
         return float("nan")
@@ -212,23 +253,19 @@ class ModelSnapshot:
 
     @classmethod
     def of(cls, path: str | Path) -> "ModelSnapshot":
-        import stat
-
-        from ..language.parse import MAX_MODEL_BYTES, decode_model, parse_model
-
         path = str(path)
         try:
             info = os.stat(path)
             if not stat.S_ISREG(info.st_mode):  # a folder, /dev/zero, a pipe: never opened
                 raise IsADirectoryError(0, "not a regular file: give the .mbs model file")
-            if info.st_size > MAX_MODEL_BYTES:
+            if info.st_size > parsing.MAX_MODEL_BYTES:
                 raise ModelError(f"the model file is {info.st_size / 2**20:.0f} MB; models are limited to "
-                                 f"{MAX_MODEL_BYTES // 2**20} MB", path, hint="is this really a model file?")
+                                 f"{parsing.MAX_MODEL_BYTES // 2**20} MB", path, hint="is this really a model file?")
             with open(path, "rb") as f:
-                text = decode_model(f.read(MAX_MODEL_BYTES + 1), path)
+                text = parsing.decode_model(f.read(parsing.MAX_MODEL_BYTES + 1), path)
         except OSError as e:
             raise SweepError(f"cannot read the model file {path} ({getattr(e, 'strerror', None) or e})") from None
-        spec = parse_model(text, path)  # the parser itself finds and reads every include
+        spec = parsing.parse_model(text, path)  # the parser itself finds and reads every include
         return cls(path, spec.key, text, tuple(sorted(spec.includes.items())))
 
     def fingerprint(self) -> str:
@@ -241,9 +278,7 @@ class ModelSnapshot:
 
     def compile(self, overrides: dict[str, str]):
         """The model of one case (errors worded for `--set`, as the sweep's values are given)."""
-        from ..mechanism.compile import compile_text
-
-        return compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
+        return compiler.compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
 
     def attrs(self) -> dict:
         """Root attributes of a scan file (the layout of a run's file)."""
@@ -306,8 +341,6 @@ class CaseOutcome:
 def case_settings(model, spec: CaseSpec) -> dict:
     """simulate() setting changes of a case: the spec's, plus t_end and output_step from
     the driver period when ``revolutions`` / ``per_rev`` are given."""
-    from ..results.section import driver_period
-
     changes = dict(spec.settings)
     if spec.revolutions is not None or spec.per_rev is not None:
         found = driver_period(model)
@@ -325,8 +358,6 @@ def case_settings(model, spec: CaseSpec) -> dict:
 def default_section_signals(model) -> tuple[str, str] | None:
     """The default Poincaré plane, slider velocity against slider acceleration
     (`planar_mbs.results.section.default_signals`, the rule plots and `mbs analyze` use)."""
-    from ..results.section import AnalysisError, default_signals
-
     try:
         return default_signals(None, model)
     except AnalysisError:
@@ -335,16 +366,10 @@ def default_section_signals(model) -> tuple[str, str] | None:
 
 def run_case(spec: CaseSpec) -> CaseOutcome:
     """Compile, simulate and analyse one case, in memory (the worker side of a sweep)."""
-    from .. import simulate
-    from ..results.analysis import classify
-    from ..mechanism.compile import load_model  # errors worded for `--set`, as the sweep's values are given
-    from ..errors import SimulationError
-    from ..results.section import AnalysisError, poincare_section
-
     start, cpu = time.perf_counter(), time.process_time()
     try:
         overrides = {**spec.sets, **spec.values}
-        model = spec.snapshot.compile(overrides) if spec.snapshot else load_model(spec.model_path, overrides)
+        model = spec.snapshot.compile(overrides) if spec.snapshot else compiler.load_model(spec.model_path, overrides)
         res = simulate(model, output=None, **case_settings(model, spec))
         status, message = FINISHED, res.attrs.get("message", "finished")
     except SimulationError as err:
@@ -364,8 +389,6 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
             message += f"; no Poincaré section: {err}"
     summary = units = None
     if res is not None:
-        from .store import signal_summary
-
         summary, units = signal_summary(res), dict(res.units)
     if spec.keep is not None and res is not None:
         # the run keeps every signal (the section may need others than --keep); store only the kept ones
@@ -382,8 +405,6 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
 
 def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
     """The outcome of a case that stopped before its time loop started (no rows)."""
-    from ..results.hdf5 import Results
-
     res = Results(time=np.zeros(0), signals={}, attrs={"complete": False, "status": "failed", "message": message,
                                                        "case": spec.index, "case_key": spec.key,
                                                        "case_values": spec.values})
@@ -404,10 +425,6 @@ def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | N
     whole case or none of it.  The disk space the case needs is reserved before HDF5 writes a byte
     (a full disk is a clean `DiskFull`, never an HDF5 write failing halfway).  Returns the outcome
     without its rows, naming the file (``part``), or with ``store_error``."""
-    import h5py
-
-    from .store import ROW_ATTR, publish
-
     final = Path(folder, f"case-{outcome.index}.h5")
     part = Path(folder, f".case-{outcome.index}.{os.getpid()}.tmp")
     fd = -1
@@ -442,8 +459,6 @@ _EMPTY: list[bytes] = []
 def _empty_hdf5() -> bytes:
     """The bytes of an empty HDF5 file (built in memory once per process)."""
     if not _EMPTY:
-        import h5py
-
         with h5py.File("empty.h5", "w", driver="core", backing_store=False) as f:
             f.flush()
             _EMPTY.append(bytes(f.id.get_file_image()))
@@ -454,9 +469,6 @@ def _empty_hdf5() -> bytes:
 def read_case_table(path: str | Path) -> list[dict]:
     """Rows of ``/cases_table``: ``{"index", "key", "status", "values": {name: text}, "verdict", ...}``,
     and those of whole cases a killed sweep left in its journal (`sweep_store`), not yet gathered."""
-    from ..results.hdf5 import open_results
-    from .store import case_file_row, case_files, journal_folder
-
     with open_results(path) as f:
         rows = {r["index"]: r for r in _table_rows(f)}
     for index, part in case_files(journal_folder(path)):
@@ -471,8 +483,6 @@ def _text(v) -> str:
 
 
 def _table_rows(f) -> list[dict]:
-    from .store import DamagedTable, table_rows
-
     try:
         return table_rows(f, MAX_CASES)
     except DamagedTable as err:
@@ -531,9 +541,6 @@ def kept_signals(model, keep: Sequence[str]) -> set[str]:
     """The full signal names `keep` asks for: signal names as they are, entities (``slider``)
     expanded to all their signals.  A name that is neither raises ModelError (labelled
     ``--keep``) with the closest names."""
-    from ..results.signals import signal_table
-    from ..run.simulation import select_signals
-
     try:
         table, _ = select_signals(signal_table(model), list(keep))
     except ModelError as err:
@@ -544,9 +551,6 @@ def kept_signals(model, keep: Sequence[str]) -> set[str]:
 
 def check_section(model, section: dict | None) -> None:
     """The Poincaré section's signals and clock body exist in `model` (ModelError otherwise)."""
-    from ..errors import did_you_mean
-    from ..results.signals import signal_table
-
     if not section:
         return
     names = {s.name for s in signal_table(model)}
@@ -566,15 +570,11 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
     beyond `output_size.MAX_ROWS` output rows (each case's rows are held in a worker's memory) or
     cases that together do not fit on the disk holding ``output``.  Returns each case's output rows
     (the expected length of its run: the pool starts the longest first)."""
-    from ..mechanism.compile import load_model
-    from ..run.output_size import check_output, estimate
-    from ..run.simulation import check_tolerances, run_settings
-
     largest, total, rows = None, 0.0, []
     for spec in specs:
         try:
             overrides = {**spec.sets, **spec.values}
-            m = spec.snapshot.compile(overrides) if spec.snapshot else load_model(spec.model_path, overrides)
+            m = spec.snapshot.compile(overrides) if spec.snapshot else compiler.load_model(spec.model_path, overrides)
             changes = case_settings(m, spec)
             settings = run_settings(m, **changes)  # e.g. an unknown integrator name
             check_tolerances(settings)
@@ -593,8 +593,6 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
             raise ModelError(f"case {spec.index} ({where}): {err.message}", err.file, err.line, err.column,
                              err.hint, err.source_line, err.width) from None
     if specs and output is not None and not force:  # all of them on the disk (uncompressed: an upper bound)
-        from ..run.output_size import free_bytes, _size
-
         free = free_bytes(output)
         if total > free:
             raise ModelError(f"the {len(specs)} case(s) to run would write about {_size(total)} of results "
@@ -614,11 +612,6 @@ def default_executor(jobs: int | None) -> Executor:
     it that runs cases at once: no second interpreter start-up before the first case.  Otherwise,
     with the forkserver (Linux, macOS), the server imports `planar_mbs.sweep.worker` once and the
     workers are forks of it; elsewhere (spawn) each worker loads them on its first case."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
-    from .server import kernels_loaded, started  # not sweep_worker: importing it loads the kernels
-
     jobs = jobs or os.cpu_count() or 1
     methods = mp.get_all_start_methods()
     if started():  # its preload is `sweep_worker`
@@ -630,16 +623,14 @@ def default_executor(jobs: int | None) -> Executor:
         ctx.set_forkserver_preload(["planar_mbs.sweep.worker"])
     else:
         ctx = mp.get_context("spawn")
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=start_worker,
-                               initargs=(os.getpid(),))
+    return process_pool.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=start_worker,
+                                            initargs=(os.getpid(),))
 
 
 def start_worker(parent: int) -> None:
     """Pool initializer: the worker keeps its freed memory for the next case
     (`sweep_worker.keep_freed_memory`) and ends with the sweep's process ``parent``."""
-    from .worker import keep_freed_memory  # already loaded in a fork; with spawn, loads the kernels now
-
-    keep_freed_memory()
+    worker.keep_freed_memory()
     end_with_parent(parent)
 
 
@@ -648,17 +639,10 @@ def end_with_parent(parent: int) -> None:
     (SIGKILL leaves it no chance to stop its pool).  Two guards: the kernel sends SIGKILL when the
     worker's own parent (the pool's fork server) dies (prctl PR_SET_PDEATHSIG), and a daemon thread
     waits on the sweep process itself (a pidfd, else polling) and ends the worker when it is gone."""
-    import signal
-    import threading
-
-    from ..run.children import die_with_parent
-
     die_with_parent()
 
     def watch():
         try:
-            import select
-
             fd = os.pidfd_open(parent)
             select.select([fd], [], [])  # readable once the process has ended
         except (AttributeError, OSError):  # no pidfd here: poll
@@ -687,8 +671,6 @@ def note_interrupt(signum: int) -> None:
 
 def _completed(futures, watch: Callable[[], None] | None):
     """The futures as they finish; between them, every second, ``watch()`` may stop the wait."""
-    from concurrent.futures import FIRST_COMPLETED, wait
-
     left = set(futures)
     while left:
         done, left = wait(left, timeout=1.0, return_when=FIRST_COMPLETED)
@@ -789,7 +771,6 @@ def run_sweep(
     config = _config(snapshot, sets, settings, revolutions, per_rev, keep, section)
     params = [a.name for a in axes]
     _check_param_names(params)
-    from .store import clean_leftovers
 
     lock = _lock(output)
     try:
@@ -809,8 +790,6 @@ def run_sweep(
 def _lock(output: Path):
     """The sweep's `sweep_store.JournalLock` on ``output``, with the scan file's own write lock when the
     file exists (``lock.output``): no other sweep, and no other writer of the file, while this one runs."""
-    from .store import JournalLock
-
     output.parent.mkdir(parents=True, exist_ok=True)
     try:
         lock = JournalLock(output)
@@ -830,8 +809,6 @@ def _lock(output: Path):
 
 
 def _version() -> str:
-    from .. import __version__
-
     return __version__
 
 
@@ -854,8 +831,6 @@ class _Plan:
 
 def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force) -> _Plan:
     """Read what the scan file and its journal hold (under the lock), number and check the cases to run."""
-    from .store import case_file_row, case_files, journal_folder, read_plan, write_plan
-
     rows: dict[str, dict] = {}
     folder = journal_folder(output)
     fresh = overwrite or not output.exists()
@@ -922,8 +897,6 @@ def _read_scan(output: Path):
 
 
 def _case_file_config(part: Path) -> dict:
-    import h5py
-
     with h5py.File(part, "r", locking=False) as f:
         return json.loads(f.attrs.get("sweep_config", "{}"))
 
@@ -951,8 +924,6 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
     """Run the pending cases; each is written whole into the journal by whoever ran it, and gathered
     into the scan file (`sweep_store.gather`) when the journal has grown as large as the scan file
     and at the end, even an interrupted one.  The lock is released at the end."""
-    from .store import journal_folder
-
     rows, pending = state.rows, state.pending
     folder = journal_folder(output)
     ran, failed = [], []
@@ -1022,12 +993,8 @@ def _start(pending, folder: str, jobs, executor, compression, config_text, worke
     if executor is None and (jobs == 1 or len(pending) <= 1):
         return None, [_InlineFuture(run_case_stored, s, folder, compression, config_text) for s in pending]
     if executor is None:
-        from .server import started
-
         if not started():  # the kernels loaded here once; the pool's workers are forks of this process
-            from .worker import warm_up
-
-            warm_up()
+            worker.warm_up()
         pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
         futures = [pool.submit(run_case_stored, s, folder, compression, config_text) for s in pending]
     else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
@@ -1047,8 +1014,6 @@ def _file_params(output: Path) -> str | None:
 def _gather(output, lock, header, rows, params, fresh) -> int:
     """`sweep_store.gather` of the cases of ``rows``; a full disk or a write error stops the sweep
     with the finished cases kept (in the old scan file and the journal)."""
-    from .store import gather
-
     try:
         size = gather(output, header, rows, params, parameter_si, fresh=fresh)
         old, lock.output = lock.output, WriteLock(output)  # the new scan file, locked as the old one was
@@ -1059,8 +1024,6 @@ def _gather(output, lock, header, rows, params, fresh) -> int:
         raise SweepStopped(f"{output} was opened for writing by another process; the finished cases are kept: "
                            "run the same command again to resume") from None
     except (OSError, RuntimeError) as exc:
-        import errno
-
         why = f"the disk holding {output} is full" if getattr(exc, "errno", None) == errno.ENOSPC else \
             f"cannot write {output} ({exc})"
         raise SweepStopped(f"{why}; the finished cases are kept beside it: make room and run the same command "
@@ -1093,10 +1056,6 @@ def _case_bytes(outcome: CaseOutcome, n_rows: int) -> int:
 def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
     """Write a case under /cases/<k> of an open (case) file: the run's kept signals and attributes,
     its status, its Poincaré section and verdict, its summary statistics."""
-    from ..results.analysis import write_section
-    from ..results.hdf5 import write_results
-    from .store import write_summary
-
     group = f"cases/{outcome.index}"
     write_results(f, outcome.results, group, compression=compression)
     g = f[group]
@@ -1112,8 +1071,6 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
 
 def sweep_sections(path: str | Path) -> list[tuple[dict, Any, Any]]:
     """``(table row, PoincareSection, Verdict)`` of every case of a sweep file that has a section."""
-    from ..results.analysis import read_section
-
     out = []
     with open_results(path) as f:
         for row in _table_rows(f):
@@ -1130,8 +1087,6 @@ def replay_case(path: str | Path, index: int, output: str | Path | None = None, 
     text with its includes, the fixed ``--set`` values, the settings, the case's values): the same
     run as `mbs run` with those settings, bit for bit, with every signal (into ``output`` if given).
     Returns its `Results`."""
-    from .. import simulate
-
     with open_results(path) as f:
         if f.attrs.get("kind") != "sweep":
             raise SweepError(f"{path} is not a sweep file")
@@ -1154,8 +1109,6 @@ def _replay_spec(row: dict, config: dict, snapshot: ModelSnapshot) -> CaseSpec:
 
 def case_summary(path: str | Path, index: int) -> dict[str, tuple[float, float, float]]:
     """The stored (min, max, RMS) of every signal of case ``index`` (`sweep_store.signal_summary`)."""
-    from .store import read_summary
-
     with open_results(path) as f:
         return read_summary(f[f"cases/{index}"])
 
@@ -1165,12 +1118,6 @@ def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bo
     the first file's cases keep their indices, the others' are appended in their order; a case
     present in two files is refused, as are files of another model, other settings or other
     parameters.  Written beside ``output`` and renamed into place.  Returns the number of cases."""
-    import shutil
-
-    import h5py
-
-    from .store import journal_folder, case_files, publish, write_table
-
     output = Path(output)
     inputs = [Path(p) for p in inputs]
     if len(inputs) < 2:

@@ -19,10 +19,19 @@ holds open closes.
 from __future__ import annotations
 
 import os
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
+from ..lazy import lazy
 from ..run.children import die_with_parent
+
+# multiprocessing only where a server starts (a sweep on several cores)
+mp = lazy("multiprocessing")
+forkserver = lazy("multiprocessing.forkserver")
+process = lazy("multiprocessing.process")
+resource_tracker = lazy("multiprocessing.resource_tracker")
 
 _STARTED: list[bool] = []
 SERVER_ENV = "PLANAR_MBS_SWEEP_SERVER"  # set for the server only: the pid of the sweep that started it
@@ -33,16 +42,12 @@ def start() -> bool:
     (Windows) or it cannot start (the sweep then loads the kernels itself)."""
     if _STARTED:
         return True
-    import multiprocessing as mp
-
     if "forkserver" not in mp.get_all_start_methods():
         return False
     os.environ[SERVER_ENV] = str(os.getpid())
     try:
         own_temp_folder()
         mp.get_context("forkserver").set_forkserver_preload(["planar_mbs.sweep.worker"])
-        from multiprocessing import forkserver
-
         _start_quiet_resource_tracker()
         forkserver.ensure_running()
     except (OSError, ValueError) as exc:  # no fork, no socket, a read-only temp folder: load them here
@@ -63,10 +68,6 @@ def own_temp_folder() -> None:
     ``pymp-*``: its finalizer never runs, as the command ends with ``os._exit``, and the folder of the
     fork server's socket stayed behind after every sweep.  `remove_temp_folder` removes it at the end
     of the sweep; folders of sweeps that were killed (their process is gone) are removed here."""
-    import shutil
-    import tempfile
-    from multiprocessing import process
-
     for old in Path(tempfile.gettempdir()).glob(f"{TEMP_PREFIX}*"):
         pid = old.name[len(TEMP_PREFIX):].split("-")[0]
         if pid.isdigit() and not _alive(int(pid)) and old.stat().st_uid == os.getuid():
@@ -88,9 +89,6 @@ def _alive(pid: int) -> bool:
 
 def remove_temp_folder() -> None:
     """Remove the folder `own_temp_folder` made (the server keeps running without its socket file)."""
-    import shutil
-    from multiprocessing import process
-
     folder = process.current_process()._config.get("tempdir")
     if folder and Path(folder).name.startswith(f"{TEMP_PREFIX}{os.getpid()}-"):
         shutil.rmtree(folder, ignore_errors=True)
@@ -112,8 +110,6 @@ def _start_quiet_resource_tracker() -> None:
     pool's named semaphores when this process ends without releasing them, which an interrupted
     sweep does (it ends at once, `cli.entry.leave`), and then prints a warning about "leaked
     semaphore objects" after the user's Ctrl-C: it did its job, the warning is noise."""
-    from multiprocessing import resource_tracker
-
     saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, 2)

@@ -19,6 +19,7 @@ with a column.
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
@@ -27,6 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MbsError
+from ..lazy import lazy
+from ..results.hdf5 import WRITE_CHUNK_CACHE, ResultsBusy
+
+h5py = lazy("h5py")
 
 JOURNAL = ".cases"  # the folder .<scan name>.cases beside the scan file
 OLD_PARTS = ".cases-"  # the temporary case folders of earlier versions: .<scan name>.cases-XXXX
@@ -46,10 +51,6 @@ class JournalLock:
     The lock dies with the process; a lock file removed by the sweep that held it is taken again."""
 
     def __init__(self, output: Path):
-        import fcntl
-
-        from ..results.hdf5 import ResultsBusy
-
         self.folder = journal_folder(output)
         self.output = None  # the scan file's own WriteLock, held by the sweep beside this one
         for _ in range(10):
@@ -104,8 +105,6 @@ def case_files(folder: Path) -> list[tuple[int, Path]]:
 
 def case_file_row(path: Path) -> dict | None:
     """The table row a case file carries, or None for a file that cannot be read."""
-    import h5py
-
     try:
         with h5py.File(path, "r", locking=False) as f:
             return json.loads(f.attrs[ROW_ATTR])
@@ -135,10 +134,6 @@ def gather(output: Path, header: dict, rows: dict[str, dict], params: list[str],
     renamed into place, then those case files deleted.  Returns the new scan file's size.  A failure
     (a full disk, an interrupt) removes the copy and leaves the old scan file and the journal as
     they were."""
-    import h5py
-
-    from ..results.hdf5 import WRITE_CHUNK_CACHE
-
     folder = journal_folder(output)
     listed = {r["index"] for r in rows.values()}
     cases = [(i, p) for i, p in case_files(folder) if i in listed]
@@ -191,8 +186,6 @@ def _text(v) -> str:
 def write_table(f, rows: list[dict], params: list[str], parameter_si) -> None:
     """``/cases_table``: one row per case, by index (replaced if there); ``parameter_si`` gives the
     SI value of a parameter's text."""
-    import h5py
-
     if "cases_table" in f:
         del f["cases_table"]
     t = f.create_group("cases_table")
@@ -258,8 +251,6 @@ def signal_summary(results) -> dict[str, tuple[float, float, float]]:
 
 def write_summary(group, summary: dict[str, tuple[float, float, float]], units: dict[str, str]) -> None:
     """``<group>/summary``: datasets name, unit, min, max, rms, one entry per signal."""
-    import h5py
-
     if "summary" in group:
         del group["summary"]
     g = group.create_group("summary")

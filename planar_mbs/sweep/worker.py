@@ -11,9 +11,18 @@ Each worker keeps the memory it frees for its next case (`keep_freed_memory`).
 """
 from __future__ import annotations
 
+import ctypes
 import os
 
+from ..lazy import lazy
 from .server import die_with_the_sweep
+
+# Loaded by `warm_up`, after BLAS is limited to one thread (numpy reads it when imported) and the
+# server is tied to the sweep (`die_with_the_sweep`): hence declared lazily.
+h5py = lazy("h5py")  # a local pool's workers write their cases: `sweep.run_case_stored`
+analysis = lazy("..results.analysis", __package__)  # every case is classified
+simulation = lazy("..run.simulation", __package__)  # numba and the kernels
+compiler = lazy("..mechanism.compile", __package__)
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -34,8 +43,6 @@ def keep_freed_memory() -> bool:
     if "malloc" in os.environ.get("GLIBC_TUNABLES", "") or any(v.startswith("MALLOC_") for v in os.environ):
         return False
     try:
-        import ctypes
-
         mallopt = ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):
         return False
@@ -61,13 +68,8 @@ def warm_up() -> None:
     Also usable for long-lived dask workers: ``client.run(warm_up)``."""
     if _WARM:
         return
-    import h5py  # noqa: F401  (a local pool's workers write their cases: `sweep.run_case_stored`)
-
-    from ..results import analysis
-    from .. import simulate  # noqa: F401
-    from ..mechanism.compile import compile_text
-
-    simulate(compile_text(WARM_MODEL, "<warm-up>"), t_end=1e-3)
+    h5py.File, analysis.classify  # noqa: B018  (loaded now, before any worker exists)
+    simulation.simulate(compiler.compile_text(WARM_MODEL, "<warm-up>"), t_end=1e-3)
     _WARM.append(True)
 
 

@@ -1,0 +1,84 @@
+"""The figures of docs/plots.md, the README and docs/tutorial.md, drawn by the commands those pages show.
+
+    .venv/bin/python docs/scripts/page_figures.py            # redraws them into docs/images
+    .venv/bin/python docs/scripts/page_figures.py OUTDIR     # draws them into OUTDIR (tests/test_doc_figures.py)
+
+Each entry of PAGES is the page's own commands, run in a scratch folder through the `mbs` command line, and
+the figures it keeps: the file the command wrote and the name it has in docs/images.  A page whose figure
+no longer matches what these commands draw fails tests/test_doc_figures.py; this script redraws it.
+"""
+from __future__ import annotations
+
+import shlex
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+IMAGES = ROOT / "docs" / "images"
+
+PLOTS_RUN = "mbs run models/slider_crank_clearance_a.mbs -o a_5000.h5 --t-end 0.36s"
+PLOTS_DEFAULT = "mbs plot a_5000.h5 -o docs/images"
+PLOTS_AGAINST = "mbs plot a_5000.h5 slider.ax A.contact_force crank_speed.torque --against crank.phi"
+SWEEP_RUN = ("mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm,1200rpm,2500rpm,5000rpm -n 30 "
+             "--keep slider,crank -o sweep_a.h5")
+SWEEP_PLOT = "mbs plot sweep_a.h5 -o docs/images"
+SWEEP = ["sweep_a_grid_slider.ax.png", "sweep_a_poincare_grid_slider.vx_slider.ax.png",
+         "sweep_a_bifurcation_slider.vx.png"]
+TUTORIAL_RUN = "mbs run four_bar.mbs"
+TUTORIAL_PLOT = "mbs plot results/four_bar.h5 rocker_link.phi motor.torque --against crank_link.phi"
+
+A_5000 = ["a_5000_slider_velocity.png", "a_5000_slider_acceleration.png", "a_5000_contact_force.png",
+          "a_5000_driver_torque.png", "a_5000_orbit_A.png", "a_5000_poincare_slider.vx_slider.ax.png"]
+AGAINST = "a_5000_slider.ax_A.contact_force_crank_speed.torque_vs_crank.phi.png"
+
+# page: (commands as the page shows them, {file the commands write: its name in docs/images})
+PAGES = {
+    "docs/plots.md": ([PLOTS_RUN, PLOTS_DEFAULT, PLOTS_AGAINST],
+                      {**{f"docs/images/{n}": n for n in A_5000}, f"a_5000_plots/{AGAINST}": AGAINST}),
+    "docs/plots.md#sweeps": ([SWEEP_RUN, SWEEP_PLOT], {f"docs/images/{n}": n for n in SWEEP}),
+    "docs/tutorial.md": ([TUTORIAL_RUN, TUTORIAL_PLOT],
+                         {"results/four_bar_plots/four_bar_rocker_link.phi_motor.torque_vs_crank_link.phi.png":
+                          "tutorial_four_bar.png"}),
+}
+
+
+def mbs(command: str, cwd: Path) -> None:
+    """One `mbs ...` command line of a page, run in `cwd` (the CLI in this process)."""
+    import os
+
+    from typer.testing import CliRunner
+
+    from planar_mbs.cli.app import app
+
+    here = os.getcwd()
+    os.chdir(cwd)
+    try:
+        r = CliRunner().invoke(app, shlex.split(command)[1:], env={"COLUMNS": "200"})
+    finally:
+        os.chdir(here)
+    if r.exit_code != 0:
+        raise RuntimeError(f"`{command}` exited {r.exit_code}: {r.output}")
+
+
+def draw(outdir: Path) -> list[Path]:
+    """Every page's figures, drawn by its commands, into `outdir` under their docs/images names."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for commands, keep in PAGES.values():
+        with tempfile.TemporaryDirectory() as scratch:
+            work = Path(scratch)
+            shutil.copytree(ROOT / "models", work / "models")
+            shutil.copy(ROOT / "docs" / "tutorial" / "four_bar.mbs", work / "four_bar.mbs")
+            (work / "docs" / "images").mkdir(parents=True)
+            for command in commands:
+                mbs(command, work)
+            for made, name in keep.items():
+                written.append(Path(shutil.copy(work / made, outdir / name)))
+    return written
+
+
+if __name__ == "__main__":
+    for path in draw(Path(sys.argv[1]) if len(sys.argv) > 1 else IMAGES):
+        print(path)
