@@ -274,15 +274,23 @@ def dense_rows(method, ws):
     h = ws.dense[DN_H]
     K = ws.K
     F = ws.F
-    for i in range(ws.ya.shape[0]):
-        dy = ws.yb[i] - ws.ya[i]
-        prev = 0.0
-        for r in range(DENSE_ROWS_OF[method]):
-            acc = 0.0
-            for n in range(DENSE_NZ[method, r]):
-                acc += DENSE_W[method, r, n] * K[DENSE_J[method, r, n], i]
-            prev = DENSE_DY[method, r] * dy + h * acc - DENSE_PREV[method, r] * prev
-            F[r, i] = prev
+    N = ws.ya.shape[0]
+    for r in range(DENSE_ROWS_OF[method]):
+        # sum_j D_rj k_j summed in F[r] term by term over the whole state (contiguous, as `rk_stages`;
+        # the same sums): component by component, with the terms' rows gathered, DOPRI5's time loop on
+        # the clearance slider-crank was 1.04x that of its hand-written dense output
+        for i in range(N):
+            F[r, i] = 0.0
+        for n in range(DENSE_NZ[method, r]):
+            w = DENSE_W[method, r, n]
+            j = DENSE_J[method, r, n]
+            for i in range(N):
+                F[r, i] += w * K[j, i]
+        dyr = DENSE_DY[method, r]
+        pr = DENSE_PREV[method, r]
+        for i in range(N):
+            prev = F[r - 1, i] if r > 0 else 0.0
+            F[r, i] = dyr * (ws.yb[i] - ws.ya[i]) + h * F[r, i] - pr * prev
     ws.flags[FL_DENSE_READY] = 1
 
 
