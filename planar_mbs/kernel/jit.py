@@ -31,16 +31,20 @@
   compiles all methods): not taken.  Inlining small helpers
   (`jac_dot`) made it slower: each use is measured, not assumed.
 * A kernel that is not inlined is a library of its own, into which numba links the code of every
-  kernel it calls and then optimises and emits machine code for all of it again (`advance`'s own
-  LLVM work, re-optimising everything it links, is about a sixth of the first compilation, measured
-  with numba's compile events).  Inlining the small kernels between `advance` and the stage loop
+  kernel it calls and then optimises and emits machine code for all of it again (LLVM is about half
+  of the first compilation: benchmarks/compile_profile.py).  Inlining the small kernels between `advance` and the stage loop
   (`fixed_step`, `passage_check`, `dense_prepare`, `initial_step`: `rk_stages` then linked into three
   libraries instead of six) did not shorten it: 101.6 s of CPU against 94.5 s for everything in one
   process, back to back on a busy machine; the front end then types and lowers each inlined copy.
   Not taken.
 * The steps of `loop.advance` (`_resume`, `_adaptive`, `_contact_event`, `_end_step`, ...) are
   inlined at their one call site each: the loop reads as named steps and compiles to what it was as
-  one function (bit-identical results on every shipped model, same speed: docs/benchmarks.md).
+  one function (bit-identical results on every shipped model, same speed).  The first compilation
+  got longer: 4 % of CPU in one process (115.2 s against 110.9 s, side by side, compile events per
+  kernel: `advance`'s own share did not grow), 10-14 % for the README's first command with the
+  compile helper (docs/benchmarks.md, "Start-up"); not explained yet.  Only the steps called once per
+  call of `advance` could be left to a call at no run-time cost, and those that reach `_emit` or `rhs`
+  would then be libraries that compile those again.
 * `observe` is inlined at its one call site in the time loop (`loop.observe_inlined` in `loop._emit`,
   which also writes a run's first row and a last sample off the grid): one output row of the
   slider-crank with every signal 0.94 -> 0.70-0.80 us in the loop (1.27 -> 1.01-1.21 us with the
