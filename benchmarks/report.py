@@ -323,7 +323,7 @@ What the start-up work changed (issue "fast as a whole process"): `mbs check` lo
 initial pose is assembled by the constraint kernels' source run as plain Python, `planar_mbs.pykernel`), nor
 pint (units from a table of our own, each entry tested against pint; pint only for other unit names), nor typer
 (a plain `mbs check MODEL [--set ...]` bypasses it: typer's argument handling imports pydantic); a plain
-`mbs run MODEL [OPTIONS]` bypasses typer too (`planar_mbs/cli/run_command.py`; any other command line still goes to typer).
+`mbs run MODEL [OPTIONS]` bypasses typer too (its options are read by `planar_mbs/cli/run_options.py` from the same table the typer command is generated from; any other command line still goes to typer).
 A cached kernel loads without numba's target-context refresh, which imported every implementation numba has
 (scipy.linalg among them) and compiled its reference-counting runtime, none of which the kernels' machine code
 calls (`kernel/jit.py`), and without parsing its linking bitcode (0.8 MB for the time loop, 40–60 ms), which numba

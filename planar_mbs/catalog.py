@@ -2,8 +2,9 @@
 
 Everything else is derived from these three tables: the integer enums of
 `model` (`ContactLaw`, `JointType`, `Integrator`) and their groups, the
-kernel's constants (number of laws, rows per joint type, stage buffers), the
-compiler's field tables and allowed law arguments, the CLI's choices and
+columns of the joints' settings (`model.JP`), the kernel's constants (number of
+laws, rows per joint type, stage buffers, tableaux), the compiler's field tables,
+how it reads a joint's settings and the allowed law arguments, the CLI's choices and
 tables, the signal names, how `rerun_log` draws a joint, and the generated
 lists in docs/language.md (`python -m planar_mbs.catalog --docs` rewrites them;
 a test checks they are in step).
@@ -49,7 +50,7 @@ CYLINDRICAL = LawGroup("cylindrical", ("restitution",), (), "materials",
 LAW_GROUPS = (ELASTIC, DISSIPATIVE, CYLINDRICAL)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LawSpec:
     """A normal contact-force law of a clearance joint.  Every law reports the
     clearance joint's signals (`signals.CLEARANCE_QUANTITIES`)."""
@@ -72,66 +73,108 @@ class LawSpec:
 
 
 LAWS: tuple[LawSpec, ...] = (
-    LawSpec(0, "HERTZ", "hertz", "Hertz", ELASTIC, "F = K d^n", "Hertz 1881; Muvengei et al. eq. 17"),
-    LawSpec(1, "LANKARANI_NIKRAVESH", "lankarani_nikravesh", "Lankarani–Nikravesh", DISSIPATIVE,
-            "F = K d^n (1 + 3 (1 - ce^2)/4 d'/d'(-))", "Lankarani & Nikravesh 1990; Muvengei et al. eq. 21"),
-    LawSpec(2, "DUBOWSKY_FREUDENSTEIN", "dubowsky_freudenstein", "Dubowsky–Freudenstein", CYLINDRICAL,
-            "d = A F (ln(B/F) + 1), B = L^3 c / (h R_B R_J)", "Dubowsky & Freudenstein 1971; Muvengei et al. eq. 22"),
-    LawSpec(3, "ESDU_78035", "esdu78035", "ESDU-78035", CYLINDRICAL,
-            "d = A F (ln(B/F) + 1), B = 4 L c / h", "ESDU 78035 (1978); Muvengei et al. eq. 23"),
-    LawSpec(4, "HUNT_CROSSLEY", "hunt_crossley", "Hunt–Crossley", DISSIPATIVE,
-            "F = K d^n (1 + 3 (1 - ce)/2 d'/d'(-))", "Hunt & Crossley 1975"),
-    LawSpec(5, "FLORES", "flores", "Flores et al.", DISSIPATIVE,
-            "F = K d^n (1 + 8 (1 - ce)/(5 ce) d'/d'(-))", "Flores, Machado, Silva & Martins 2011"),
-    LawSpec(6, "GONTHIER", "gonthier", "Gonthier et al.", DISSIPATIVE,
-            "F = K d^n (1 + (1 - ce^2)/ce d'/d'(-))", "Gonthier, McPhee, Lange & Piedboeuf 2004"),
+    LawSpec(code=0, enum="HERTZ", name="hertz", title="Hertz", group=ELASTIC, formula="F = K d^n",
+            reference="Hertz 1881; Muvengei et al. eq. 17"),
+    LawSpec(code=1, enum="LANKARANI_NIKRAVESH", name="lankarani_nikravesh", title="Lankarani–Nikravesh",
+            group=DISSIPATIVE, formula="F = K d^n (1 + 3 (1 - ce^2)/4 d'/d'(-))",
+            reference="Lankarani & Nikravesh 1990; Muvengei et al. eq. 21"),
+    LawSpec(code=2, enum="DUBOWSKY_FREUDENSTEIN", name="dubowsky_freudenstein", title="Dubowsky–Freudenstein",
+            group=CYLINDRICAL, formula="d = A F (ln(B/F) + 1), B = L^3 c / (h R_B R_J)",
+            reference="Dubowsky & Freudenstein 1971; Muvengei et al. eq. 22"),
+    LawSpec(code=3, enum="ESDU_78035", name="esdu78035", title="ESDU-78035", group=CYLINDRICAL,
+            formula="d = A F (ln(B/F) + 1), B = 4 L c / h", reference="ESDU 78035 (1978); Muvengei et al. eq. 23"),
+    LawSpec(code=4, enum="HUNT_CROSSLEY", name="hunt_crossley", title="Hunt–Crossley", group=DISSIPATIVE,
+            formula="F = K d^n (1 + 3 (1 - ce)/2 d'/d'(-))", reference="Hunt & Crossley 1975"),
+    LawSpec(code=5, enum="FLORES", name="flores", title="Flores et al.", group=DISSIPATIVE,
+            formula="F = K d^n (1 + 8 (1 - ce)/(5 ce) d'/d'(-))", reference="Flores, Machado, Silva & Martins 2011"),
+    LawSpec(code=6, enum="GONTHIER", name="gonthier", title="Gonthier et al.", group=DISSIPATIVE,
+            formula="F = K d^n (1 + (1 - ce^2)/ce d'/d'(-))", reference="Gonthier, McPhee, Lange & Piedboeuf 2004"),
 )
 
 # ------------------------------------------------------------------ joint types
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
+class JointSetting:
+    """A setting of a joint type: how the compiler reads it and which model column it fills.
+
+    ``unit``: ``"direction"`` (a direction (ux, uy) in the first body's frame, normalised into the
+    model's ``joint_axis``; one per joint type) or the dimension of a number, a `Dim` of
+    `language/units.py` in lower case (``"angle"``, ``"length"``, ``"number"``), stored in the
+    model's ``joint_param`` column named ``column`` (the columns are the names used here, in order of
+    first use: joint types that share a column share its meaning).  ``default``: a number,
+    ``"pose"`` (its value in the initial pose: the relative angle phi_j - phi_i for an angle, the
+    distance of the two points for a length) or None (required).  ``positive``: only values > 0."""
+
+    name: str  # as written in a .mbs file
+    meaning: str  # as docs/language.md and the error messages show it
+    unit: str
+    column: str = ""
+    default: float | str | None = None
+    positive: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
 class JointSpec:
     """An ideal joint: ``rows`` constraint equations between two bodies.
 
-    ``fields``: the settings it takes (name -> meaning).  The compiler fills them
-    by name: ``axis`` -> joint_axis (unit, first body's frame), ``angle`` ->
-    JP_PHI0 (default: the initial relative angle), ``length`` -> JP_LENGTH
-    (default: the initial distance of the points).  ``moment``: it locks the
-    relative rotation, so its reaction has a moment signal.  ``draw``: "pin"
-    (a pin at the joint point), "link" (its points join the body outlines, no
-    pin) or "slide" (a sliding body: drawn as a box along the axis, with a guide
-    when one side is ground; no outline point).  ``slider``: a body tied to
-    ground by it is "the slider" (Poincaré section, slider plots)."""
+    ``settings``: the `JointSetting`s it takes (the compiler reads and stores them from these
+    alone).  ``moment``: it locks the relative rotation, so its reaction has a moment signal.
+    ``draw``: "pin" (a pin at the joint point), "link" (its points join the body outlines, no pin)
+    or "slide" (a sliding body: drawn as a box along the axis, with a guide when one side is
+    ground; no outline point).  ``slider``: a body tied to ground by it is "the slider" (Poincaré
+    section, slider plots)."""
 
     code: int  # JointType value, the kernel's joint code
     enum: str
     name: str  # as written in a .mbs file
     rows: int
     equations: str
-    fields: dict[str, str] = field(default_factory=dict)
+    settings: tuple[JointSetting, ...] = ()
     moment: bool = False
     draw: str = "pin"
     slider: bool = False
     example: str = ""  # the call as docs/language.md shows it
 
+    @property
+    def fields(self) -> dict[str, str]:
+        """The settings it takes, name -> meaning (the compiler's field table, the docs)."""
+        return {s.name: s.meaning for s in self.settings}
 
-_AXIS = "sliding axis (ux, uy) in the first body's frame"
-_ANGLE = "relative angle kept (default: from the initial pose)"
+
+SETTING_DEFAULTS = ("pose",)  # the named defaults of a JointSetting besides numbers and None
+_AXIS = JointSetting(name="axis", meaning="sliding axis (ux, uy) in the first body's frame", unit="direction")
+_ANGLE = JointSetting(name="angle", meaning="relative angle kept (default: from the initial pose)", unit="angle",
+                      column="phi0", default="pose")
 JOINTS: tuple[JointSpec, ...] = (
-    JointSpec(0, "REVOLUTE", "revolute", 2, "P_i - P_j = 0", {}, example="revolute(a (p), b (p))"),
-    JointSpec(1, "TRANSLATIONAL", "translational", 2, "phi_j - phi_i - phi0 = 0;  n_i . (P_j - P_i) = 0",
-              {"axis": _AXIS, "angle": _ANGLE}, moment=True, draw="slide", slider=True,
-              example="translational(a (p), b (p), axis = (ux, uy))"),
-    JointSpec(2, "WELD", "weld", 3, "P_i - P_j = 0;  phi_j - phi_i - phi0 = 0", {"angle": _ANGLE}, moment=True,
-              example="weld(a (p), b (p))"),
-    JointSpec(3, "REVOLUTE_REVOLUTE", "revolute_revolute", 1, "((P_j - P_i).(P_j - P_i) - L^2) / 2 = 0",
-              {"length": "link length (default: from the initial pose)"}, draw="link",
-              example="revolute_revolute(a (p), b (p))"),
-    JointSpec(4, "REVOLUTE_TRANSLATIONAL", "revolute_translational", 1, "n_i . (P_j - P_i) = 0",
-              {"axis": "line direction (ux, uy) in the first body's frame"},
+    JointSpec(code=0, enum="REVOLUTE", name="revolute", rows=2, equations="P_i - P_j = 0",
+              example="revolute(a (p), b (p))"),
+    JointSpec(code=1, enum="TRANSLATIONAL", name="translational", rows=2,
+              equations="phi_j - phi_i - phi0 = 0;  n_i . (P_j - P_i) = 0", settings=(_AXIS, _ANGLE),
+              moment=True, draw="slide", slider=True, example="translational(a (p), b (p), axis = (ux, uy))"),
+    JointSpec(code=2, enum="WELD", name="weld", rows=3, equations="P_i - P_j = 0;  phi_j - phi_i - phi0 = 0",
+              settings=(_ANGLE,), moment=True, example="weld(a (p), b (p))"),
+    JointSpec(code=3, enum="REVOLUTE_REVOLUTE", name="revolute_revolute", rows=1,
+              equations="((P_j - P_i).(P_j - P_i) - L^2) / 2 = 0",
+              settings=(JointSetting(name="length", meaning="link length (default: from the initial pose)",
+                                     unit="length", column="length", default="pose", positive=True),),
+              draw="link", example="revolute_revolute(a (p), b (p))"),
+    JointSpec(code=4, enum="REVOLUTE_TRANSLATIONAL", name="revolute_translational", rows=1,
+              equations="n_i . (P_j - P_i) = 0",
+              settings=(JointSetting(name="axis", meaning="line direction (ux, uy) in the first body's frame",
+                                     unit="direction"),),
               example="revolute_translational(a (p), b (p), axis = ...)"),
 )
+
+
+def joint_param_columns() -> tuple[str, ...]:
+    """The columns of the model's ``joint_param``: every setting's column, in order of first use."""
+    cols: list[str] = []
+    for spec in JOINTS:
+        cols += [s.column for s in spec.settings if s.column and s.column not in cols]
+    return tuple(cols)
+
+
 # the clearance joint is a force element, not a constraint: its name is a joint type of the language
 CLEARANCE_JOINT = "clearance_revolute"
 
@@ -429,6 +472,24 @@ def _check_tableau(s: IntegratorSpec) -> None:
     assert s.dense == "rows" or s.stages == max(len(s.b), s.end_stage + 1), f"{s.name}: stages nothing reads"
 
 
+def _check_joint(s: JointSpec) -> None:
+    """A joint type's settings are ones the compiler can read and store."""
+    assert s.rows >= 1 and s.draw in ("pin", "link", "slide"), s.name
+    directions = [x for x in s.settings if x.unit == "direction"]
+    assert len(directions) <= 1 and not any(x.column or x.default is not None for x in directions), \
+        f"{s.name}: one direction at most, stored in joint_axis"
+    assert s.draw != "slide" or directions, f"{s.name}: a sliding joint is drawn along its direction"
+    assert len({x.name for x in s.settings}) == len(s.settings), f"{s.name}: setting names must be unique"
+    for x in s.settings:
+        assert x.unit == "direction" or re.fullmatch(r"[a-z_][a-z0-9_]*", x.column), f"{s.name}.{x.name}: no column"
+        assert x.default is None or isinstance(x.default, (int, float)) or x.default in SETTING_DEFAULTS
+        assert x.default != "pose" or x.unit in ("angle", "length"), f"{s.name}.{x.name}: no value in the pose"
+    units = {}
+    for spec in JOINTS:
+        for x in spec.settings:
+            assert units.setdefault(x.column, x.unit) == x.unit, f"column {x.column} holds one kind of value"
+
+
 def check() -> None:
     """The tables are consistent: codes 0..n-1 in order, names unique."""
     for table in (LAWS, JOINTS, INTEGRATORS, PAIRS):
@@ -436,9 +497,7 @@ def check() -> None:
         assert len(set(names(table))) == len(table), "names must be unique"
         assert len({s.enum for s in table}) == len(table), "enum names must be unique"
     for s in JOINTS:
-        assert s.rows >= 1 and s.draw in ("pin", "link", "slide")
-        assert s.draw != "slide" or "axis" in s.fields, "a sliding joint is drawn along its axis"
-        assert set(s.fields) <= {"axis", "angle", "length"}, "the compiler fills axis, angle and length"
+        _check_joint(s)
     for s in INTEGRATORS:
         _check_tableau(s)
     assert ELEMENTS[0].name == CLEARANCE_JOINT and {e.pair for e in ELEMENTS} <= set(names(PAIRS))

@@ -11,14 +11,14 @@ import numpy as np
 from planar_mbs.kernel import kernel_model
 from planar_mbs.mechanism.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS,
-    CP_LENGTH, JOINT_ROWS, N_CLEARANCE_PARAM, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM,
+    CP_LENGTH, JOINT_ROWS, JP, N_CLEARANCE_PARAM, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM,
     ContactLaw, DriverType, ForceType, JointType, KernelModel, MotionType, Settings, Integrator,
 )
 
 
 def build(bodies, joints=(), drivers=(), clearances=(), forces=(), gravity=(0.0, 0.0)) -> KernelModel:
     """bodies: [(mass, inertia)]; joints: [dict(type, bodies=(i, j), points=((sx, sy), (sx, sy)),
-    axis=(ux, uy), phi0=0, length=0)]; drivers: [dict(type, bodies, points, axis, motion, params)];
+    axis=(ux, uy), and a value per joint_param column: phi0=0, length=0, ...)]; drivers: [dict(type, bodies, points, axis, motion, params)];
     clearances: [dict(bodies, points, law, params={CP_*: value})];
     forces: [dict(type, bodies, points, params)]."""
     nb = len(bodies)
@@ -35,8 +35,8 @@ def build(bodies, joints=(), drivers=(), clearances=(), forces=(), gravity=(0.0,
     ja = np.array([j.get("axis", (1.0, 0.0)) for j in joints], float).reshape(nj, 2)
     jpar = np.zeros((nj, N_JOINT_PARAM))
     for k, j in enumerate(joints):
-        jpar[k, 0] = j.get("phi0", 0.0)
-        jpar[k, 1] = j.get("length", 0.0)
+        for column, c in JP.items():  # phi0, length, ...: the catalog's setting columns
+            jpar[k, c] = j.get(column, 0.0)
     rows = JOINT_ROWS[jt] if nj else np.zeros(0, np.int64)
     jrow = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64) if nj else np.zeros(0, np.int64)
     m0 = int(rows.sum()) if nj else 0

@@ -10,6 +10,7 @@ refuses the added method that has no dense output.
 """
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import subprocess
@@ -25,7 +26,7 @@ from planar_mbs.mechanism.compile import compile_text, JOINT_FIELDS, JOINT_TYPES
 from planar_mbs.kernel import contact, integrators, workspace
 from planar_mbs.kernel.constraints import _JOINT_ROWS
 from planar_mbs.mechanism.model import (
-    CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, JOINT_ROWS, ContactLaw, Integrator, JointType,
+    CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, JOINT_ROWS, N_JOINT_PARAM, ContactLaw, Integrator, JointType,
 )
 from planar_mbs.results.signals import MOMENT_JOINTS
 
@@ -54,6 +55,76 @@ def test_compiler_tables_follow_the_catalog():
         assert JOINT_FIELDS[s.name] == s.fields
     assert LAW_SETTINGS == {k for g in catalog.LAW_GROUPS for k in g.takes}
     assert all(n in SIM_FIELDS["integrator"] for n in catalog.names(catalog.INTEGRATORS))
+
+
+def test_every_joint_type_has_its_rows_in_the_kernel():
+    """kernel/constraints.py has rows for each catalog joint type, with a setting in every column the
+    catalog names (status 0, `rows` rows, each with a Jacobian); a code past the table is refused."""
+    from kernel_models import build
+    from planar_mbs.pykernel.constraints import constraint_eval, constraint_rows
+
+    q, qd = np.array([0.1, 0.2, 0.3, 0.4, -0.1, 0.7]), np.array([0.5, -0.2, 1.0, 0.3, 0.1, -2.0])
+    for spec in catalog.JOINTS:
+        joint = dict(type=spec.code, bodies=(0, 1), points=((0.1, 0.05), (-0.2, 0.03)), axis=(0.6, 0.8))
+        joint.update({s.column: 0.5 for s in spec.settings if s.column})
+        km = build([(1.0, 0.1), (2.0, 0.2)], joints=[joint])
+        m = constraint_rows(km)
+        C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, 6))
+        assert constraint_eval(km, q, qd, 0.0, C, Cq, Ct, g) == 0 and m == spec.rows, spec.name
+        assert np.all(np.abs(Cq).sum(axis=1) > 0) and np.all(np.isfinite(g)), spec.name
+    km.joint_type[0] = len(catalog.JOINTS)
+    assert constraint_eval(km, q, qd, 0.0, C, Cq, Ct, g) == 7  # Status.BAD_INPUT
+
+
+def test_every_law_has_its_formula_and_every_integrator_its_tableau_in_the_kernel():
+    """kernel/contact.py gives each catalog law a positive force at a small penetration (and refuses a
+    code past the table); the kernel's arrays hold each integrator's tableau as the catalog writes it."""
+    from planar_mbs.mechanism import model as M
+
+    p = np.zeros(M.N_CLEARANCE_PARAM)
+    p[[M.CP_CLEARANCE, M.CP_R_BEARING, M.CP_R_JOURNAL, M.CP_LENGTH]] = 1e-4, 5e-3, 4.9e-3, 1e-2
+    p[[M.CP_STIFFNESS, M.CP_EXPONENT, M.CP_RESTITUTION, M.CP_SIGMA_SUM]] = 1e9, 1.5, 0.8, 2 * 0.91 / 207e9
+    for s in catalog.LAWS:
+        F, st = contact.normal_force(s.code, p, 1e-7, 0.1, 0.5, 0.0)
+        assert st == 0 and 0 < F < np.inf, s.name
+    assert contact.normal_force(len(catalog.LAWS), p, 1e-7, 0.1, 0.5, 0.0)[1] == 7
+    for s in catalog.INTEGRATORS:
+        for i, row in enumerate(s.a):
+            assert integrators.RK_A[s.code, i, :len(row)].tolist() == list(row), s.name
+        assert integrators.RK_C[s.code, :s.stages].tolist() == list(s.c)
+        assert integrators.RK_B[s.code, :len(s.b)].tolist() == list(s.b)
+        assert [integrators.RK_E[s.code, r, :len(row)].tolist() for r, row in enumerate(s.error)] == \
+            [list(row) for row in s.error]
+        assert integrators.ADAPTIVE[s.code] == s.adaptive and integrators.END_STAGE[s.code] == s.end_stage
+        assert integrators.method_ok(s.code) == (s.dense != "none"), s.name
+    assert not integrators.method_ok(len(catalog.INTEGRATORS))
+
+
+def test_joint_settings_are_read_as_the_catalog_describes_them():
+    """Every setting's unit is a dimension the compiler checks (or a direction); each number lands in
+    its column, its default from the pose; a setting that must be positive is refused at its place."""
+    from planar_mbs.language import units as U
+    from planar_mbs.mechanism.model import JP
+
+    for spec in catalog.JOINTS:
+        for s in spec.settings:
+            assert s.unit == "direction" or isinstance(getattr(U, s.unit.upper()), U.Dim), (spec.name, s.name)
+            assert s.unit == "direction" or s.column in JP
+    base = """body a { mass = 1 kg  inertia = 1 kg*m^2  position = (0.3, 0.4)  angle = 20 deg }
+body b { mass = 1 kg  inertia = 1 kg*m^2  position = (0, 0) }
+"""
+    k = compile_text(base + "joint L = revolute_revolute(a, b)\njoint W = weld(a, b)\n").kernel
+    by_type = {int(t): row for t, row in zip(k.joint_type, k.joint_param)}
+    assert by_type[JointType.REVOLUTE_REVOLUTE][JP["length"]] == pytest.approx(0.5)
+    assert by_type[JointType.WELD][JP["phi0"]] == pytest.approx(-np.radians(20))
+    assert compile_text(base + "joint L = revolute_revolute(a, b, length = 2 cm)").kernel.joint_param[0, JP["length"]] \
+        == pytest.approx(0.02)
+    with pytest.raises(ModelError, match="the length of joint `L` .* must be positive") as info:
+        compile_text(base + "joint L = revolute_revolute(a, b, length = -2 cm)")
+    assert info.value.line == 3 and info.value.source_line.index("-2 cm") == info.value.column - 1
+    with pytest.raises(ModelError, match="the length of joint `L` .* must be positive") as info:
+        compile_text(base + "joint L = revolute_revolute(a (0, 0), b (0.3, 0.4))")
+    assert "coincide" in info.value.hint
 
 
 def test_the_dissipative_laws_are_the_ones_the_kernel_damps():
@@ -85,8 +156,25 @@ def test_the_library_refuses_an_unknown_integrator_with_the_choices(tmp_path):
 
 
 # ------------------------------------------------------------ adding from the descriptions alone
-DUMMY_LAW = ('    LawSpec(len(LAWS) + 0, "SOFT_DUMMY", "soft_dummy", "Soft dummy", ELASTIC, "F = K d^n", "test"),\n')
-DUMMY_JOINT = ('    JointSpec(5, "PIN_DUMMY", "pin_dummy", 2, "P_i - P_j = 0", {}, example="pin_dummy(a (p), b (p))"),\n')
+# Each addition follows docs/architecture.md, "How to add things": its description in catalog.py and its
+# formula in the kernel file the recipe names (none for an integrator), nothing else.
+# A dissipative law F = K d^n (1 + chi d'/d'(-)) with its own chi = 2 (1 - ce): its formula is that chi
+DUMMY_LAW = ('    LawSpec(code=NEW, enum="SOFT_DUMMY", name="soft_dummy", title="Soft dummy", group=DISSIPATIVE,\n'
+             '            formula="F = K d^n (1 + 2 (1 - ce) d\'/d\'(-))", reference="test"),\n')
+DUMMY_LAW_CODE = ("SOFT_DUMMY = int(ContactLaw.SOFT_DUMMY)\n",
+                  "    if law == SOFT_DUMMY:\n        return 2.0 * (1.0 - ce)\n")
+# a gear pair with its own setting: phi_j = ratio phi_i (one row, the ratio in a new joint_param column)
+DUMMY_JOINT = ('    JointSpec(code=NEW, enum="GEAR_DUMMY", name="gear_dummy", rows=1, equations="phi_j - ratio phi_i = 0",\n'
+               '              settings=(JointSetting(name="ratio", meaning="phi_j / phi_i", unit="number",\n'
+               '                                     column="ratio", default=1.0),),\n'
+               '              example="gear_dummy(a (p), b (p))"),\n')
+DUMMY_JOINT_CODE = ('GEAR_DUMMY = int(JointType.GEAR_DUMMY)\nRATIO = JP["ratio"]\n',
+                    "    elif typ == GEAR_DUMMY:\n"
+                    "        _, _, phi_i, _, _, _ = body_state(q, qd, bi)\n"
+                    "        _, _, phi_j, _, _, _ = body_state(q, qd, bj)\n"
+                    "        C[r] = phi_j - km.joint_param[jt, RATIO] * phi_i\n"
+                    "        if bj >= 0:\n            J[r, 1, 2] += 1.0\n"
+                    "        if bi >= 0:\n            J[r, 0, 2] -= km.joint_param[jt, RATIO]\n")
 # Heun-Euler 2(1): Heun's method with Euler's as the embedded one, cubic Hermite dense output (the default)
 DUMMY_INTEGRATOR = ('    IntegratorSpec(code=NEW, enum="HEUN_EULER_DUMMY", name="heun_euler_dummy", order=2,\n'
                     '        summary="a dummy method", reference="test", c=(0.0, 1.0, 1.0), a=((), (1.0,), (0.5, 0.5)),\n'
@@ -98,9 +186,12 @@ MODEL = """
 material steel { E = 207 GPa  nu = 0.3 }
 body crank { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.05, 0) }
 body disc { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.1, 0) }
-joint O = pin_dummy(ground (0, 0), crank (-0.05, 0))
+body wheel { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.3, 0) }
+joint O = revolute(ground (0, 0), crank (-0.05, 0))
+joint W = revolute(ground (0.3, 0), wheel)
+joint G = gear_dummy(crank, wheel, ratio = -2)
 joint A = clearance_revolute(crank (0.05, 0), disc) {
-    clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  law = soft_dummy
+    clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  law = soft_dummy  restitution = 0.9
 }
 simulate { t_end = 1 ms  integrator = heun_euler_dummy }
 """
@@ -112,40 +203,79 @@ joint O = revolute(ground (0, 0), disc (0, 0))
 force spring = rotational_spring_damper(ground, disc) {{ stiffness = {OMEGA ** 2 * 0.01} N*m/rad  angle = 0 deg }}
 simulate {{ t_end = 1 s  integrator = heun_euler_dummy  rtol = 1e-6  atol = 1e-8  output_step = 10 ms }}
 """
+# a driven gear pair: a torque T on the pinion (inertia I1), the wheel (I2) turned at `ratio` times its
+# angle; from rest, (I1 + ratio^2 I2) phi1'' = T
+T, I1, I2, RATIO = 2.0, 0.01, 0.04, -0.5
+GEARS = f"""
+body pinion {{ mass = 1 kg  inertia = {I1} kg*m^2  position = (0, 0) }}
+body wheel {{ mass = 1 kg  inertia = {I2} kg*m^2  position = (0.3 m, 0) }}
+joint P = revolute(ground (0, 0), pinion)
+joint W = revolute(ground (0.3 m, 0), wheel)
+joint G = gear_dummy(pinion, wheel, ratio = {RATIO})
+force T = torque(pinion, torque = {T} N*m)
+simulate {{ t_end = 0.2 s  output_step = 10 ms }}
+"""
+# a disc (no gravity) thrown at a floor, touching it with the dummy law at exponent 1 (a linear spring)
+V0, CE, K_LIN = 0.5, 0.6, 1e6
+IMPACT = f"""
+body disc {{ mass = 1 kg  inertia = 1e-3 kg*m^2  position = (0, 11 mm)  velocity = (0, -{V0} m/s) }}
+joint floor = contact(ground (0, 0), disc) {{
+    shape = circle_on_line  normal = (0, 1)  radius = 10 mm  stiffness = {K_LIN} N/m  exponent = 1
+    law = soft_dummy  restitution = {CE}
+}}
+simulate {{ t_end = 20 ms  rtol = 1e-10  atol = 1e-13  output_step = 1 ms }}
+"""
+TOUCHED: dict[str, set[str]] = {}  # each addition: the files of the package it edited
 
 
-def _insert_before(text: str, anchor: str, new: str) -> str:
-    assert anchor in text, f"anchor {anchor!r} moved: update this test"
-    return text.replace(anchor, new + anchor, 1)
+def _insert(pkg: Path, what: str, rel: str, anchor: str, new: str, after: bool = False) -> None:
+    """Insert `new` before (or after) `anchor` in pkg/rel, recording the file as touched by `what`."""
+    path = pkg / rel
+    text = path.read_text(encoding="utf-8")
+    assert text.count(anchor) == 1, f"anchor {anchor!r} of {rel} moved: update this test"
+    text = text.replace(anchor, anchor + new if after else new + anchor)
+    path.write_text(text, encoding="utf-8")
+    TOUCHED.setdefault(what, set()).add(rel)
 
 
 @pytest.fixture(scope="module")
 def extended(tmp_path_factory):
-    """A copy of the package with a dummy law, joint type and integrator added."""
+    """A copy of the package with a dummy law, joint type (with its own setting) and integrator added."""
     tmp = tmp_path_factory.mktemp("extended")
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc")
     pkg = tmp / "planar_mbs"
     shutil.copytree(ROOT / "planar_mbs", pkg, ignore=ignore)
     (tmp / "docs").mkdir()
     shutil.copy(ROOT / "docs" / "language.md", tmp / "docs" / "language.md")
-    cat = (pkg / "catalog.py").read_text(encoding="utf-8")
-    cat = _insert_before(cat, ")\n\n# ------------------------------------------------------------------ joint types",
-                         DUMMY_LAW.replace("len(LAWS) + 0", str(len(catalog.LAWS))))
-    cat = _insert_before(cat, ")\n# the clearance joint is a force element", DUMMY_JOINT.replace(
-        "JointSpec(5", f"JointSpec({len(catalog.JOINTS)}"))
-    n = len(catalog.INTEGRATORS)
-    cat = _insert_before(cat, ")\n\n# ------------------------------------------------------------------ lookups",
-                         DUMMY_INTEGRATOR.replace("NEW", str(n)))
-    (pkg / "catalog.py").write_text(cat, encoding="utf-8")
-    # the joint's formula: the revolute one (a joint type cannot be assembled without a formula)
-    cons = (pkg / "kernel" / "constraints.py").read_text(encoding="utf-8")
-    anchor = "if typ == REVOLUTE or typ == WELD:"
-    assert anchor in cons, "constraints.py changed: update this test"
-    cons = cons.replace(anchor, f"if typ == REVOLUTE or typ == WELD or typ == {len(catalog.JOINTS)}:", 1)
-    (pkg / "kernel" / "constraints.py").write_text(cons, encoding="utf-8")
-    (tmp / "dummy.mbs").write_text(MODEL, encoding="utf-8")
-    (tmp / "oscillator.mbs").write_text(OSCILLATOR, encoding="utf-8")
+    TOUCHED.clear()
+    _insert(pkg, "law", "catalog.py", ")\n\n# ------------------------------------------------------------------ joint types",
+            DUMMY_LAW.replace("NEW", str(len(catalog.LAWS))))
+    _insert(pkg, "law", "kernel/contact.py", "GONTHIER = int(ContactLaw.GONTHIER)\n", DUMMY_LAW_CODE[0], after=True)
+    _insert(pkg, "law", "kernel/contact.py", "    return 0.0\n\n\n@kernel\ndef cylinder_scales", DUMMY_LAW_CODE[1])
+    _insert(pkg, "joint", "catalog.py", ")\n\n\ndef joint_param_columns", DUMMY_JOINT.replace("NEW", str(len(catalog.JOINTS))))
+    _insert(pkg, "joint", "kernel/constraints.py", 'LENGTH = JP["length"]\n', DUMMY_JOINT_CODE[0], after=True)
+    _insert(pkg, "joint", "kernel/constraints.py", "    else:  # a type code without rows here", DUMMY_JOINT_CODE[1])
+    _insert(pkg, "integrator", "catalog.py", ")\n\n# ------------------------------------------------------------------ lookups",
+            DUMMY_INTEGRATOR.replace("NEW", str(len(catalog.INTEGRATORS))))
+    for name, text in (("dummy", MODEL), ("oscillator", OSCILLATOR), ("gears", GEARS), ("impact", IMPACT)):
+        (tmp / f"{name}.mbs").write_text(text, encoding="utf-8")
     return tmp
+
+
+def test_each_addition_touches_its_description_and_its_formula_only(extended):
+    """The extension table of docs/architecture.md, measured: a law is catalog.py + kernel/contact.py, a
+    joint type with its own setting catalog.py + kernel/constraints.py, an integrator catalog.py alone;
+    and no other file of the copy differs from the package."""
+    assert TOUCHED == {"law": {"catalog.py", "kernel/contact.py"},
+                       "joint": {"catalog.py", "kernel/constraints.py"}, "integrator": {"catalog.py"}}
+    ours = ROOT / "planar_mbs"
+    files = {p.relative_to(ours).as_posix() for p in ours.rglob("*") if p.is_file() and "__pycache__" not in p.parts
+             and p.suffix not in (".pyc", ".nbi", ".nbc")}
+    copied = {p.relative_to(extended / "planar_mbs").as_posix() for p in (extended / "planar_mbs").rglob("*")
+              if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".pyc", ".nbi", ".nbc")}
+    assert copied == files
+    differ = {f for f in files if (ours / f).read_bytes() != (extended / "planar_mbs" / f).read_bytes()}
+    assert differ == {"catalog.py", "kernel/contact.py", "kernel/constraints.py"}
 
 
 def _mbs(tmp: Path, *args: str) -> subprocess.CompletedProcess:
@@ -154,33 +284,41 @@ def _mbs(tmp: Path, *args: str) -> subprocess.CompletedProcess:
     code = ("import sys, planar_mbs; assert planar_mbs.__file__.startswith(sys.argv[1]), planar_mbs.__file__; "
             "sys.argv = ['mbs'] + sys.argv[2:]; from planar_mbs.cli.app import main; main()")
     return subprocess.run([sys.executable, "-c", code, str(tmp), *args], cwd=tmp, env=env, capture_output=True,
-                          text=True, timeout=600)
+                          text=True, timeout=900)
 
 
 def test_an_added_law_joint_and_integrator_are_accepted_by_mbs_check(extended):
     r = _mbs(extended, "check", "dummy.mbs")
     assert r.returncode == 0, r.stderr + r.stdout
-    assert "pin_dummy" in r.stdout and "soft_dummy" in r.stdout
-    with pytest.raises(ModelError, match="unknown joint type `pin_dummy`"):  # the package itself refuses them
+    assert "gear_dummy" in r.stdout and "soft_dummy" in r.stdout
+    with pytest.raises(ModelError, match="unknown joint type `gear_dummy`"):  # the package itself refuses them
         compile_text(MODEL)
+    r = _mbs(extended, "check", "gears.mbs")
+    assert r.returncode == 0, r.stderr + r.stdout
+    bad = GEARS.replace(f"ratio = {RATIO}", "ratio = 2 m")
+    (extended / "bad_gears.mbs").write_text(bad, encoding="utf-8")
+    r = _mbs(extended, "check", "bad_gears.mbs")
+    assert r.returncode == 2 and "bad_gears.mbs:6:" in r.stderr + r.stdout, r.stderr + r.stdout
 
 
 def test_the_kernel_constants_of_the_copy_follow_its_catalog(extended):
-    """No hand-kept count: the copy's kernel knows one law and joint type and two integrators more."""
+    """No hand-kept count or column: the copy's kernel knows one law and joint type and two integrators
+    more, and its model one joint_param column more (the gear's ratio)."""
     env = {**os.environ, "PYTHONPATH": str(extended), "NUMBA_CACHE_DIR": str(extended / "numba_cache")}
     code = ("from planar_mbs.kernel import contact, constraints, integrators; from planar_mbs.mechanism import model; "
             "print(contact.N_LAWS, len(constraints._JOINT_ROWS), len(integrators.END_STAGE), "
-            "len(model.ContactLaw), len(model.JointType), len(model.Integrator), "
+            "len(model.ContactLaw), len(model.JointType), len(model.Integrator), model.N_JOINT_PARAM, "
             "bool(contact.is_cylindrical.py_func(contact.N_LAWS - 1)))")
     r = subprocess.run([sys.executable, "-c", code], cwd=extended, env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     nl, nj, ni = len(catalog.LAWS) + 1, len(catalog.JOINTS) + 1, len(catalog.INTEGRATORS) + 2
-    assert r.stdout.split() == [str(nl), str(nj), str(ni), str(nl), str(nj), str(ni), "False"]
+    assert r.stdout.split() == [str(nl), str(nj), str(ni), str(nl), str(nj), str(ni), str(N_JOINT_PARAM + 1),
+                                "False"]
 
 
 def test_an_added_law_joint_and_integrator_are_listed_in_help(extended):
     check = _mbs(extended, "check", "--help").stdout
-    for name in ("soft_dummy", "pin_dummy", "heun_euler_dummy"):
+    for name in ("soft_dummy", "gear_dummy", "heun_euler_dummy"):
         assert name in check
     assert "heun_euler_dummy" in _mbs(extended, "run", "--help").stdout
     assert "heun_euler_dummy" in _mbs(extended, "sweep", "--help").stdout
@@ -193,15 +331,23 @@ def test_an_added_law_joint_and_integrator_appear_in_the_generated_docs(extended
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     text = doc.read_text(encoding="utf-8")
-    assert "| `soft_dummy` | elastic |" in text
-    assert "| `pin_dummy(a (p), b (p))` | 2 |" in text
+    assert "| `soft_dummy` | dissipative |" in text
+    assert "| `gear_dummy(a (p), b (p))` | 1 | phi_j - ratio phi_i = 0 | `ratio`: phi_j / phi_i |" in text
     assert "| `heun_euler_dummy` | 2 | 3 |" in text and "| `euler_dummy` | 1 | 2 |" in text
     # and nothing else of the page changed
     before = (ROOT / "docs" / "language.md").read_text(encoding="utf-8").splitlines()
     added = [line for line in text.splitlines() if line not in before]
     assert len(added) == 5 and all("dummy" in line for line in added), added  # 4 rows + the group line
-    assert np.all([line in text.splitlines() for line in before if "elastic (`hertz`)" not in line])
+    assert np.all([line in text.splitlines() for line in before if "dissipative (`" not in line])
 
+
+def _run(tmp: Path, model: str, *args: str):
+    from planar_mbs.results.hdf5 import read_results
+
+    out = model.replace(".mbs", ".h5")
+    r = _mbs(tmp, "run", model, "-o", out, "-q", *args)
+    assert r.returncode == 0, r.stderr + r.stdout
+    return read_results(tmp / out)
 
 
 @pytest.mark.slow  # compiles the copy's time loop (about a minute of CPU)
@@ -210,11 +356,7 @@ def test_an_added_integrator_runs_end_to_end(extended):
     closed form, in the many steps of a 2nd-order method (h ~ sqrt(2 tol / |phi''|) ~ 1.4e-4 s: several
     thousand over 1 s, where DOPRI5 takes a few dozen); the added method without dense output is refused
     with the reason (exit 3), never run with another method's interpolant."""
-    from planar_mbs.results.hdf5 import read_results
-
-    r = _mbs(extended, "run", "oscillator.mbs", "-o", "osc.h5", "-q")
-    assert r.returncode == 0, r.stderr + r.stdout
-    res = read_results(extended / "osc.h5")
+    res = _run(extended, "oscillator.mbs")
     t, phi = res.time, res["disc.phi"]
     assert t[-1] == pytest.approx(1.0) and len(t) == 101
     assert np.max(np.abs(phi - PHI0 * np.cos(OMEGA * t))) < 1e-5
@@ -222,6 +364,36 @@ def test_an_added_integrator_runs_end_to_end(extended):
     r = _mbs(extended, "run", "oscillator.mbs", "--integrator", "euler_dummy", "-o", "e.h5", "-q")
     assert r.returncode == 3, r.stderr + r.stdout
     assert "`euler_dummy` has no dense output" in r.stderr + r.stdout
+
+
+@pytest.mark.slow  # the copy's time loop (compiled once for the three runs)
+def test_an_added_joint_with_its_own_setting_runs_end_to_end(extended):
+    """`mbs run` on a gear pair of the added joint type: from rest under a torque T on the pinion,
+    (I1 + ratio^2 I2) phi1'' = T (the wheel's inertia seen through the ratio), so phi1 = T t^2 / (2 I)
+    and the wheel turns at `ratio` times it; the setting reached the kernel from the model file."""
+    res = _run(extended, "gears.mbs")
+    t = res.time
+    phi1 = T * t ** 2 / (2 * (I1 + RATIO ** 2 * I2))
+    assert t[-1] == pytest.approx(0.2) and phi1[-1] > 1.0
+    np.testing.assert_allclose(res["pinion.phi"], phi1, atol=1e-7)
+    np.testing.assert_allclose(res["wheel.phi"], RATIO * phi1, atol=1e-7)
+
+
+@pytest.mark.slow  # the copy's time loop (compiled once for the three runs)
+def test_an_added_law_runs_end_to_end(extended):
+    """`mbs run` with the added law, F = K d (1 + chi d'/d'(-)) with chi = 2 (1 - ce): a single impact of
+    such a law rebounds with the e that solves chi (1 + e) = ln((1 + chi)/(1 - chi e)) (m u du / (1 + chi u/v)
+    = -K d^n dd integrated over the impact, whose right side vanishes from d = 0 back to 0), whatever K,
+    n and the mass: here e = 0.648 for ce = 0.6."""
+    from scipy.optimize import brentq
+
+    chi = 2 * (1 - CE)
+    e = brentq(lambda x: chi * (1 + x) - math.log((1 + chi) / (1 - chi * x)), 1e-6, 1 - 1e-12)
+    res = _run(extended, "impact.mbs")
+    assert res["floor.in_contact"].max() == 1 and res["floor.in_contact"][-1] == 0  # one impact, over
+    assert res["disc.vy"][-1] == pytest.approx(e * V0, rel=1e-6)
+    assert abs(e - CE) > 0.03  # the restitution setting alone would not give it
+
 
 def test_contact_md_describes_every_law():
     """docs/contact.md's table (equations, parameters, where each law holds) has a row per law."""

@@ -190,7 +190,8 @@ def test_run_keep_stores_only_the_named_signals_with_the_values_of_a_full_run(tm
     args = ["run", str(IDEAL), "-q", "--t-end", "2ms"]
     assert runner.invoke(app, args + ["-o", str(full)]).exit_code == 0
     if fast:
-        from planar_mbs.cli.run_command import plain_run, run_model
+        from planar_mbs.cli.run_command import run_model
+        from planar_mbs.cli.run_options import plain_run
 
         kwargs = plain_run(args + ["--keep", "slider.vx,crank", "-o", str(kept)])
         assert kwargs is not None and run_model(**kwargs) == 0

@@ -1,7 +1,7 @@
 """Constraint kernel vs finite differences (a slow numpy reference).
 
-For every joint and driver type (bodies and ground on either side, every
-motion type) at random states:
+For every joint type of the catalog and every driver type (bodies and ground on either side,
+every motion type) at random states:
 
 * Cq = dC/dq by central differences;
 * Ct = dC/dt at fixed q by central differences;
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from kernel_models import build
+from planar_mbs import catalog
 from planar_mbs.kernel import constraint_eval, constraint_rows
 from planar_mbs.mechanism.model import DriverType, JointType, MotionType
 
@@ -29,20 +30,24 @@ def _axis():
     return tuple(a / np.linalg.norm(a))
 
 
+def _joint(spec, bodies):
+    """A joint of a catalog type with a random value of each of its settings."""
+    j = dict(type=JointType(spec.code), bodies=bodies, points=(_pt(), _pt()))
+    for s in spec.settings:
+        if s.unit == "direction":
+            j["axis"] = _axis()
+        else:
+            j[s.column] = float(rng.uniform(0.2, 0.8))
+    return j
+
+
 def all_types_model():
-    J = JointType
-    joints = [
-        dict(type=J.REVOLUTE, bodies=(0, 1), points=(_pt(), _pt())),
-        dict(type=J.REVOLUTE, bodies=(-1, 0), points=(_pt(), _pt())),
-        dict(type=J.TRANSLATIONAL, bodies=(1, 2), points=(_pt(), _pt()), axis=_axis(), phi0=0.3),
-        dict(type=J.TRANSLATIONAL, bodies=(2, -1), points=(_pt(), _pt()), axis=_axis(), phi0=-0.2),
-        dict(type=J.WELD, bodies=(2, 3), points=(_pt(), _pt()), phi0=0.1),
-        dict(type=J.WELD, bodies=(-1, 3), points=(_pt(), _pt()), phi0=0.7),
-        dict(type=J.REVOLUTE_REVOLUTE, bodies=(0, 3), points=(_pt(), _pt()), length=0.7),
-        dict(type=J.REVOLUTE_REVOLUTE, bodies=(3, -1), points=(_pt(), _pt()), length=0.4),
-        dict(type=J.REVOLUTE_TRANSLATIONAL, bodies=(1, 3), points=(_pt(), _pt()), axis=_axis()),
-        dict(type=J.REVOLUTE_TRANSLATIONAL, bodies=(-1, 2), points=(_pt(), _pt()), axis=_axis()),
-    ]
+    """Every joint type of the catalog twice (between bodies, and with ground on one side), every
+    driver and motion type."""
+    joints = []
+    for spec in catalog.JOINTS:
+        a = spec.code % 4
+        joints += [_joint(spec, (a, (a + 1) % 4)), _joint(spec, (-1, a) if spec.code % 2 else (a, -1))]
     D, M = DriverType, MotionType
     drivers = [
         dict(type=D.ANGLE, bodies=(-1, 0), motion=M.CONSTANT_SPEED, params=(0.2, 3.0)),

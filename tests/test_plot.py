@@ -8,6 +8,7 @@ from PIL import Image
 from typer.testing import CliRunner
 
 from planar_mbs.outputs import plot as P
+from planar_mbs.results import views as V
 from planar_mbs.cli.plot_commands import plot, view
 from planar_mbs.results.hdf5 import read_results
 from plot_fixtures import CLEARANCE, slider_crank_model, write_run, write_sweep
@@ -124,10 +125,10 @@ def test_default_panels_pick_slider_clearance_and_driver(results):
         "slider_velocity": ["slider.vx"], "slider_acceleration": ["slider.ax"],
         "contact_force": ["A.contact_force"], "driver_torque": ["crank_speed.torque"],
     }
-    assert P.slider_body(results) == "slider"
-    assert P.slider_body(results, slider_crank_model()) == "slider"
-    assert P.turning_body(results) == "crank"
-    assert P.turning_body(results, slider_crank_model()) == "crank"
+    assert V.slider_body(results) == "slider"
+    assert V.slider_body(results, slider_crank_model()) == "slider"
+    assert V.turning_body(results) == "crank"
+    assert V.turning_body(results, slider_crank_model()) == "crank"
 
 
 def test_named_signals_against_crank_angle(run_file, tmp_path):
@@ -151,24 +152,24 @@ def test_revolution_times_of_constant_speed():
     omega = 2 * math.pi * 50.0
     t = np.linspace(0, 0.1, 1001)  # five revolutions
     T = 2 * math.pi / omega
-    np.testing.assert_allclose(P.revolution_times(t, omega * t + 0.3, skip=1), [2 * T, 3 * T, 4 * T, 5 * T],
+    np.testing.assert_allclose(V.revolution_times(t, omega * t + 0.3, skip=1), [2 * T, 3 * T, 4 * T, 5 * T],
                                atol=1e-12)
-    np.testing.assert_allclose(P.revolution_times(t, -omega * t, skip=0), T * np.arange(1, 6), atol=1e-12)
-    assert len(P.revolution_times(t, omega * t, skip=5)) == 0
+    np.testing.assert_allclose(V.revolution_times(t, -omega * t, skip=0), T * np.arange(1, 6), atol=1e-12)
+    assert len(V.revolution_times(t, omega * t, skip=5)) == 0
 
 
 def test_poincare_samples_once_per_revolution(results):
-    ps = P.poincare(results, "slider.vx", "slider.ax", skip=1)
+    ps = V.poincare(results, "slider.vx", "slider.ax", skip=1)
     T = 60.0 / RPM
     np.testing.assert_allclose(ps.t, T * np.arange(2, 6), rtol=1e-9)
     np.testing.assert_allclose(ps.x, np.interp(ps.t, results.time, results["slider.vx"]))
     assert ps.body == "crank"
-    assert len(P.poincare(results, "slider.vx", "slider.ax", skip=3).t) == 2
+    assert len(V.poincare(results, "slider.vx", "slider.ax", skip=3).t) == 2
 
 
 def test_clearance_radius_and_onsets(results):
-    assert P.clearance_radius(results, "A") == pytest.approx(CLEARANCE)
-    onsets = P.contact_onsets(results, "A")
+    assert V.clearance_radius(results, "A") == pytest.approx(CLEARANCE)
+    onsets = V.contact_onsets(results, "A")
     assert len(onsets) > 0
     assert np.all(results["A.in_contact"][onsets] == 1) and np.all(results["A.in_contact"][onsets - 1] == 0)
 

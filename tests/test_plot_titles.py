@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from planar_mbs.outputs import plot as P
+from planar_mbs.results import views as V
 from planar_mbs.results.hdf5 import read_results
 from plot_fixtures import write_run
 
@@ -40,7 +41,7 @@ def test_the_title_stays_inside_the_figure(results):
 
 
 def test_a_window_is_titled_as_asked(results):
-    cut = P.time_window(results, 0.01, 0.05)
+    cut = V.time_window(results, 0.01, 0.05)
     assert cut.time[0] > 0.01  # the first sample is after the asked start (the grid does not hit it)
     assert "t = 0.01 … 0.05 s" in P._title(cut)
 

@@ -9,7 +9,8 @@ import pytest
 from plot_fixtures import write_run
 from typer.testing import CliRunner
 
-from planar_mbs.outputs.plot import orbit_figure, orbit_resolution_warning, poincare_figure, series_figure, time_window
+from planar_mbs.outputs.plot import orbit_figure, orbit_resolution_warning, poincare_figure, series_figure
+from planar_mbs.results.views import time_window
 from planar_mbs.results.hdf5 import Results, read_results
 
 RPM = 2500.0

@@ -171,7 +171,7 @@ def test_clearance_is_magnified(recorded):
 
 def test_contact_onsets_and_poincare(recorded):
     results, model, info, rrd = recorded
-    from planar_mbs.outputs.plot import contact_onsets, poincare
+    from planar_mbs.results.views import contact_onsets, poincare
 
     onsets = contact_onsets(results, "A")
     log = rrd["events/contact"]

@@ -15,11 +15,13 @@ from typer.testing import CliRunner
 
 import chains
 import planar_mbs as mbs
+from planar_mbs import catalog
 from planar_mbs.cli.app import app
 from planar_mbs.mechanism.compile import compile_text
 from planar_mbs.kernel.workspace import envelope_size as profile
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
+ADAPTIVE = [s.name for s in catalog.INTEGRATORS if s.adaptive]  # every adaptive method, none by hand
 runner = CliRunner()
 
 
@@ -74,7 +76,7 @@ def run_chain(N, integrator, rtol):
     return mbs.simulate(compile_text(text, f"parallelogram_{N}.mbs"))
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
+@pytest.mark.parametrize("integrator", ADAPTIVE)
 def test_parallelogram_passes_twenty_singular_positions_on_its_branch(integrator):
     res = run_chain(1, integrator, 1e-12)
     assert res.attrs["complete"]
@@ -84,7 +86,7 @@ def test_parallelogram_passes_twenty_singular_positions_on_its_branch(integrator
     assert np.abs(res["coupler0.phi"]).max() < 1e-9  # the couplers never turn: no other branch
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
+@pytest.mark.parametrize("integrator", ADAPTIVE)
 def test_parallelogram_chain_keeps_its_energy_through_every_passage(integrator):
     """Conservative, so the total energy is constant; the kinetic energy a projection removed after
     a withheld force (9e-9 J over 20 s with DOP853 without `restore_kinetic_energy`) is given back."""
@@ -95,7 +97,7 @@ def test_parallelogram_chain_keeps_its_energy_through_every_passage(integrator):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
+@pytest.mark.parametrize("integrator", ADAPTIVE)
 @pytest.mark.parametrize("N, bound", [(2, 1e-8), (10, 1e-8)])
 def test_longer_parallelogram_chains_pass_their_singular_positions(N, bound, integrator):
     res = run_chain(N, integrator, 1e-12)

@@ -117,7 +117,7 @@ def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     """What `plain_run` reads is exactly what the typer command hands to `run_model`."""
     from typer.testing import CliRunner
 
-    from planar_mbs.cli import run_command
+    from planar_mbs.cli import run_command, run_options
     from planar_mbs.cli.app import app
 
     params = inspect.signature(run_command.run_model).parameters
@@ -126,7 +126,7 @@ def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     res = CliRunner().invoke(app, argv)
     assert res.exit_code == 0, res.output
     defaults = dict(seen[0])
-    fast = run_command.plain_run(argv)
+    fast = run_options.plain_run(argv)
     assert fast is not None
     assert {k: v for k, v in defaults.items() if v is not None and v is not False and k in fast} == fast
     for k, v in defaults.items():  # every option not given is the typer default, which run_model shares
@@ -144,9 +144,30 @@ def test_a_plain_run_reads_the_arguments_typer_reads(argv, monkeypatch):
     ["run", "m.mbs", "-"], ["run", "m.mbs", "--output", ""], ["check", "m.mbs"], ["sweep", "m.mbs"], [],
 ])
 def test_any_other_run_command_line_goes_to_typer(argv):
-    from planar_mbs.cli.run_command import plain_run
+    from planar_mbs.cli.run_options import plain_run
 
     assert plain_run(argv) is None
+
+
+def test_typer_and_the_plain_reader_read_one_table_of_options():
+    """`mbs run`'s options are written once (`run_options.RUN_OPTIONS`): the typer command has exactly
+    those options, with their flags, defaults, lowest values and visibility, and `plain_run` reads each."""
+    import typer.main
+
+    from planar_mbs.cli.app import app
+    from planar_mbs.cli.run_options import RUN_OPTIONS, plain_run
+
+    command = typer.main.get_command(app).commands["run"]
+    options = {p.name: p for p in command.params if p.param_type_name == "option"}
+    assert set(options) == {o.param for o in RUN_OPTIONS}
+    sample = {"flag": [], "list": ["a=1"], "path": ["x.h5"], "str": ["v"], "float": ["1.5"], "int": ["3"]}
+    for o in RUN_OPTIONS:
+        p = options[o.param]
+        assert (set(p.opts) | set(p.secondary_opts), p.default, p.hidden) == (set(o.flags), o.default, o.hidden)
+        assert p.min == o.low, o.param
+        for flag in o.flags:
+            read = plain_run(["run", "m.mbs", flag, *sample[o.kind]])
+            assert read is not None and (o.into or o.param) in read, flag
 
 
 def _exe(argv: list[str], module: str = "planar_mbs.cli.entry"):
@@ -219,3 +240,14 @@ def test_the_grammar_is_read_from_the_package_folder_as_importlib_resources_read
     from planar_mbs.language.parse import _grammar_text
 
     assert _grammar_text() == resources.files("planar_mbs.language.grammar").joinpath("mbs.lark").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("flags", [["--open"], ["--view"], ["--open", "--view"], []])
+def test_an_old_name_sets_its_new_one(flags):
+    """`--view` (the old name of `--open`) reaches `run_model` as ``view_``, alone or with `--open`."""
+    from planar_mbs.cli.run_options import merged, plain_run
+
+    read = plain_run(["run", "m.mbs", *flags])
+    assert read.get("view_", False) is bool(flags) and "view_old" not in read
+    typer_kwargs = {"view_": "--open" in flags, "view_old": "--view" in flags}
+    assert merged(typer_kwargs) == {"view_": bool(flags)}

@@ -14,17 +14,24 @@ The modules that define typer commands (this one, `plot_commands`, `sweep_comman
 ``from __future__ import annotations``: typer would evaluate every option's annotation from its
 text again, twice per command, on each start (about 0.02 s of `mbs --help`).
 """
+import inspect
+import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from planar_mbs import catalog
+from planar_mbs import __version__, catalog
+from planar_mbs.lazy import lazy
 
 from .common import internal_error
 from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
+from .run_options import RUN_OPTIONS, SET_HELP, Opt, merged
 
-_INTEGRATOR_HELP = "; ".join(f"{s.name}: {s.summary}" for s in catalog.INTEGRATORS) + "."
+# lark, numpy, the kernels: loaded when a command runs, never by `mbs --help`
+check_command = lazy(".check_command", __package__)
+run_command = lazy(".run_command", __package__)
+
 EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
           "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed or is not physical, or a "
           "limit was reached (results kept) · "
@@ -52,8 +59,6 @@ use_one_error_style()
 
 def _version(value: bool) -> None:
     if value:
-        from planar_mbs import __version__
-
         print(f"mbs (planar_mbs) {__version__}")
         raise typer.Exit()
 
@@ -69,8 +74,7 @@ def _main(
 ModelArg = Annotated[Path, typer.Argument(help="The .mbs model file.", show_default=False)]
 SetOpt = Annotated[
     Optional[list[str]],
-    typer.Option("--set", "-s", help="Override a `param` of the model: NAME=VALUE with units, e.g. speed=2500rpm, "
-                 "\"clearance=0.1 mm\", law=hertz. Repeatable.", show_default=False),
+    typer.Option("--set", "-s", help=SET_HELP, show_default=False),
 ]
 
 
@@ -85,82 +89,47 @@ _CHECK_HELP = (
 @app.command(help=_CHECK_HELP, cls=ReadableCommand)
 def check(model: ModelArg, set_: SetOpt = None) -> None:
     """Compile a model and print it (help text: _CHECK_HELP, from the catalog)."""
-    from .check_command import check_model
-
-    code = check_model(model, set_ or [])
+    code = check_command.check_model(model, set_ or [])
     if code:
         raise typer.Exit(code)
 
 
-@app.command(cls=ReadableCommand)
-def run(
-    model: ModelArg,
-    output: Annotated[Optional[Path], typer.Option(
-        "--output", "-o", help="HDF5 results file.",
-        show_default="results/<model name>.h5, with the --set values in the name; when that file holds a run with "
-                     "other settings, beside it with the options given in the name (results/a_n=100.h5)")] = None,
-    set_: SetOpt = None,
-    t_end: Annotated[Optional[str], typer.Option("--t-end", help="End time, with units (\"0.06 s\", 60ms).",
-                     show_default="the model's simulate block")] = None,
-    revolutions: Annotated[Optional[float], typer.Option(
-        "--revolutions", "-n", help="End time as a number of periods of the crank's driver (instead of --t-end).",
-        show_default=False)] = None,
-    output_step: Annotated[Optional[str], typer.Option(
-        "--output-step", help="Time between stored samples, with units (100us); a coarser step keeps files small.",
-        show_default="the model's simulate block")] = None,
-    per_rev: Annotated[Optional[int], typer.Option(
-        "--per-rev", help="Stored samples per period of the crank's driver (instead of --output-step).", min=1,
-        show_default=False)] = None,
-    integrator: Annotated[Optional[str], typer.Option(help=_INTEGRATOR_HELP,
-                          show_default="the model's simulate block, else dopri5")] = None,
-    rtol: Annotated[Optional[float], typer.Option(help="Relative tolerance of the adaptive integrator "
-                    "(floor: 10 x machine epsilon, 2.2e-15).",
-                    show_default="the model's simulate block, else 1e-6")] = None,
-    atol: Annotated[Optional[float], typer.Option(help="Absolute tolerance of the adaptive integrator (> 0; "
-                    "SI units of each coordinate, e.g. 1e-3 x rtol).",
-                    show_default="the model's simulate block, else 1e-9")] = None,
-    step: Annotated[Optional[str], typer.Option(help="Fixed step of rk4 (first trial step of dopri5), with units "
-                    "(1us).", show_default="the model's simulate block, else 1us")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
-    rerun: Annotated[Optional[Path], typer.Option("--rerun", help="Also write a rerun recording of the run "
-                     "(.rrd): the moving mechanism, forces, every signal.", show_default=False)] = None,
-    magnify: Annotated[float, typer.Option(help="Clearance magnification in the rerun drawing.", min=0.0)] = 10.0,
-    fps: Annotated[Optional[float], typer.Option(help="rerun frames per simulated second.",
-                   show_default="90 per revolution of the driven body")] = None,
-    open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the --rerun recording (as "
-                     "`mbs view --open`).")] = False,
-    view_: Annotated[bool, typer.Option("--view", hidden=True, help="The old name of --open.")] = False,
-    rerun_signals: Annotated[str, typer.Option("--rerun-signals", help="envelope: per frame the first, smallest "
-                             "and largest sample of each signal (peaks kept); full: every output sample.")]
-    = "envelope",
-    force: Annotated[bool, typer.Option("--force", help="Run even when the estimated output is beyond 10^8 rows "
-                     "or larger than the free disk space (the run then stops cleanly if the disk fills); replace "
-                     "a --rerun file that is not a recording of these results.")] = False,
-    until_settled: Annotated[bool, typer.Option("--until-settled", help="Run revolution by revolution until the "
-                             "Poincaré points have settled on a periodic orbit (checked every 50 revolutions), at "
-                             "most --max-revolutions; see docs/sweeps.md.")] = False,
-    max_revolutions: Annotated[int, typer.Option("--max-revolutions", help="Upper bound of --until-settled.",
-                               min=1)] = 2000,
-    keep: Annotated[Optional[str], typer.Option("--keep", help="Comma-separated signals to store (slider.vx); an "
-                    "entity name (slider) keeps all its signals.  Fewer signals make smaller files and cheaper "
-                    "output rows (no accelerations computed unless kept).", show_default="all")] = None,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace the output even when it is not the "
-                         "results of a run (a sweep file, any other file); never the model or its includes.")]
-    = False,
-) -> None:
+_KINDS = {"path": Path, "list": list[str], "str": str, "float": float, "int": int, "flag": bool}
+
+
+def _option(opt: Opt):
+    """The typer annotation of one option of `RUN_OPTIONS`."""
+    kind = _KINDS[opt.kind] if opt.default is not None else Optional[_KINDS[opt.kind]]
+    extra = {} if opt.show_default is True else {"show_default": opt.show_default}
+    if opt.low is not None:
+        extra["min"] = opt.low
+    if opt.hidden:
+        extra["hidden"] = True
+    return Annotated[kind, typer.Option(*opt.flags, help=opt.help, **extra)]
+
+
+def _run(**options) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
     Example: mbs run models/slider_crank_clearance_a.mbs --revolutions 60 --per-rev 720 --set speed=2500rpm
     """
-    from .run_command import run_model
-
-    code = run_model(model, output=output, set_=set_, t_end=t_end, revolutions=revolutions, output_step=output_step,
-                     per_rev=per_rev, integrator=integrator, rtol=rtol, atol=atol, step=step, quiet=quiet,
-                     rerun=rerun, magnify=magnify, fps=fps, view_=open_ or view_, rerun_signals=rerun_signals,
-                     force=force, until_settled=until_settled, max_revolutions=max_revolutions, keep=keep,
-                     overwrite=overwrite)
+    code = run_command.run_model(**merged(options))
     if code:
         raise typer.Exit(code)
+
+
+def _run_command():
+    """`mbs run` as a typer command whose parameters are `RUN_OPTIONS` (the table `plain_run` reads too)."""
+    keyword = inspect.Parameter.POSITIONAL_OR_KEYWORD
+    params = [inspect.Parameter("model", keyword, annotation=ModelArg)]
+    params += [inspect.Parameter(o.param, keyword, default=o.default, annotation=_option(o)) for o in RUN_OPTIONS]
+    _run.__signature__ = inspect.Signature(params)
+    _run.__annotations__ = {p.name: p.annotation for p in params}
+    _run.__name__ = "run"
+    return _run
+
+
+run = app.command(cls=ReadableCommand)(_run_command())
 
 
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
@@ -176,8 +145,6 @@ def main() -> None:
     """The `mbs` entry point.  Every expected failure is reported by the commands themselves;
     anything else (a bug) still ends with one message instead of a traceback, unless
     MBS_TRACEBACK=1 asks for it."""
-    import sys
-
     route(sys.argv)
     try:
         app()

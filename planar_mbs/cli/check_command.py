@@ -6,17 +6,21 @@ compiling a model), and the typer command `check` calls the same function.
 """
 from __future__ import annotations
 
-from planar_mbs import catalog
+from rich.markup import escape
+from rich.table import Table
 
-from .common import console, fail_code, parse_sets
+from planar_mbs import catalog
+from planar_mbs.errors import MbsError
+from planar_mbs.mechanism.compile import load_model  # errors worded for --set
+from planar_mbs.mechanism.kinematics import assemble, assembly_changes, constraint_report, start_gaps
+from planar_mbs.mechanism.model import CP_CLEARANCE, CP_STIFFNESS
+from planar_mbs.run.output_size import MAX_ROWS, estimate
+
+from .common import console, fail_code, parse_sets, print_assembly
 
 
 def check_model(model, sets: list[str]) -> int:
     """Check one model; print its summary or its errors (with file:line:col).  Returns the exit code."""
-    from planar_mbs.mechanism.compile import load_model  # errors worded for --set
-    from planar_mbs.errors import MbsError
-    from planar_mbs.mechanism.kinematics import assemble, assembly_changes, constraint_report, start_gaps
-
     try:
         m = load_model(model, parse_sets(sets))
         q, qd = assemble(m)
@@ -30,8 +34,6 @@ def check_model(model, sets: list[str]) -> int:
 
 def _print_output_size(m) -> None:
     """The rows and file size a run with the model's own settings writes (and whether `run` would refuse it)."""
-    from planar_mbs.run.output_size import MAX_ROWS, estimate
-
     est = estimate(m, m.settings)
     console().print(f"output: {est.describe()}", markup=False)
     if est.rows > MAX_ROWS:
@@ -39,19 +41,7 @@ def _print_output_size(m) -> None:
                                    "--force (check output_step and t_end)", markup=False, style="yellow")
 
 
-def print_assembly(changes) -> None:
-    """What the assembly changed in the stated initial state (beyond the tolerance)."""
-    if changes:
-        con = console()
-        for line in changes:
-            con.print(line, markup=False)
-
-
 def _print_model(m, report: dict) -> None:
-    from rich.markup import escape
-    from rich.table import Table
-
-    from planar_mbs.mechanism.model import CP_CLEARANCE, CP_STIFFNESS
     con = console()
     k = m.kernel
     dof = report["dof"]

@@ -2,8 +2,27 @@
 `--set` pairs and values with units.  Imports nothing heavy (typer only in `fail`); the rest loads on use."""
 from __future__ import annotations
 
+import codecs
+import errno
+import os
+import stat
+import sys
+import unicodedata
 from enum import IntEnum
+from pathlib import Path
 from typing import Optional
+
+from planar_mbs.errors import MbsError, ModelError, did_you_mean
+from planar_mbs.language.units import parse_quantity
+from planar_mbs.lazy import lazy
+from planar_mbs.run.settings_check import MAX_T_END  # one bound for the CLI and the API
+from planar_mbs.run.settings_check import check_number as checked
+
+# on the light paths (`mbs check`, a plain `mbs run` that first says the solver compiles): loaded on use
+rich_console = lazy("rich.console")
+typer = lazy("typer")  # pydantic: the plain check and run never load it
+compiler = lazy("planar_mbs.mechanism.compile")  # lark: only to read a model's includes
+parser = lazy("planar_mbs.language.parse")
 
 
 class ExitCode(IntEnum):
@@ -23,8 +42,6 @@ _ASCII = {"→": "->", "←": "<-", "λ": "lambda", "µ": "u", "μ": "u", "²": 
 def _to_ascii(err):
     """Codec error handler "mbs-ascii": a character the stream's encoding lacks is written in ASCII
     (→ as ->, µ as u, λ as lambda, accents dropped, anything else as ?)."""
-    import unicodedata
-
     bad = err.object[err.start:err.end]
     out = []
     for ch in bad:
@@ -46,8 +63,6 @@ class _GuardedStream:
         self.failure = "" if wrapped is not None else "it is closed"
 
     def _guard(self, call, *args):
-        import errno
-
         if self.wrapped is None:
             return None
         try:
@@ -93,9 +108,6 @@ def guard_streams() -> None:
     lacks degrade to ASCII (PYTHONIOENCODING=ascii, a C locale), and a closed stream or a full
     device (`>&-`, `>/dev/full`) is noted, not a traceback (`stream_failure`).  Called once by
     `entry.main`."""
-    import codecs
-    import sys
-
     codecs.register_error("mbs-ascii", _to_ascii)
     for name in ("stdout", "stderr"):
         stream = getattr(sys, name)
@@ -111,27 +123,19 @@ def guard_streams() -> None:
 
 def stream_failure() -> str:
     """Why the command's output could not be written to stdout ('' if it was, or nothing was)."""
-    import sys
-
     out = sys.stdout
     return f"cannot write the command's output: {out.failure}" if isinstance(out, _GuardedStream) and \
         out.failure and out.wrote else ""
 
 
 def console(stderr: bool = False):
-    import sys
-
-    from rich.console import Console
-
     stream = sys.stderr if stderr else sys.stdout
     width = None if stream.isatty() else 160  # no terminal (pipes, tests): do not cut names
-    return Console(stderr=stderr, highlight=False, width=width)
+    return rich_console.Console(stderr=stderr, highlight=False, width=width)
 
 
 def fail_code(err) -> int:
     """Print a user-facing error (never a traceback); return its exit code."""
-    from planar_mbs.errors import MbsError
-
     code = err.exit_code if isinstance(err, MbsError) else ExitCode.BAD_MODEL
     console(stderr=True).print(str(err), markup=False, soft_wrap=True)  # never re-wrap: the caret must stay aligned
     return int(code)
@@ -139,15 +143,11 @@ def fail_code(err) -> int:
 
 def fail(err) -> None:
     """Print a user-facing error (never a traceback) and exit with its code."""
-    import typer
-
     raise typer.Exit(fail_code(err))
 
 
 def internal_error(exc: Exception) -> int:
     """A bug's one-line report instead of a traceback (exit code 1); MBS_TRACEBACK=1 raises it instead."""
-    import os
-
     if os.environ.get("MBS_TRACEBACK"):
         raise exc
     limit = resource_limit(exc)
@@ -163,8 +163,6 @@ def internal_error(exc: Exception) -> int:
 def resource_limit(exc: BaseException) -> str:
     """The sentence for an error that is a limit of this machine or process, not a bug (too many
     open files, no memory, a full disk, a file-size limit); '' for anything else.  Exit code 3."""
-    import errno
-
     if isinstance(exc, MemoryError):
         return ("error: not enough memory for this command\nhint: free memory, or ask for less (a shorter "
                 "t_end, a larger output step, fewer cases at once: -j)")
@@ -186,8 +184,6 @@ def resource_limit(exc: BaseException) -> str:
 
 def parse_sets(sets: list[str]) -> dict[str, str]:
     """`--set NAME=VALUE` pairs (VALUE keeps its units, e.g. `speed=2500rpm`)."""
-    from planar_mbs.errors import ModelError
-
     overrides = {}
     for item in sets:
         name, sep, value = item.partition("=")
@@ -203,20 +199,15 @@ def parse_sets(sets: list[str]) -> dict[str, str]:
 def quantity(text: Optional[str], dimension: str, option: str) -> Optional[float]:
     if text is None:
         return None
-    from planar_mbs.language.units import parse_quantity
-
     return parse_quantity(text, dimension, where=option)
 
 
 # ---------------------------------------------------------------- option values, checked before anything runs
-from planar_mbs.run.settings_check import MAX_T_END  # noqa: E402  (one bound for the CLI and the API)
 MAX_JOBS = 1024
 MAX_REVOLUTIONS = 1e7  # driver periods of one run
 
 
 def _option_error(option: str, message: str, hint: str):
-    from planar_mbs.errors import ModelError
-
     return ModelError(message, option, hint=hint)
 
 
@@ -225,8 +216,6 @@ def check_number(value: Optional[float], option: str, *, low: Optional[float] = 
     """`value` if it is a finite number in the interval (low, high] (``low_ok``/``high_ok``
     close or open either end); None passes.  Raises `ModelError` naming the option otherwise
     (worded as the Python API words its settings: `planar_mbs.run.settings_check`)."""
-    from planar_mbs.run.settings_check import check_number as checked
-
     return checked(value, option, low=low, high=high, low_ok=low_ok, high_ok=high_ok, hint=hint)
 
 
@@ -250,8 +239,6 @@ def check_choice(value: Optional[str], choices, option: str) -> Optional[str]:
         return None
     if value.lower() in choices:
         return value.lower()
-    from planar_mbs.errors import did_you_mean
-
     close = did_you_mean(value, choices)
     raise _option_error(option, f"unknown {option} `{value}`",
                         (close + " " if close else "") + "choose " + ", ".join(choices))
@@ -261,8 +248,6 @@ def check_choice(value: Optional[str], choices, option: str) -> Optional[str]:
 def same_file(a, b) -> bool:
     """True if `a` and `b` are the same file: same inode (symlinks, hard links) or, for files
     that do not exist yet, the same path once symlinks in it are resolved."""
-    import os
-
     try:
         return os.path.samefile(a, b)
     except OSError:
@@ -276,10 +261,6 @@ def check_output(path, option: str, inputs=(), others=(), folder: bool = False, 
 
     ``inputs`` and ``others`` are (description, path) pairs; `make_parents`: missing folders are
     made by the command (as `results/`), so the first existing one is checked instead."""
-    import os
-    import stat
-    from pathlib import Path
-
     path = Path(path)
     shown = f"{option} {path}"
     for what, other in inputs:
@@ -326,20 +307,19 @@ def check_output(path, option: str, inputs=(), others=(), folder: bool = False, 
 def model_files(path) -> list:
     """The model file and every file it includes (resolved paths): the inputs an output may not
     overwrite.  Unreadable or broken models give [path] (their errors come when they load)."""
-    from pathlib import Path
-
-    from planar_mbs.errors import MbsError
-
     try:
-        from planar_mbs.mechanism.compile import MAX_MODEL_BYTES
-        from planar_mbs.language.parse import decode_model, parse_model
-
-        import os
-        import stat
-
-        if not stat.S_ISREG(os.stat(path).st_mode) or os.stat(path).st_size > MAX_MODEL_BYTES:
+        if not stat.S_ISREG(os.stat(path).st_mode) or os.stat(path).st_size > compiler.MAX_MODEL_BYTES:
             return [Path(path)]
-        spec = parse_model(decode_model(Path(path).read_bytes(), str(path)), str(path))
+        spec = parser.parse_model(parser.decode_model(Path(path).read_bytes(), str(path)), str(path))
     except (OSError, MbsError):
         return [Path(path)]
     return [Path(path), *spec.include_files]
+
+
+def print_assembly(changes) -> None:
+    """What the assembly changed in the stated initial state (beyond the tolerance): `mbs check` and
+    `mbs run` print it."""
+    if changes:
+        con = console()
+        for line in changes:
+            con.print(line, markup=False)

@@ -2,7 +2,7 @@
 
 A plain ``mbs check MODEL [--set NAME=VALUE]...`` runs `check_command.check_model` without loading
 typer: typer's argument handling imports pydantic, which costs more than parsing, compiling and
-assembling a model.  Likewise a plain ``mbs run MODEL [OPTIONS]`` that `run_command.plain_run` reads
+assembling a model.  Likewise a plain ``mbs run MODEL [OPTIONS]`` that `run_options.plain_run` reads
 completely runs `run_command.run_model`.  Every other command line (another command, ``--help``, an
 unusual spelling of an option, a mistake) goes unchanged to the typer app in `app`, which owns usage,
 help and errors.  ``mbs sweep`` on several cores first starts the fork server of its workers
@@ -14,10 +14,25 @@ ones (assembly, Poincaré analysis), for which starting a thread pool per core c
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
+from pathlib import Path
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+
+# after BLAS is set to one thread (above): nothing below loads numpy when imported
+from planar_mbs.lazy import lazy  # noqa: E402
+
+from .common import guard_streams, stream_failure  # noqa: E402
+from .run_options import plain_run  # noqa: E402
+
+# loaded by the command that needs them, so that `mbs --help` and `mbs check` stay light
+app = lazy(".app", __package__)  # typer and pydantic
+check_command = lazy(".check_command", __package__)  # lark, numpy
+run_command = lazy(".run_command", __package__)  # the run's checks and printing
+sweep_server = lazy("planar_mbs.sweep.server")  # multiprocessing: only `mbs sweep` on several cores
 
 
 def plain_check(argv: list[str]):
@@ -60,8 +75,6 @@ def leave(code, printed_only: bool = False) -> None:
     elif not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
-    from .common import stream_failure
-
     lost = stream_failure()
     if lost and code == 0:  # the work is done and its files are whole; what it printed is not
         print(f"error: {lost}", file=sys.stderr)
@@ -92,11 +105,7 @@ def _terminate_again(report) -> None:
     weakref or garbage-collector callback (printing "Exception ignored"), which would let SIGTERM pass
     unnoticed.  The signal is sent again 10 ms later instead, from a thread (sent from here, its
     handler would run inside this hook and be dropped in turn), and then ends the command."""
-    import signal
-
     if isinstance(report.exc_value, SystemExit) and report.exc_value.code == 128 + signal.SIGTERM:
-        import threading
-
         again = threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGTERM))
         again.daemon = True
         again.start()
@@ -107,8 +116,6 @@ def _terminate_again(report) -> None:
 def stop_cleanly_on_sigterm() -> None:
     """Install `_terminate` for SIGTERM (and `_terminate_again`), unless the user's shell ignores
     SIGTERM: then it stays ignored."""
-    import signal
-
     if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
         signal.signal(signal.SIGTERM, _terminate)
         sys.unraisablehook = _terminate_again
@@ -135,8 +142,6 @@ def _numba_enabled() -> None:
 
 
 def main() -> None:
-    from .common import guard_streams
-
     guard_streams()
     _working_folder()
     _numba_enabled()
@@ -145,28 +150,18 @@ def main() -> None:
     os.environ.pop("MPLBACKEND", None)
     stop_cleanly_on_sigterm()
     if sys.argv[1:2] == ["sweep"]:
-        from planar_mbs.sweep import server as sweep_server
-
         if sweep_server.wanted(sys.argv[2:], os.cpu_count()):
             sweep_server.start()  # the workers' kernels load on another core while typer reads the command
     args = plain_check(sys.argv[1:])
     if args is None and sys.argv[1:2] == ["run"]:
-        from .run_command import plain_run, run_plain
-
         kwargs = plain_run(sys.argv[1:])
         if kwargs is not None:
-            leave(run_plain(kwargs))
+            leave(run_command.run_plain(kwargs))
     if args is None:
-        from .app import main as app_main
-
         help_only = not sys.argv[1:] or "--help" in sys.argv[1:] or sys.argv[1:] == ["--version"]
         try:
-            app_main()
+            app.main()
         except SystemExit as done:
             leave(done.code, printed_only=help_only)
         leave(0, printed_only=help_only)
-    from pathlib import Path
-
-    from .check_command import check_model
-
-    leave(check_model(Path(args[0]), args[1]), printed_only=True)
+    leave(check_command.check_model(Path(args[0]), args[1]), printed_only=True)

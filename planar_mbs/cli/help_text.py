@@ -10,8 +10,11 @@ not a box.
 from __future__ import annotations
 
 import typer.core
+from typer import rich_utils
 
 from planar_mbs import catalog
+
+from .common import console
 
 # an option's value in words, by option name (first) or by the value's type
 _BY_NAME = {
@@ -70,8 +73,6 @@ def _project_error(exc) -> None:
     """click's usage error as ``WHERE: error: MESSAGE`` and ``hint: ...`` on stderr (cli.common's style)."""
     if type(exc).__name__ == "NoArgsIsHelpError":  # the help is already printed
         return
-    from .common import console
-
     ctx = getattr(exc, "ctx", None)
     param = getattr(exc, "param", None)
     where = ctx.command_path if ctx is not None else "mbs"
@@ -86,6 +87,4 @@ def _project_error(exc) -> None:
 
 def use_one_error_style() -> None:
     """typer prints click's usage errors through `rich_utils.rich_format_error`: ours instead."""
-    from typer import rich_utils
-
     rich_utils.rich_format_error = _project_error

@@ -10,17 +10,26 @@ from typing import Annotated, Optional
 
 import typer
 
+from planar_mbs.errors import MbsError
+from planar_mbs.lazy import lazy
+
+from .common import check_choice, check_number, check_output
 from .common import console as _console
 from .common import fail as _fail
 from .common import quantity as _quantity
+
+# numpy, h5py, matplotlib, rerun: loaded when a command runs, never by `mbs --help` (which imports this module)
+hdf5 = lazy("planar_mbs.results.hdf5")
+figures = lazy("planar_mbs.outputs.plot")
+views = lazy("planar_mbs.results.views")
+rerun_log = lazy("planar_mbs.outputs.rerun_log")
+rich_table = lazy("rich.table")
 
 
 def _results_path(text: Path) -> Path:
     """The file part of `FILE.h5` or `FILE.h5:/cases/3`, checked to be a regular HDF5 file
     (a FIFO or a device is never opened)."""
-    from planar_mbs.results.hdf5 import check_results_file
-
-    return check_results_file(Path(str(text).split(":/", 1)[0]))
+    return hdf5.check_results_file(Path(str(text).split(":/", 1)[0]))
 
 
 ResultsArg = Annotated[Path, typer.Argument(help="HDF5 results file written by `mbs run` (or a sweep file; "
@@ -68,14 +77,9 @@ def plot(
     mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
     mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
     """
-    from planar_mbs.errors import MbsError
-    from planar_mbs.outputs.plot import FORMATS, plot_file
-
-    from .common import check_choice, check_number, check_output
-
     skip = transient if skip is None else skip
     try:
-        fmt = check_choice(fmt, FORMATS, "--format")
+        fmt = check_choice(fmt, figures.FORMATS, "--format")
         file = _results_path(results)
         if list_:
             _list_signals(results)
@@ -90,7 +94,7 @@ def plot(
         if ":/" in str(results):  # one case of a sweep: plot it like a run
             written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes)
         else:
-            written = plot_file(file, signals or [], against, poincare, output, fmt, skip, body, orbit or [],
+            written = figures.plot_file(file, signals or [], against, poincare, output, fmt, skip, body, orbit or [],
                                 notes=notes, **window)
     except MbsError as err:
         _fail(err)
@@ -105,35 +109,25 @@ def plot(
 
 def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes):
     """`mbs plot sweep.h5:/cases/3 ...`: plot one case of a sweep like a run."""
-    from planar_mbs.outputs.plot import plot_results
-    from planar_mbs.results.hdf5 import read_results
-
     try:
-        res = read_results(results)
+        res = hdf5.read_results(results)
     except KeyError as exc:
-        from planar_mbs.outputs.plot import PlotError
-
-        raise PlotError(f"error: no group {exc} in {str(results).split(':/', 1)[0]}") from None
+        raise views.PlotError(f"error: no group {exc} in {str(results).split(':/', 1)[0]}") from None
     file, group = str(results).split(":", 1)
     stem = f"{Path(file).stem}_case{group.rstrip('/').rsplit('/', 1)[-1]}"
     out = output or Path(file).parent / f"{stem}_plots"
-    return plot_results(res, stem, signals or [], against, poincare, out, fmt, skip, body, orbit or [],
+    return figures.plot_results(res, stem, signals or [], against, poincare, out, fmt, skip, body, orbit or [],
                         notes=notes, **window)
 
 
 def _list_signals(results: Path) -> None:
-    from rich.table import Table
-
-    from planar_mbs.outputs.plot import is_sweep, sweep_cases
-    from planar_mbs.results.hdf5 import read_results
-
-    if ":/" not in str(results) and is_sweep(results):
-        cases = sweep_cases(results)
+    if ":/" not in str(results) and figures.is_sweep(results):
+        cases = figures.sweep_cases(results)
         _console().print(f"sweep with {len(cases)} cases; signals of case {cases[0][0]}:", markup=False)
         res = cases[0][1]
     else:
-        res = read_results(results)
-    table = Table("signal", "unit", title=f"{len(res.signals)} signals, {len(res.time):,} samples",
+        res = hdf5.read_results(results)
+    table = rich_table.Table("signal", "unit", title=f"{len(res.signals)} signals, {len(res.time):,} samples",
                   title_justify="left")
     for name in sorted(res.signals):
         table.add_row(name, res.units.get(name, ""))
@@ -170,13 +164,6 @@ def view(
 
     Example: mbs view a.h5 -o a.rrd --open
     """
-    from planar_mbs.errors import MbsError
-    from planar_mbs.outputs.plot import PlotError
-    from planar_mbs.results.hdf5 import read_results
-    from planar_mbs.outputs.rerun_log import check_replace, model_from_results, recording_key
-
-    from .common import check_choice, check_number, check_output
-
     try:
         signals = check_choice(signals, ("envelope", "full"), "--signals")
         check_number(magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
@@ -185,12 +172,12 @@ def view(
         file = _results_path(results)
         out = output or file.with_suffix(".rrd")
         check_output(out, "--output", [("the results file", file)], make_parents=True)
-        key = recording_key(results)
-        check_replace(out, key, force)
-        res = read_results(results)
+        key = rerun_log.recording_key(results)
+        rerun_log.check_replace(out, key, force)
+        res = hdf5.read_results(results)
         if not len(res.time):
-            raise PlotError(f"error: {results} holds no samples: nothing to record")
-        model = None if signals_only else model_from_results(res)
+            raise views.PlotError(f"error: {results} holds no samples: nothing to record")
+        model = None if signals_only else rerun_log.model_from_results(res)
         record_run(res, model, out, magnify=magnify, fps=fps, signal_stride=signal_stride, open_viewer=open_,
                    signals=signals, signal_rate=signal_rate, recording_id=key)
     except MbsError as err:
@@ -205,10 +192,7 @@ def record_run(results, model, path, magnify: float = 10.0, fps: float | None = 
     """Write a rerun recording of `results` (drawn with `model`; None = signals only) to
     `path`, print one summary line, optionally open the viewer.  `mbs run --rerun` calls this
     (`signals="full"` for every sample of every signal, e.g. from a `--rerun-signals full`)."""
-    from planar_mbs.outputs.rerun_log import open_viewer as _open
-    from planar_mbs.outputs.rerun_log import record_run as _record
-
-    info = _record(results, model, path, magnify=magnify, fps=fps, signal_stride=signal_stride,
+    info = rerun_log.record_run(results, model, path, magnify=magnify, fps=fps, signal_stride=signal_stride,
                    signals=signals, signal_rate=signal_rate, recording_id=recording_id)
     if not quiet:
         loop = float(results.attrs.get("wall_time") or 0.0)
@@ -221,5 +205,5 @@ def record_run(results, model, path, magnify: float = 10.0, fps: float | None = 
             f"{info.contact_onsets:,} contact onsets, {info.poincare_points} Poincaré points "
             f"({info.seconds:.2f} s{share})", markup=False)
     if open_viewer:
-        _open(path)
+        rerun_log.open_viewer(path)
     return info

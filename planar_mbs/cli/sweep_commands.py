@@ -103,12 +103,30 @@ ClockOpt = Annotated[Optional[str], typer.Option(
     show_default="the driven body, else the body that turns most")]
 
 
+ParamOpt = Annotated[list[str], typer.Option(
+    "--param", "-P", help="NAME=VALUES: a list (speed=800rpm,1200rpm), a linear range with a count "
+    "(clearance=0.1mm..0.5mm:5) or names (law=hertz,lankarani_nikravesh). Repeatable; the sweep is the "
+    "cartesian product.", show_default=False)]
+SweepKeepOpt = Annotated[Optional[str], typer.Option(
+    "--keep", help="Comma-separated signals to store per case besides its Poincaré section, verdict and "
+    "summary statistics (extrema and RMS of every signal); an entity name (slider) keeps all its "
+    "signals; --keep all stores every signal of every sample (large: `mbs sweep replay` reruns any "
+    "case instead).", show_default="none")]
+SchedulerOpt = Annotated[Optional[str], typer.Option(
+    "--scheduler", help="Address of a running dask.distributed scheduler (tcp://host:8786): the cases run on "
+    "its workers instead of local processes. Workers need planar_mbs installed; the model's text (with its "
+    "includes) is sent to them. Only this process writes the HDF5 file.", show_default=False)]
+WorkerTimeoutOpt = Annotated[float, typer.Option(
+    "--worker-timeout", help="With --scheduler: stop (keeping the finished cases) once the cluster has had no "
+    "worker, or no scheduler, for this many seconds.", min=1.0)]
+SweepForceOpt = Annotated[bool, typer.Option(
+    "--force", help="Run even when a case asks for more than 10^8 output rows or the cases do not fit on the "
+    "free disk space (the sweep stops cleanly if the disk fills).")]
+
+
 def sweep(
     model: Annotated[Path, typer.Argument(help="The .mbs model file.", show_default=False)],
-    param: Annotated[list[str], typer.Option(
-        "--param", "-P", help="NAME=VALUES: a list (speed=800rpm,1200rpm), a linear range with a count "
-        "(clearance=0.1mm..0.5mm:5) or names (law=hertz,lankarani_nikravesh). Repeatable; the sweep is the "
-        "cartesian product.", show_default=False)],
+    param: ParamOpt,
     output: Annotated[Path, typer.Option("--output", "-o", help="The sweep's HDF5 file.", show_default=False)],
     set_: Annotated[Optional[list[str]], typer.Option(
         "--set", "-s", help="Fixed override of a `param` for every case, NAME=VALUE. Repeatable.",
@@ -131,11 +149,7 @@ def sweep(
                                                     show_default="the model's simulate block, else 1e-6")] = None,
     atol: Annotated[Optional[float], typer.Option(help="Absolute tolerance (> 0).",
                                                     show_default="the model's simulate block, else 1e-9")] = None,
-    keep: Annotated[Optional[str], typer.Option(
-        "--keep", help="Comma-separated signals to store per case besides its Poincaré section, verdict and "
-        "summary statistics (extrema and RMS of every signal); an entity name (slider) keeps all its "
-        "signals; --keep all stores every signal of every sample (large: `mbs sweep replay` reruns any "
-        "case instead).", show_default="none")] = None,
+    keep: SweepKeepOpt = None,
     poincare: PoincareOpt = None,
     period: PeriodOpt = None,
     angle: AngleOpt = None,
@@ -144,17 +158,10 @@ def sweep(
     no_section: Annotated[bool, typer.Option("--no-section", help="Store no Poincaré section.")] = False,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Start the file afresh.")] = False,
     retry_failed: Annotated[bool, typer.Option("--retry-failed", help="Run failed cases again.")] = False,
-    scheduler: Annotated[Optional[str], typer.Option(
-        "--scheduler", help="Address of a running dask.distributed scheduler (tcp://host:8786): the cases run on "
-        "its workers instead of local processes. Workers need planar_mbs installed; the model's text (with its "
-        "includes) is sent to them. Only this process writes the HDF5 file.", show_default=False)] = None,
-    worker_timeout: Annotated[float, typer.Option(
-        "--worker-timeout", help="With --scheduler: stop (keeping the finished cases) once the cluster has had no "
-        "worker, or no scheduler, for this many seconds.", min=1.0)] = 60.0,
+    scheduler: SchedulerOpt = None,
+    worker_timeout: WorkerTimeoutOpt = 60.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
-    force: Annotated[bool, typer.Option("--force", help="Run even when a case asks for more than 10^8 output rows "
-                     "or the cases do not fit on the free disk space (the sweep stops cleanly if the disk fills).")]
-    = False,
+    force: SweepForceOpt = False,
 ) -> None:
     """Run a model for every combination of parameter values, in parallel, into one HDF5 file.
 
@@ -167,23 +174,12 @@ def sweep(
 
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
-    from planar_mbs.errors import MbsError, ModelError
-    from planar_mbs.run.simulation import integrator_of
+    from planar_mbs.errors import MbsError
     from planar_mbs.sweep.scan import parse_param, run_sweep
 
     try:
         axes = [parse_param(p) for p in param]
-        if integrator is not None:
-            integrator_of(integrator, "--integrator")
-        settings = {k: v for k, v in dict(
-            t_end=positive_time(t_end, "--t-end"), output_step=positive_time(output_step, "--output-step"),
-            rtol=check_rtol(rtol), atol=atol, integrator=integrator.lower() if integrator else None).items()
-            if v is not None}
-        check_number(revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS,
-                     hint="the number of driver periods to simulate, e.g. `-n 101`")
-        check_number(jobs, "--jobs", low=1, low_ok=True, high=MAX_JOBS, hint="e.g. `-j 4`")
-        if t_end is not None and revolutions is not None:
-            raise ModelError("give --t-end or --revolutions, not both", "--revolutions")
+        settings = _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs)
         section = _section_options(poincare, period, angle, transient, clock, no_section)
         keep_list = None if keep is not None and keep.strip() == "all" else \
             [k.strip() for k in (keep or "").split(",") if k.strip()]  # none by default
@@ -203,7 +199,31 @@ def sweep(
         from planar_mbs.sweep.server import remove_temp_folder
 
         remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
-    _print_table(summary.rows, [a.name for a in axes])
+    _report_sweep(summary, [a.name for a in axes])
+
+
+def _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs) -> dict:
+    """The settings of every case that the options give (None: the model's), each checked."""
+    from planar_mbs.errors import ModelError
+    from planar_mbs.run.simulation import integrator_of
+
+    if integrator is not None:
+        integrator_of(integrator, "--integrator")
+    settings = {k: v for k, v in dict(
+        t_end=positive_time(t_end, "--t-end"), output_step=positive_time(output_step, "--output-step"),
+        rtol=check_rtol(rtol), atol=atol, integrator=integrator.lower() if integrator else None).items()
+        if v is not None}
+    check_number(revolutions, "--revolutions", low=0.0, high=MAX_REVOLUTIONS,
+                 hint="the number of driver periods to simulate, e.g. `-n 101`")
+    check_number(jobs, "--jobs", low=1, low_ok=True, high=MAX_JOBS, hint="e.g. `-j 4`")
+    if t_end is not None and revolutions is not None:
+        raise ModelError("give --t-end or --revolutions, not both", "--revolutions")
+    return settings
+
+
+def _report_sweep(summary, names: list[str]) -> None:
+    """The table of cases, each failure in a sentence, the counts; exit 3 when a case failed."""
+    _print_table(summary.rows, names)
     for r in summary.rows:
         if r["index"] in summary.failed and r.get("message"):
             vals = ", ".join(f"{k}={v}" for k, v in r["values"].items())

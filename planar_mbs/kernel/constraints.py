@@ -25,7 +25,7 @@ import math
 import numpy as np
 from .jit import kernel
 
-from ..mechanism.model import JOINT_ROWS, DriverType, JointType, MotionType, Status
+from ..mechanism.model import JOINT_ROWS, JP, DriverType, JointType, MotionType, Status
 from .expressions import expr_dual
 
 REVOLUTE = int(JointType.REVOLUTE)
@@ -33,6 +33,9 @@ TRANSLATIONAL = int(JointType.TRANSLATIONAL)
 WELD = int(JointType.WELD)
 REVOLUTE_REVOLUTE = int(JointType.REVOLUTE_REVOLUTE)
 REVOLUTE_TRANSLATIONAL = int(JointType.REVOLUTE_TRANSLATIONAL)
+# the joint_param columns of the joint types' settings (catalog.JointSetting.column)
+PHI0 = JP["phi0"]
+LENGTH = JP["length"]
 
 BAD_INPUT = int(Status.BAD_INPUT)
 
@@ -153,7 +156,7 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
     driver (`row_bodies`); ``J[r, 0]`` is dC_r/dq_i and ``J[r, 1]`` dC_r/dq_j
     (zero for ground).  ``gamma`` is the right side of ``Cq q'' = gamma`` (no
     Baumgarte terms).  Returns 0 (Status.DONE) or Status.BAD_INPUT for an
-    unknown type code."""
+    unknown type code.  Its parts are inlined: it is on the hot path (kernel/jit.py)."""
     m = C.shape[0]
     for r in range(m):
         C[r] = 0.0
@@ -164,88 +167,106 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
                 J[r, a, k] = 0.0
     nj = km.joint_type.shape[0]
     for jt in range(nj):
-        typ = km.joint_type[jt]
-        bi = km.joint_body[jt, 0]
-        bj = km.joint_body[jt, 1]
-        r = km.joint_row[jt]
-        Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.joint_point[jt, 0, 0], km.joint_point[jt, 0, 1])
-        Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, cs, bj, km.joint_point[jt, 1, 0], km.joint_point[jt, 1, 1])
-        # quadratic parts of P_i'', P_j''
-        gix = -wi * wi * aix
-        giy = -wi * wi * aiy
-        gjx = -wj * wj * ajx
-        gjy = -wj * wj * ajy
-        if typ == REVOLUTE or typ == WELD:
-            C[r] = Pix - Pjx
-            C[r + 1] = Piy - Pjy
-            add_point_jac(J, r, 0, bi, aix, aiy, 1.0, 0.0, 1.0)
-            add_point_jac(J, r, 1, bj, ajx, ajy, 1.0, 0.0, -1.0)
-            add_point_jac(J, r + 1, 0, bi, aix, aiy, 0.0, 1.0, 1.0)
-            add_point_jac(J, r + 1, 1, bj, ajx, ajy, 0.0, 1.0, -1.0)
-            gamma[r] = -(gix - gjx)
-            gamma[r + 1] = -(giy - gjy)
-            if typ == WELD:
-                ra = r + 2
-                _, _, phi_i, _, _, _ = body_state(q, qd, bi)
-                _, _, phi_j, _, _, _ = body_state(q, qd, bj)
-                C[ra] = phi_j - phi_i - km.joint_param[jt, 0]
-                if bj >= 0:
-                    J[ra, 1, 2] += 1.0
-                if bi >= 0:
-                    J[ra, 0, 2] -= 1.0
-        elif typ == TRANSLATIONAL or typ == REVOLUTE_TRANSLATIONAL:
-            rn = r
-            if typ == TRANSLATIONAL:
-                _, _, phi_i, _, _, _ = body_state(q, qd, bi)
-                _, _, phi_j, _, _, _ = body_state(q, qd, bj)
-                C[r] = phi_j - phi_i - km.joint_param[jt, 0]
-                if bj >= 0:
-                    J[r, 1, 2] += 1.0
-                if bi >= 0:
-                    J[r, 0, 2] -= 1.0
-                rn = r + 1
-            C[rn], gamma[rn] = _axis_row(J, rn, cs, bi, bj, Pix, Piy, aix, aiy, vix, viy, wi,
-                                         Pjx, Pjy, ajx, ajy, vjx, vjy, wj,
-                                         -km.joint_axis[jt, 1], km.joint_axis[jt, 0])
-        elif typ == REVOLUTE_REVOLUTE:
-            dx = Pjx - Pix
-            dy = Pjy - Piy
-            ddx = vjx - vix
-            ddy = vjy - viy
-            L = km.joint_param[jt, 1]
-            C[r] = 0.5 * (dx * dx + dy * dy - L * L)
-            add_point_jac(J, r, 1, bj, ajx, ajy, dx, dy, 1.0)
-            add_point_jac(J, r, 0, bi, aix, aiy, dx, dy, -1.0)
-            gamma[r] = -(ddx * ddx + ddy * ddy + dx * (gjx - gix) + dy * (gjy - giy))
-        else:
+        if joint_rows_eval(km, jt, q, qd, cs, C, J, gamma) != 0:
             return BAD_INPUT
     nd = km.driver_type.shape[0]
     for d in range(nd):
-        r = km.driver_row[d]
-        bi = km.driver_body[d, 0]
-        bj = km.driver_body[d, 1]
-        f, fd, fdd = driver_motion(km, d, t)
-        typ = km.driver_type[d]
-        if typ == ANGLE:
+        if driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma) != 0:
+            return BAD_INPUT
+    return 0
+
+
+@kernel(inline=True)
+def joint_rows_eval(km, jt, q, qd, cs, C, J, gamma):
+    """C, J and gamma of the rows of ideal joint jt, from row ``joint_row[jt]`` on (its settings:
+    ``joint_axis[jt]`` and ``joint_param[jt, JP[column]]``, catalog.JointSetting).  Returns 0, or
+    Status.BAD_INPUT for a type code without rows here."""
+    typ = km.joint_type[jt]
+    bi = km.joint_body[jt, 0]
+    bj = km.joint_body[jt, 1]
+    r = km.joint_row[jt]
+    Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.joint_point[jt, 0, 0], km.joint_point[jt, 0, 1])
+    Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, cs, bj, km.joint_point[jt, 1, 0], km.joint_point[jt, 1, 1])
+    # quadratic parts of P_i'', P_j''
+    gix = -wi * wi * aix
+    giy = -wi * wi * aiy
+    gjx = -wj * wj * ajx
+    gjy = -wj * wj * ajy
+    if typ == REVOLUTE or typ == WELD:
+        C[r] = Pix - Pjx
+        C[r + 1] = Piy - Pjy
+        add_point_jac(J, r, 0, bi, aix, aiy, 1.0, 0.0, 1.0)
+        add_point_jac(J, r, 1, bj, ajx, ajy, 1.0, 0.0, -1.0)
+        add_point_jac(J, r + 1, 0, bi, aix, aiy, 0.0, 1.0, 1.0)
+        add_point_jac(J, r + 1, 1, bj, ajx, ajy, 0.0, 1.0, -1.0)
+        gamma[r] = -(gix - gjx)
+        gamma[r + 1] = -(giy - gjy)
+        if typ == WELD:
+            ra = r + 2
             _, _, phi_i, _, _, _ = body_state(q, qd, bi)
             _, _, phi_j, _, _, _ = body_state(q, qd, bj)
-            C[r] = phi_j - phi_i - f
+            C[ra] = phi_j - phi_i - km.joint_param[jt, PHI0]
+            if bj >= 0:
+                J[ra, 1, 2] += 1.0
+            if bi >= 0:
+                J[ra, 0, 2] -= 1.0
+    elif typ == TRANSLATIONAL or typ == REVOLUTE_TRANSLATIONAL:
+        rn = r
+        if typ == TRANSLATIONAL:
+            _, _, phi_i, _, _, _ = body_state(q, qd, bi)
+            _, _, phi_j, _, _, _ = body_state(q, qd, bj)
+            C[r] = phi_j - phi_i - km.joint_param[jt, PHI0]
             if bj >= 0:
                 J[r, 1, 2] += 1.0
             if bi >= 0:
                 J[r, 0, 2] -= 1.0
-            gamma[r] = fdd
-        elif typ == POSITION:
-            Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.driver_point[d, 0, 0], km.driver_point[d, 0, 1])
-            Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, cs, bj, km.driver_point[d, 1, 0], km.driver_point[d, 1, 1])
-            g, gg = _axis_row(J, r, cs, bi, bj, Pix, Piy, aix, aiy, vix, viy, wi,
-                              Pjx, Pjy, ajx, ajy, vjx, vjy, wj,
-                              km.driver_axis[d, 0], km.driver_axis[d, 1])
-            C[r] = g - f
-            gamma[r] = gg + fdd
-        else:
-            return BAD_INPUT
-        Ct[r] = -fd
+            rn = r + 1
+        C[rn], gamma[rn] = _axis_row(J, rn, cs, bi, bj, Pix, Piy, aix, aiy, vix, viy, wi,
+                                     Pjx, Pjy, ajx, ajy, vjx, vjy, wj,
+                                     -km.joint_axis[jt, 1], km.joint_axis[jt, 0])
+    elif typ == REVOLUTE_REVOLUTE:
+        dx = Pjx - Pix
+        dy = Pjy - Piy
+        ddx = vjx - vix
+        ddy = vjy - viy
+        L = km.joint_param[jt, LENGTH]
+        C[r] = 0.5 * (dx * dx + dy * dy - L * L)
+        add_point_jac(J, r, 1, bj, ajx, ajy, dx, dy, 1.0)
+        add_point_jac(J, r, 0, bi, aix, aiy, dx, dy, -1.0)
+        gamma[r] = -(ddx * ddx + ddy * ddy + dx * (gjx - gix) + dy * (gjy - giy))
+    else:  # a type code without rows here
+        return BAD_INPUT
+    return 0
+
+
+@kernel(inline=True)
+def driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma):
+    """C, J, Ct and gamma of the row of driver d at time t.  Returns 0 or Status.BAD_INPUT."""
+    r = km.driver_row[d]
+    bi = km.driver_body[d, 0]
+    bj = km.driver_body[d, 1]
+    f, fd, fdd = driver_motion(km, d, t)
+    typ = km.driver_type[d]
+    if typ == ANGLE:
+        _, _, phi_i, _, _, _ = body_state(q, qd, bi)
+        _, _, phi_j, _, _, _ = body_state(q, qd, bj)
+        C[r] = phi_j - phi_i - f
+        if bj >= 0:
+            J[r, 1, 2] += 1.0
+        if bi >= 0:
+            J[r, 0, 2] -= 1.0
+        gamma[r] = fdd
+    elif typ == POSITION:
+        Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.driver_point[d, 0, 0], km.driver_point[d, 0, 1])
+        Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_cs(q, qd, cs, bj, km.driver_point[d, 1, 0], km.driver_point[d, 1, 1])
+        g, gg = _axis_row(J, r, cs, bi, bj, Pix, Piy, aix, aiy, vix, viy, wi,
+                          Pjx, Pjy, ajx, ajy, vjx, vjy, wj,
+                          km.driver_axis[d, 0], km.driver_axis[d, 1])
+        C[r] = g - f
+        gamma[r] = gg + fdd
+    else:
+        return BAD_INPUT
+    Ct[r] = -fd
     return 0
 
 

@@ -526,7 +526,7 @@ def peak_penetration(law, p, m, v):
     the spring energy equals m v^2 / 2 (K d^(n+1)/(n+1), or for the cylindrical laws
     A F^2 (1 + 2 ln(B/F))/4, solved for F by bisection in ln F; capped at the branch end)."""
     E = 0.5 * m * v * v
-    if law == DUBOWSKY_FREUDENSTEIN or law == ESDU_78035:
+    if is_cylindrical(law):
         A, B = cylinder_scales(law, p)
         if E >= 0.25 * A * B * B:
             return A * B

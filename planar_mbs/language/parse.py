@@ -357,132 +357,171 @@ def _spaced_unit(prev: str) -> tuple[str, str] | None:
     return m.group(1), m.group(2)
 
 
-def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0,
-                  code: str | None = None) -> ModelError:
-    lines = text.splitlines() or [""]
-    line = getattr(e, "line", None) or len(lines)
-    column = getattr(e, "column", None) or 1
-    src = lines[line - 1] if 0 < line <= len(lines) else ""
-    width = 1
-    code = _code(text) if code is None else code
+class _Site:
+    """Where a syntax error is: the text, its code (comments and strings blanked), the line lark
+    reported and the brackets still open at the error (`_open_brackets`)."""
+
+    def __init__(self, text: str, code: str, line: int, offset: int):
+        self.text, self.code, self.line = text, code, line
+        self.stack = _open_brackets(code, offset)
+
+    def where(self, off: int) -> str:
+        ln = self.text.count("\n", 0, off) + 1
+        return f"line {ln}, column {off - (self.text.rfind(chr(10), 0, off) + 1) + 1}"
+
+    def unclosed(self, before_line: bool) -> str:
+        """'the `{` opened on line 3 is still open' when a bracket opened earlier is unclosed."""
+        if not self.stack:
+            return ""
+        b, off = self.stack[-1]
+        if before_line and self.text.count("\n", 0, off) + 1 >= self.line:
+            return ""
+        close = "}" if b == "{" else ")"
+        return f"is a `{close}` missing? the `{b}` at {self.where(off)} is still open"
+
+
+def _error_offset(e: UnexpectedInput, text: str) -> int:
+    """The offset in `text` of the error: the unexpected token's start, else lark's position, else the end."""
     offset = getattr(e, "pos_in_stream", None)
     if isinstance(e, UnexpectedToken) and e.token.type != "$END":
         offset = e.token.start_pos
     if offset is None or e.__class__ is UnexpectedToken and e.token.type == "$END":
         offset = len(text)
-    stack = _open_brackets(code, offset)
+    return offset
 
-    def where(off: int) -> str:
-        ln = text.count("\n", 0, off) + 1
-        return f"line {ln}, column {off - (text.rfind(chr(10), 0, off) + 1) + 1}"
 
-    def unclosed(before_line: bool) -> str:
-        """'the `{` opened on line 3 is still open' when a bracket opened earlier is unclosed."""
-        if not stack:
-            return ""
-        b, off = stack[-1]
-        if before_line and text.count("\n", 0, off) + 1 >= line:
-            return ""
-        close = "}" if b == "{" else ")"
-        return f"is a `{close}` missing? the `{b}` at {where(off)} is still open"
-
-    if isinstance(e, UnexpectedToken):
-        tok = e.token
-        expected = set(e.expected)
-        if tok.type == "$END":
-            line, column = len(lines), len(lines[-1].rstrip()) + 1
-            src = lines[-1]
-            message = ("the value ends too early" if path == "--set"
-                       else "the text ends in the middle of a statement")
-            hint = f"expected {_readable(expected)}; " + (unclosed(False) or "is a `)` or `}` missing?")
-        else:
-            width = len(str(tok))
-            shown = f"`{_clip(str(tok))}`"
-            message = f"unexpected {shown}"
-            hint = f"expected {_readable(expected)}"
-            prev = code[:tok.start_pos].rstrip()
-            if tok.type in ("RBRACE", "RPAR") and (not stack or stack[-1][0] != ("{" if tok.type == "RBRACE" else "(")):
-                other = "{" if tok.type == "RBRACE" else "("
-                if stack:
-                    message = f"this `{tok}` does not match the `{stack[-1][0]}` at {where(stack[-1][1])}"
-                    hint = f"close the `{stack[-1][0]}` first, or remove this `{tok}`"
-                else:
-                    message = f"this `{tok}` closes nothing"
-                    hint = f"remove it, or add the `{other}` it should close; " + hint
-            elif tok.type == "COMMA" and prev[-1:].isdigit() and code[tok.end_pos:tok.end_pos + 1].isdigit():
-                hint = "decimals are written with a point (`1.5`), not a comma"
-            elif tok.type == "COMMA" and "RBRACE" in expected:
-                hint = "fields inside `{ }` are separated by spaces or new lines, not commas"
-            elif tok.type == "EQUAL" and re.search(r"([-+*/^])\s*(\w+)$", prev):
-                op, name = re.search(r"([-+*/^])\s*(\w+)$", prev).groups()
-                message = f"unexpected `=`: `{name}` was read as the operand of the `{op}` before it"
-                hint = f"the value before `{name}` ends with a trailing `{op}`: finish or remove it"
-            elif expected == {"EQUAL"} and _spaced_unit(prev):  # `1e-5 kg m^2`: `m` read as a field name
-                unit, name = _spaced_unit(prev)
-                message = f"unexpected {shown}: the unit `{name}` after `{unit}` was read as a new field"
-                tail = re.match(r"[*/^][\w.*/^]*", text[tok.start_pos:])  # the rest of the unit: `^2`
-                hint = f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`"
-            elif tok.type == "NAME" and "EQUAL" not in expected and _spaced_unit(f"{prev} {tok}"):  # `2 N m)`
-                unit, name = _spaced_unit(f"{prev} {tok}")
-                message = f"unexpected `{tok}`: a second unit after `{unit}`, separated by a space"
-                tail = re.match(r"[*/^][\w.*/^]*", text[tok.end_pos:])
-                hint = f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`"
-            elif tok.type == "STRING":
-                hint = 'quoted text is only used by `include "file.mbs"`; write names without quotes (`law = hertz`)'
-            elif tok.type == "QUANTITY" and "PARAM" in expected:
-                message = f"unexpected `{tok}`: a statement starts with a keyword"
-                hint = "statements start with: " + ", ".join(KEYWORDS) + "; is this value part of the line before?"
-            elif tok.type == "NAME" and "PARAM" in expected:
-                close = did_you_mean(str(tok), KEYWORDS)
-                message = f"unexpected `{tok}`: a statement starts with a keyword"
-                hint = close or "statements start with: " + ", ".join(KEYWORDS)
-            elif tok.type.lower() in KEYWORDS and "NAME" in expected:
-                message = f"`{tok}` is a keyword and cannot be used as a name here"
-                hint = "choose another name"
-            elif tok.type == "QUANTITY" and "NAME" in expected and re.match(r"\d+[A-Za-z_]", str(tok)):
-                message = f"`{tok}` is not a name"
-                hint = "names start with a letter or `_` (letters, digits and `_` follow)"
-            elif tok.type == "QUANTITY" and expected == {"EQUAL"}:
-                hint = ("write `param NAME = value`" if re.search(r"(?:^|\W)param\s+\w+$", prev)
-                        else "write fields as `key = value`")
-                message = f"unexpected `{tok}`: a `=` is missing"
-            elif tok.type in ("LPAR", "QUANTITY") and "NAME" in expected and "EQUAL" not in expected:
-                hint = ("a unit goes right after its number without spaces inside "
-                        "(`2.5e-4 kg*m^2`); otherwise " + hint)
-            # a statement keyword read as a field name: the block before it was not closed
-            missing = unclosed(True)
-            kw_before = re.search(r"(?:^|[^\w])(" + "|".join(KEYWORDS) + r")\s*$", prev)
-            if missing and stack[-1][0] == "{" and kw_before:
-                message = (f"unexpected {shown}: `{kw_before.group(1)}` starts a new statement, "
-                           f"but the block before it is not closed")
-                hint = missing
-            elif missing and tok.type.lower() in KEYWORDS:
-                message = f"unexpected {shown}: a new statement starts, but the one before it is not finished"
-                hint = missing
-            elif missing and tok.type not in ("RBRACE", "RPAR"):
-                hint = f"{hint}; {missing}"
+def _syntax_error(e: UnexpectedInput, text: str, path: str, line_offset: int = 0,
+                  code: str | None = None) -> ModelError:
+    """A lark syntax error as a `ModelError` in words: what was found, what was expected instead
+    (`_readable`), the likely cause (`_token_rules`, `_unclosed_block`), a caret under the text."""
+    lines = text.splitlines() or [""]
+    line = getattr(e, "line", None) or len(lines)
+    column = getattr(e, "column", None) or 1
+    src = lines[line - 1] if 0 < line <= len(lines) else ""
+    width = 1
+    site = _Site(text, _code(text) if code is None else code, line, _error_offset(e, text))
+    if isinstance(e, UnexpectedToken) and e.token.type == "$END":
+        line, column, src = len(lines), len(lines[-1].rstrip()) + 1, lines[-1]
+        message = ("the value ends too early" if path == "--set"
+                   else "the text ends in the middle of a statement")
+        hint = f"expected {_readable(set(e.expected))}; " + (site.unclosed(False) or "is a `)` or `}` missing?")
+    elif isinstance(e, UnexpectedToken):
+        width = len(str(e.token))
+        message, hint = _unexpected_token(site, e.token, set(e.expected))
     else:
         assert isinstance(e, UnexpectedCharacters)
-        ch = text[e.pos_in_stream] if e.pos_in_stream < len(text) else "?"
-        message = f"unexpected character `{ch}`" if ch.isprintable() else f"unexpected character {ch!r}"
-        if ch == ";":
-            hint = "no `;` is needed: separate statements and fields with spaces or new lines"
-        elif ch == '"' and '"' not in text[e.pos_in_stream + 1:].split("\n", 1)[0]:
-            message = "the quoted file name is not closed"
-            hint = 'end it with `"` on the same line: `include "file.mbs"`'
-        elif ch == '"':
-            hint = 'quoted text is only used by `include "file.mbs"`'
-        elif ch == ",":
-            hint = "fields inside `{ }` are separated by spaces or new lines, not commas"
-        elif ch != "\n" and not ch.isprintable() and ch not in "\t\r":
-            hint = "the file contains a control character: is it a text file? remove the character"
-        elif ch == "\ufffd":
-            message = "a character that is not valid UTF-8"
-            hint = "save the file as UTF-8"
-        else:
-            hint = "names are letters, digits and `_`; numbers may carry a unit like `0.3 mm`"
+        message, hint = _unexpected_character(text, e.pos_in_stream)
     return ModelError(message, path, line + line_offset, column, hint=hint, source_line=src,
                       width=width)
+
+
+def _unexpected_token(site: _Site, tok: Token, expected: set[str]) -> tuple[str, str]:
+    """(message, hint) for a token the grammar does not allow where it stands."""
+    shown = f"`{_clip(str(tok))}`"
+    prev = site.code[:tok.start_pos].rstrip()
+    default = (f"unexpected {shown}", f"expected {_readable(expected)}")
+    for rule in (_bracket_rules, _unit_rules, _statement_rules):
+        found = rule(site, tok, expected, prev, shown, default[1])
+        if found is not None:
+            return _unclosed_block(site, tok, prev, shown, *found)
+    return _unclosed_block(site, tok, prev, shown, *default)
+
+
+def _bracket_rules(site: _Site, tok: Token, expected: set[str], prev: str, shown: str, hint: str):
+    """A closing bracket that closes nothing or the wrong bracket; a comma where none belongs."""
+    stack, code = site.stack, site.code
+    if tok.type in ("RBRACE", "RPAR") and (not stack or stack[-1][0] != ("{" if tok.type == "RBRACE" else "(")):
+        other = "{" if tok.type == "RBRACE" else "("
+        if stack:
+            return (f"this `{tok}` does not match the `{stack[-1][0]}` at {site.where(stack[-1][1])}",
+                    f"close the `{stack[-1][0]}` first, or remove this `{tok}`")
+        return f"this `{tok}` closes nothing", f"remove it, or add the `{other}` it should close; " + hint
+    if tok.type == "COMMA" and prev[-1:].isdigit() and code[tok.end_pos:tok.end_pos + 1].isdigit():
+        return f"unexpected {shown}", "decimals are written with a point (`1.5`), not a comma"
+    if tok.type == "COMMA" and "RBRACE" in expected:
+        return f"unexpected {shown}", "fields inside `{ }` are separated by spaces or new lines, not commas"
+    return None
+
+
+def _unit_rules(site: _Site, tok: Token, expected: set[str], prev: str, shown: str, hint: str):
+    """A `=` read as the end of an expression; a unit after a space read as a field name or a second unit."""
+    text = site.text
+    if tok.type == "EQUAL" and re.search(r"([-+*/^])\s*(\w+)$", prev):
+        op, name = re.search(r"([-+*/^])\s*(\w+)$", prev).groups()
+        return (f"unexpected `=`: `{name}` was read as the operand of the `{op}` before it",
+                f"the value before `{name}` ends with a trailing `{op}`: finish or remove it")
+    if expected == {"EQUAL"} and _spaced_unit(prev):  # `1e-5 kg m^2`: `m` read as a field name
+        unit, name = _spaced_unit(prev)
+        tail = re.match(r"[*/^][\w.*/^]*", text[tok.start_pos:])  # the rest of the unit: `^2`
+        return (f"unexpected {shown}: the unit `{name}` after `{unit}` was read as a new field",
+                f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`")
+    if tok.type == "NAME" and "EQUAL" not in expected and _spaced_unit(f"{prev} {tok}"):  # `2 N m)`
+        unit, name = _spaced_unit(f"{prev} {tok}")
+        tail = re.match(r"[*/^][\w.*/^]*", text[tok.end_pos:])
+        return (f"unexpected `{tok}`: a second unit after `{unit}`, separated by a space",
+                f"join units with `*`: `{unit}*{name}{tail.group(0) if tail else ''}`")
+    return None
+
+
+def _statement_rules(site: _Site, tok: Token, expected: set[str], prev: str, shown: str, hint: str):
+    """Quoted text, a statement that does not start with a keyword, a keyword or number used as a
+    name, a missing `=`, a unit with spaces inside."""
+    if tok.type == "STRING":
+        return (f"unexpected {shown}",
+                'quoted text is only used by `include "file.mbs"`; write names without quotes (`law = hertz`)')
+    if tok.type == "QUANTITY" and "PARAM" in expected:
+        return (f"unexpected `{tok}`: a statement starts with a keyword",
+                "statements start with: " + ", ".join(KEYWORDS) + "; is this value part of the line before?")
+    if tok.type == "NAME" and "PARAM" in expected:
+        return (f"unexpected `{tok}`: a statement starts with a keyword",
+                did_you_mean(str(tok), KEYWORDS) or "statements start with: " + ", ".join(KEYWORDS))
+    if tok.type.lower() in KEYWORDS and "NAME" in expected:
+        return f"`{tok}` is a keyword and cannot be used as a name here", "choose another name"
+    if tok.type == "QUANTITY" and "NAME" in expected and re.match(r"\d+[A-Za-z_]", str(tok)):
+        return f"`{tok}` is not a name", "names start with a letter or `_` (letters, digits and `_` follow)"
+    if tok.type == "QUANTITY" and expected == {"EQUAL"}:
+        return (f"unexpected `{tok}`: a `=` is missing",
+                "write `param NAME = value`" if re.search(r"(?:^|\W)param\s+\w+$", prev)
+                else "write fields as `key = value`")
+    if tok.type in ("LPAR", "QUANTITY") and "NAME" in expected and "EQUAL" not in expected:
+        return (f"unexpected {shown}",
+                "a unit goes right after its number without spaces inside (`2.5e-4 kg*m^2`); otherwise " + hint)
+    return None
+
+
+def _unclosed_block(site: _Site, tok: Token, prev: str, shown: str, message: str, hint: str) -> tuple[str, str]:
+    """(message, hint) said again when a bracket opened on an earlier line is still open: a statement
+    keyword read as a field name means the block before it was not closed."""
+    missing = site.unclosed(True)
+    kw_before = re.search(r"(?:^|[^\w])(" + "|".join(KEYWORDS) + r")\s*$", prev)
+    if missing and site.stack[-1][0] == "{" and kw_before:
+        return (f"unexpected {shown}: `{kw_before.group(1)}` starts a new statement, "
+                f"but the block before it is not closed"), missing
+    if missing and tok.type.lower() in KEYWORDS:
+        return f"unexpected {shown}: a new statement starts, but the one before it is not finished", missing
+    if missing and tok.type not in ("RBRACE", "RPAR"):
+        return message, f"{hint}; {missing}"
+    return message, hint
+
+
+def _unexpected_character(text: str, pos: int) -> tuple[str, str]:
+    """(message, hint) for a character no token starts with: `;`, a stray quote, a comma, a control
+    character, bytes that are not UTF-8."""
+    ch = text[pos] if pos < len(text) else "?"
+    message = f"unexpected character `{ch}`" if ch.isprintable() else f"unexpected character {ch!r}"
+    if ch == ";":
+        return message, "no `;` is needed: separate statements and fields with spaces or new lines"
+    if ch == '"' and '"' not in text[pos + 1:].split("\n", 1)[0]:
+        return "the quoted file name is not closed", 'end it with `"` on the same line: `include "file.mbs"`'
+    if ch == '"':
+        return message, 'quoted text is only used by `include "file.mbs"`'
+    if ch == ",":
+        return message, "fields inside `{ }` are separated by spaces or new lines, not commas"
+    if ch != "\n" and not ch.isprintable() and ch not in "\t\r":
+        return message, "the file contains a control character: is it a text file? remove the character"
+    if ch == "\ufffd":
+        return "a character that is not valid UTF-8", "save the file as UTF-8"
+    return message, "names are letters, digits and `_`; numbers may carry a unit like `0.3 mm`"
 
 
 def _clip(word: str, n: int = 40) -> str:

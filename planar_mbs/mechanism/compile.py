@@ -57,8 +57,7 @@ from .model import (
     CP_SIGMA_SUM,
     CP_STIFFNESS,
     JOINT_ROWS,
-    JP_LENGTH,
-    JP_PHI0,
+    JP,
     N_CLEARANCE_PARAM,
     N_FORCE_PARAM,
     N_JOINT_PARAM,
@@ -547,19 +546,28 @@ class _JointPass:
         a["joint_type"][k] = int(jt)
         a["joint_body"][k] = (bi, bj)
         a["joint_point"][k] = (pi, pj)
-        takes = catalog.JOINTS[int(jt)].fields  # filled by name (catalog.JointSpec)
-        if "axis" in takes:
-            a["joint_axis"][k] = self._unit_axis(f, "axis")
-        if "angle" in takes:
-            a["joint_param"][k, JP_PHI0] = f.scalar("angle", U.ANGLE, self._angle0(bj) - self._angle0(bi))
-        if "length" in takes:
-            default = float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi)))
-            length = f.scalar("length", U.LENGTH, default)
-            if not length > 0:
-                where = f.expr("length").pos if f.has("length") else st.name_pos
-                raise where.error(f"the length of {label} must be positive",
-                                  hint="the two points coincide in the initial pose; give `length = ...`")
-            a["joint_param"][k, JP_LENGTH] = length
+        for setting in catalog.JOINTS[int(jt)].settings:  # read and stored as the catalog says
+            if setting.unit == "direction":
+                a["joint_axis"][k] = self._unit_axis(f, setting.name)
+            else:
+                a["joint_param"][k, JP[setting.column]] = self._joint_setting(f, st, label, setting, bi, pi, bj, pj)
+
+    def _joint_setting(self, f: Fields, st: Statement, label: str, setting, bi, pi, bj, pj) -> float:
+        """A number setting of a joint (catalog.JointSetting) in SI, its default taken from the pose."""
+        default = setting.default
+        if default == "pose":
+            default = (self._angle0(bj) - self._angle0(bi) if setting.unit == "angle"
+                       else float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi))))
+        dim = getattr(U, setting.unit.upper())
+        value = f.scalar(setting.name, dim) if default is None else f.scalar(setting.name, dim, default)
+        if setting.positive and not value > 0:
+            where = f.expr(setting.name).pos if f.has(setting.name) else st.name_pos
+            hint = (f"give a value greater than zero, e.g. `{setting.name} = ...`" if f.has(setting.name) else
+                    f"the two points coincide in the initial pose; give `{setting.name} = ...`"
+                    if setting.unit == "length" else f"give `{setting.name} = ...`")
+            raise where.error(f"the {setting.name} of {label} must be positive", hint=hint)
+        return value
+
 
 class _ClearancePass:
     """Revolute clearance joints: radii, materials, the contact law and its stiffness, friction."""

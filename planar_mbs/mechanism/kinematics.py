@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import ModelError
 from ..lazy import lazy
 from .model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, JOINT_ROWS,
-                    JointType, KernelModel, Model, PairKind)
+                    JP_PHI0, JointType, KernelModel, Model, PairKind)
 
 # the constraint kernels' source run as plain Python (20 ms to import): only an assembly needs it
 pyconstraints = lazy("..pykernel.constraints", __package__)
@@ -98,7 +98,7 @@ def assembly_kernel(model: Model, use=None, offset=None, slides=True) -> tuple[K
     if offset is not None and nc:
         cpoint[:, 0, :] += np.asarray(offset, dtype=np.float64)[use]
     spar = np.zeros((ns, k.joint_param.shape[1]))
-    spar[:, 0] = [a[6] for a in slides]  # JP_PHI0
+    spar[:, JP_PHI0] = [a[6] for a in slides]
     jt = np.concatenate([k.joint_type, np.full(ns, int(JointType.TRANSLATIONAL), dtype=np.int64),
                          np.full(nc, int(JointType.REVOLUTE), dtype=np.int64)])
     jb = np.concatenate([k.joint_body, np.array([a[1:3] for a in slides], dtype=np.int64).reshape(ns, 2),

@@ -41,10 +41,12 @@ JointType.__doc__ = "Ideal joints (catalog.JOINTS: rows and equations, P = r + A
 JOINT_ROWS = np.array([s.rows for s in catalog.JOINTS], dtype=np.int64)
 JOINT_NAMES = {JointType(s.code): s.name for s in catalog.JOINTS}
 
-# joint_param columns
-JP_PHI0 = 0  # relative angle phi_j - phi_i kept by translational and weld joints
-JP_LENGTH = 1  # link length L of a revolute-revolute joint
-N_JOINT_PARAM = 2
+# joint_param columns: one per column name of the joint types' settings (catalog.JointSetting), in order
+# of first use; a kernel formula reads its setting as km.joint_param[j, JP[name]]
+JP = {name: i for i, name in enumerate(catalog.joint_param_columns())}
+JP_PHI0 = JP["phi0"]  # relative angle phi_j - phi_i kept by translational and weld joints
+JP_LENGTH = JP["length"]  # link length L of a revolute-revolute joint
+N_JOINT_PARAM = len(JP)
 
 
 class DriverType(IntEnum):

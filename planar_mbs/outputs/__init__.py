@@ -1,1 +1,2 @@
-"""Stage 6, outputs for people: figures (`plot`) and rerun recordings (`rerun_log`)."""
+"""Stage 6, outputs for people: figures (`plot`) and rerun recordings (`rerun_log`), both reading
+results through `planar_mbs.results.views`."""

@@ -1,15 +1,13 @@
 """Figures of a run or a sweep: time series, Poincaré maps, journal orbits, case grids.
 
-Two layers:
-
-* **data helpers** (numpy only): which signals exist, which body is the slider and
-  which one turns, Poincaré samples once per revolution, the clearance radius of a
-  joint.  `rerun_log` uses them too.
-* **figures** (matplotlib, imported inside the functions, drawn on
-  ``matplotlib.figure.Figure`` objects with the Agg canvas, so no GUI backend and no
-  global pyplot state): `series_figure`, `poincare_figure`, `orbit_figure`,
-  `sweep_grid_figure`, `poincare_grid_figure`, `bifurcation_figure`, and
-  `plot_file`, which the ``mbs plot`` command calls.
+The figures are drawn with matplotlib (imported inside the functions, on
+``matplotlib.figure.Figure`` objects with the Agg canvas, so no GUI backend and no
+global pyplot state): `series_figure`, `poincare_figure`, `orbit_figure`,
+`sweep_grid_figure`, `poincare_grid_figure`, `bifurcation_figure`, and
+`plot_file`, which the ``mbs plot`` command calls.  What they draw is read from the results
+by `planar_mbs.results.views` (which signals exist, which body is the slider and which one
+turns, Poincaré samples once per revolution, the clearance radius of a joint), which the
+rerun recordings use too.
 
 Poincaré sampling: `planar_mbs.results.section`, the one section of the project (the same
 points as a sweep's stored verdict and `mbs analyze`): once per revolution of the
@@ -21,14 +19,39 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
-from dataclasses import dataclass
+import secrets
+import stat
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from ..errors import MbsError, did_you_mean
+from ..errors import did_you_mean
+from ..lazy import lazy
+from ..results.analysis import VERDICT_COLOURS, read_section
+from ..results.hdf5 import HDF5_SIGNATURE, SIGNALS, open_results, read_results
+from ..results.section import crossings
+from ..results.views import (
+    PlotError,
+    PoincareSet,
+    check_signals,
+    clearance_names,
+    clearance_radius,
+    driver_names,
+    is_journal,
+    poincare,
+    slider_body,
+    time_window,
+    turning_body,
+)
+
+# figures only: `import planar_mbs.outputs.plot` (and `mbs plot --list`) loads no matplotlib
+matplotlib = lazy("matplotlib")
+mpl_figure = lazy("matplotlib.figure")
+plt = lazy("matplotlib.pyplot")
+scan = lazy("..sweep.scan", __package__)  # 0.1 s of sockets and threads: only the verdicts of a sweep's cases
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model
@@ -36,192 +59,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 FORMATS = ("png", "svg", "pdf")
 MAX_LINE_POINTS = 50_000  # longer series are reduced to a min/max envelope (peaks kept)
-
-
-class PlotError(MbsError):
-    """Bad usage of `mbs plot` / `mbs view` (unknown signal, not a results file): exit code 2."""
-
-    exit_code = 2
-
-
-# --------------------------------------------------------------------------- data helpers
-
-
-def entities(results: "Results") -> dict[str, set[str]]:
-    """``{entity: {quantity, ...}}`` of the signals present."""
-    out: dict[str, set[str]] = {}
-    for name in results.signals:
-        entity, _, qty = name.rpartition(".")
-        out.setdefault(entity, set()).add(qty)
-    return out
-
-
-def body_names(results: "Results") -> list[str]:
-    return sorted(e for e, q in entities(results).items() if {"x", "y", "phi"} <= q)
-
-
-def driver_names(results: "Results") -> list[str]:
-    return sorted(e for e, q in entities(results).items() if "power" in q and ({"torque"} & q or {"force"} & q))
-
-
-def clearance_names(results: "Results") -> list[str]:
-    return sorted(e for e, q in entities(results).items() if {"ex", "ey", "penetration"} <= q)
-
-
-def _journal(model, name: str) -> bool:
-    """Is clearance element `name` a journal in a bearing (whose orbit is a figure), rather than a contact
-    between outlines or a corner of a translational clearance joint?  True when the model is unknown."""
-    from ..mechanism.model import CP_KIND, PairKind
-
-    if model is None or name not in model.clearance_names:
-        return True
-    kind = int(model.kernel.clearance_param[model.clearance_names.index(name), CP_KIND])
-    return kind in (PairKind.CIRCLE_IN_CIRCLE, PairKind.LUBRICATED)
-
-
-def check_signals(results: "Results", names: Sequence[str]) -> None:
-    """Raise `PlotError` (with a did-you-mean hint) for the first unknown signal."""
-    for name in names:
-        if name not in results.signals:
-            ents = entities(results)
-            if name in ents:
-                hint = f"`{name}` is an entity; its signals are " + ", ".join(
-                    f"`{name}.{q}`" for q in sorted(ents[name]))
-            else:
-                hint = did_you_mean(name, results.signals)
-            raise PlotError(f"error: no signal `{name}` in the results" + (f"\nhint: {hint}" if hint else
-                            "\nhint: `mbs plot FILE --list` prints the signal names"))
-
-
-def slider_body(results: "Results", model: "Model | None" = None) -> str | None:
-    """The body shown as "the slider" (`planar_mbs.results.section.slider_body`, the one rule)."""
-    from ..results.section import slider_body as _slider
-
-    return _slider(results, model) if body_names(results) or model is not None else None
-
-
-def turning_body(results: "Results", model: "Model | None" = None) -> str | None:
-    """The body whose revolutions clock the Poincaré section (`planar_mbs.results.section.clock_body`)."""
-    from ..results.section import clock_body
-
-    return clock_body(results, model)
-
-
-def revolution_times(time: np.ndarray, phi: np.ndarray, skip: int = 1) -> np.ndarray:
-    """Times at which ``phi - phi[0]`` crosses ``±2 pi k``, the first ``skip`` dropped
-    (`planar_mbs.results.section.crossings`)."""
-    from ..results.section import crossings
-
-    return crossings(time, phi)[skip:]
-
-
-@dataclass
-class PoincareSet:
-    x: np.ndarray
-    y: np.ndarray
-    t: np.ndarray
-    x_name: str
-    y_name: str
-    body: str
-    skip: int
-
-
-def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: int = 1,
-             model: "Model | None" = None) -> PoincareSet:
-    """Poincaré points ``(x, y)``, one per revolution of `body` after the first `skip`:
-    the section of `planar_mbs.results.section.poincare_section` (the one used by sweeps and
-    `mbs analyze`)."""
-    from ..results.section import AnalysisError, poincare_section
-
-    check_signals(results, [x, y])
-    body = body or turning_body(results, model)
-    if body is None:
-        raise PlotError("error: no body angle in the results to clock the Poincaré section\nhint: keep the "
-                        "driven body's angle (`--keep slider,crank`) or name a body with `--clock`")
-    if f"{body}.phi" not in results:
-        raise PlotError(f"error: no body `{body}` to clock the Poincaré section\n"
-                        f"hint: {did_you_mean(str(body), body_names(results))}")
-    try:
-        sec = poincare_section(results, (x, y) if x != y else (x,), clock=body, transient=skip, model=model)
-    except AnalysisError as err:
-        raise PlotError(f"error: {err}") from None
-    return PoincareSet(sec.points[x], sec.points[y], sec.time, x, y, body, skip)
-
-
-def clearance_radius(results: "Results", joint: str) -> float:
-    """Radial clearance c of a clearance joint: ``e - penetration`` (the same at every sample)."""
-    c = results[f"{joint}.e"] - results[f"{joint}.penetration"]
-    return float(np.median(c)) if len(c) else float("nan")
-
-
-def contact_onsets(results: "Results", joint: str) -> np.ndarray:
-    """Sample indices where `joint` goes from free flight to contact."""
-    flag = results.signals.get(f"{joint}.in_contact")
-    if flag is None:
-        flag = (results[f"{joint}.penetration"] > 0).astype(float)
-    on = flag > 0.5
-    return np.nonzero(on[1:] & ~on[:-1])[0] + 1
-
-
-class _WindowSignals(dict):
-    """Signals of a results object cut to a time window, read (and cut) on first access."""
-
-    def __init__(self, results: "Results", mask: np.ndarray):
-        super().__init__()
-        self._results, self._mask = results, mask
-        self._names = list(results.signals)
-
-    def __missing__(self, name):
-        if name not in self._names:
-            raise KeyError(name)
-        value = np.asarray(self._results[name])[self._mask]
-        self[name] = value
-        return value
-
-    def __contains__(self, name) -> bool:
-        return name in self._names
-
-    def __iter__(self):
-        return iter(self._names)
-
-    def __len__(self) -> int:
-        return len(self._names)
-
-    def keys(self):
-        return list(self._names)
-
-    def items(self):
-        return [(n, self[n]) for n in self._names]
-
-    def values(self):
-        return [self[n] for n in self._names]
-
-    def get(self, name, default=None):
-        return self[name] if name in self._names else default
-
-
-def time_window(results: "Results", t_from: float | None = None, t_to: float | None = None) -> "Results":
-    """The samples with ``t_from <= t <= t_to`` (either end open when None), as `Results`."""
-    from ..results.hdf5 import Results
-
-    if t_from is None and t_to is None:
-        return results
-    t = np.asarray(results.time)
-    lo = -np.inf if t_from is None else t_from
-    hi = np.inf if t_to is None else t_to
-    if not lo < hi:
-        raise PlotError(f"error: the time window is empty (--from {lo:g} s, --to {hi:g} s)\n"
-                        "hint: --from must be before --to")
-    mask = (t >= lo) & (t <= hi)
-    if not mask.any():
-        raise PlotError(f"error: no samples between {lo:g} s and {hi:g} s (the run covers "
-                        f"{t[0]:g} s to {t[-1]:g} s)\nhint: choose a window inside the run")
-    cut = Results(time=t[mask], signals={}, units=dict(results.units), attrs=dict(results.attrs))
-    cut.signals = _WindowSignals(results, mask)
-    # the window as asked (an open end: the run's first or last sample), for titles
-    cut.attrs["window"] = (float(t[mask][0]) if t_from is None else float(t_from),
-                           float(t[mask][-1]) if t_to is None else float(t_to))
-    return cut
 
 
 # the orbit is drawn through the output samples: when the journal turns more than this
@@ -352,9 +189,7 @@ def envelope(x: np.ndarray, y: np.ndarray, max_points: int = MAX_LINE_POINTS) ->
 
 
 def _figure(width: float = 8.0, height: float = 4.0):
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width, height), layout="constrained", dpi=110)
+    return mpl_figure.Figure(figsize=(width, height), layout="constrained", dpi=110)
 
 
 def _title(results: "Results", width: float = 8.0) -> str:
@@ -402,8 +237,6 @@ def startup_end(results: "Results", transient: int = 1, model: "Model | None" = 
     body = turning_body(results, model)
     if body is None or f"{body}.phi" not in results or transient < 1:
         return None
-    from ..results.section import crossings
-
     times = crossings(results.time, results[f"{body}.phi"])
     return float(times[transient - 1]) if len(times) > LONG_RUN_REVOLUTIONS else None
 
@@ -511,16 +344,12 @@ def orbit_figure(results: "Results", joint: str):
 
 
 def is_sweep(path: str | Path) -> bool:
-    from ..results.hdf5 import SIGNALS, open_results
-
     with open_results(path) as f:
         return "cases" in f and SIGNALS not in f
 
 
 def sweep_cases(path: str | Path) -> list[tuple[str, "Results"]]:
     """``(case key, Results)`` of every ``/cases/<k>`` group, in numeric order."""
-    from ..results.hdf5 import open_results, read_results
-
     with open_results(path) as f:
         keys = sorted(f["cases"].keys(), key=lambda k: (not k.isdigit(), int(k) if k.isdigit() else 0, k))
         if keys and all("signals" not in f["cases"][k] for k in keys):
@@ -637,12 +466,6 @@ def _save(fig, path: Path, written: list[Path]) -> None:
     """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data.  The
     figure is written beside `path` and moved over it once whole, so a full disk or a kill leaves
     the previous figure (or none), never half a file in its place."""
-    import os
-    import secrets
-    import stat
-
-    from ..results.hdf5 import HDF5_SIGNATURE
-
     tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -659,8 +482,6 @@ def _save(fig, path: Path, written: list[Path]) -> None:
     except OSError as exc:
         raise PlotError(f"error: cannot write {path}: {exc.strerror or exc}") from None
     finally:
-        import matplotlib.pyplot as plt
-
         plt.close(fig)
         tmp.unlink(missing_ok=True)
     written.append(path)
@@ -700,8 +521,6 @@ def plot_file(
     velocity-acceleration Poincaré map).  A sweep file (``/cases/<k>``) gives one grid
     per signal, a grid of Poincaré maps and a bifurcation diagram.
     """
-    from ..results.hdf5 import read_results
-
     path = Path(path)
     if fmt not in FORMATS:
         raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
@@ -765,7 +584,7 @@ def plot_results(
         if startup is not None and notes is not None:
             notes.append(f"a long run: the start-up (to t = {startup:.3g} s, shaded) is off the y scale of the "
                          "time plots; `--from`/`--to` draws a window")
-        orbit = [c for c in clearance_names(results) if _journal(model, c)]
+        orbit = [c for c in clearance_names(results) if is_journal(model, c)]
         slider = slider_body(results, model)
         if slider is None and notes is not None:
             notes.append("no slider in this mechanism: no slider figures and no Poincaré map; name the signals "
@@ -829,17 +648,10 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
     parameter ``param``, from the ``poincare`` groups of a sweep file; points coloured by the
     verdict of their case (the stored sections: the points `mbs plot` draws for the same file).  ``where`` keeps only cases whose other parameters have these
     values (text, as in the case table).  ``scale`` multiplies the parameter (e.g. to rpm)."""
-    import matplotlib
-
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..results.analysis import VERDICT_COLOURS, read_section
-    from ..sweep.scan import parameter_number, parameter_si, read_case_table
-
-    table = read_case_table(sweep_path)
+    table = scan.read_case_table(sweep_path)
     # plot numbers in the unit the values were given in when they share one, else in SI
-    parsed = [parameter_number(r["values"].get(param, "")) for r in table]
+    parsed = [scan.parameter_number(r["values"].get(param, "")) for r in table]
     units = {p[1] for p in parsed if p is not None}
     same_unit = len(units) == 1 and None not in parsed
     if same_unit and not unit:
@@ -848,8 +660,6 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(8, 4))
     seen = set()
-    from ..results.hdf5 import open_results
-
     with open_results(sweep_path) as f:
         for row in table:
             if where and any(row["values"].get(k) != v for k, v in where.items()):
@@ -860,7 +670,7 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
             sec, verdict = read_section(g)
             name = signal or sec.names[0]
             text = row["values"][param]
-            p = (parameter_number(text)[0] if same_unit else parameter_si(text)) * scale
+            p = (scan.parameter_number(text)[0] if same_unit else scan.parameter_si(text)) * scale
             v = verdict.verdict if verdict else "undetermined"
             ax.plot(np.full(len(sec), p), sec.points[name], ".", ms=2, color=VERDICT_COLOURS[v],
                     label=v if v not in seen else None)

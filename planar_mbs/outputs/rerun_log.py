@@ -54,7 +54,7 @@ from .. import catalog
 from ..errors import MbsError
 from ..lazy import lazy
 from ..mechanism.model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, PairKind
-from .plot import (
+from ..results.views import (
     PlotError,
     clearance_names,
     contact_onsets,

@@ -23,8 +23,8 @@ Rules (docs/plots.md and docs/sweeps.md describe them for users):
   acceleration (as in the figures of Muvengei, Kihiu and Ikua, "Effects of input
   speed on the dynamic response of planar multi-body systems with differently
   located frictionless revolute clearance joints"); the slider is the body a
-  translational joint ties to ground, else the one body that moves without
-  turning, else a body named like a slider (`slider_body`).
+  translational joint (a joint marked `slider` in the catalog) ties to ground, else the
+  one body that moves without turning, else a body named like a slider (`slider_body`).
 
 numpy only.
 """
@@ -36,8 +36,9 @@ from typing import Sequence
 
 import numpy as np
 
+from .. import catalog
 from ..errors import MbsError
-from ..mechanism.model import DriverType, JointType, MotionType
+from ..mechanism.model import DriverType, MotionType
 
 SLIDER_WORDS = ("slider", "piston", "block", "carriage", "cart", "ram", "crosshead")
 TOL_PERIODIC = 1e-3  # recurrence residual / spread below which two section points coincide
@@ -87,14 +88,15 @@ def clock_body(results, model=None) -> str | None:
 
 
 def slider_body(results, model=None) -> str | None:
-    """The body shown as "the slider": the body a translational joint ties to ground (from
-    the model when given); else the one body that moves without turning; else a body named
-    like a slider; else None (a mechanism without a slider: figures and sections ask for signals,
-    rather than showing another body's motion as the slider's)."""
+    """The body shown as "the slider": the body a joint marked `slider` in the catalog (the
+    translational one) ties to ground (from the model when given); else the one body that
+    moves without turning; else a body named like a slider; else None (a mechanism without a
+    slider: figures and sections ask for signals, rather than showing another body's motion as
+    the slider's)."""
     if model is not None:
         k = model.kernel
         for j in range(model.njoint):
-            if int(k.joint_type[j]) == JointType.TRANSLATIONAL:
+            if catalog.JOINTS[int(k.joint_type[j])].slider:
                 i1, i2 = (int(b) for b in k.joint_body[j])
                 if i1 < 0 <= i2 or i2 < 0 <= i1:
                     return model.body_names[max(i1, i2)]

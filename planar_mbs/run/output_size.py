@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ModelError
+from ..results.signals import signal_table
 
 MAX_ROWS = 10**8  # output rows of one run beyond which we ask the user to insist (about 5 GB per 8 signals)
 ROW_BYTES = 8  # float64 per signal per row
@@ -41,8 +42,6 @@ class OutputEstimate:
 
 def estimate(model, settings, columns: int | None = None) -> OutputEstimate:
     """The rows and file size of a run of `model` with `settings` (`simulation.run_settings`)."""
-    from ..results.signals import signal_table
-
     t_end, dt = float(settings.t_end), float(settings.output_step)
     ratio = t_end / dt if dt > 0 else math.inf
     if not math.isfinite(ratio):

@@ -11,6 +11,12 @@ from __future__ import annotations
 import math
 
 from .. import catalog
+from ..errors import ModelError
+from ..lazy import lazy
+
+# numpy: `mbs --help` and `mbs check` read this module's bounds (`MAX_T_END`) without loading it
+hdf5 = lazy("..results.hdf5", __package__)
+output_size = lazy(".output_size", __package__)
 
 MAX_T_END = 1e6  # s of simulated time (11.6 days): beyond it a typo is far likelier than a wish
 CLI, API = "cli", "api"
@@ -26,8 +32,6 @@ def check_number(value, option: str, *, low=None, high=None, low_ok: bool = Fals
     """`value` if it is a finite number in the interval (low, high] (``low_ok``/``high_ok``
     close or open either end); None passes.  Raises `ModelError` naming the option otherwise
     (``where``: the error's location, the option by default)."""
-    from ..errors import ModelError
-
     if value is None:
         return None
     text = f"{value:g}" if isinstance(value, float) else str(value)
@@ -74,8 +78,6 @@ def check_settings(settings, given=(), style: str = API, source: str = "") -> No
                hint=f"a relative tolerance lies between 0 and 1, e.g. {_example('rtol', style, given)}")
     for n in ("h_min", "h_max", "alpha", "beta"):
         number(n, low=0.0, low_ok=True, hint="zero or a positive value")
-    from ..errors import ModelError
-
     if settings.max_steps < 1:
         raise ModelError(f"`max_steps = {settings.max_steps}` must be at least 1", where("max_steps"),
                          hint="e.g. max_steps = 1e8")
@@ -97,8 +99,6 @@ def _check_fixed_step(settings, name, where) -> None:
         return
     steps = settings.t_end / settings.step
     if steps > settings.max_steps:
-        from ..errors import ModelError
-
         raise ModelError(f"{method.name.upper()} with `{shown(name('step'))} {settings.step:g} s` needs {steps:.3g} steps to reach "
                          f"t_end = {settings.t_end:g} s, more than max_steps = {settings.max_steps:,}",
                          where("step"), hint=f"a step of at least {settings.t_end / settings.max_steps:.3g} s "
@@ -115,15 +115,10 @@ def _example(n: str, style: str, given) -> str:
 def check_memory(model, settings, what: str = "Simulation") -> None:
     """A run that keeps every row in memory (`Simulation`) is refused when its rows to t_end
     would not fit in half of the physical memory -- known before it starts."""
-    from .output_size import estimate
-    from ..results.hdf5 import memory_budget
-
-    est = estimate(model, settings)
-    if est.bytes > memory_budget():
-        from ..errors import ModelError
-
+    est = output_size.estimate(model, settings)
+    if est.bytes > hdf5.memory_budget():
         raise ModelError(f"{what} keeps every output row in memory: {est.describe()} to t_end = "
-                         f"{settings.t_end:g} s would not fit ({memory_budget() / 2**30:.1f} GiB allowed)",
+                         f"{settings.t_end:g} s would not fit ({hdf5.memory_budget() / 2**30:.1f} GiB allowed)",
                          f"{what}(...)", hint="a larger output_step, a shorter t_end, or `simulate(..., "
                          "output=...)`, which streams its rows to a file")
 
@@ -142,8 +137,6 @@ def given_settings(changes: dict) -> set:
 def check_stop(t_stop: float, t_end: float, what: str = "run_until") -> None:
     """A `Simulation` advances up to its t_end, not past it (its rows and its file are sized by it)."""
     if not math.isfinite(t_stop) or t_stop > t_end * (1 + 1e-12):
-        from ..errors import ModelError
-
         raise ModelError(f"`{what}({t_stop:g} s)` is past the end of this Simulation, t_end = {t_end:g} s",
                          f"{what}(...)", hint="create the Simulation with a later t_end "
                          f"(Simulation(model, t_end=...)); `run()` runs to t_end")

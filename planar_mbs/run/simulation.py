@@ -26,11 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__, catalog
-from ..errors import ModelError, SimulationError
+from ..errors import ModelError, SimulationError, did_you_mean
+from ..lazy import lazy
+from ..language.units import parse_quantity
 from ..mechanism.kinematics import assemble, assembly_changes
 from ..mechanism.model import (
     CFG_SKIP,
+    CP_CLEARANCE,
     CT_MODE,
+    JOINT_ROWS,
     TOUCHING,
     ST_CONTACT_EVENTS,
     ST_INFO,
@@ -39,16 +43,26 @@ from ..mechanism.model import (
     ST_RHS,
     ST_STEPS,
     N_STATS,
+    ForceType,
     Integrator,
     Model,
     Settings,
     Status,
+    lost_bound,
     observation_size,
 )
+from .first_compile import first_call
 from .output_size import MAX_ROWS, estimate
 from .settings_check import check_memory, check_settings, check_stop, given_settings as _given
 from ..results.hdf5 import DiskFull, FileResults, Results, ResultsWriter
+from ..results.section import driver_period
 from ..results.signals import signal_table, skip_bits
+
+# numba: `mbs check` and `import planar_mbs` read this module's settings without loading the kernels
+kernel = lazy("..kernel", __package__)
+dynamics = lazy("..kernel.dynamics", __package__)
+integrators = lazy("..kernel.integrators", __package__)
+workspace = lazy("..kernel.workspace", __package__)
 
 CALL_SECONDS = 0.1  # wall time of one kernel call (a work budget in right-hand sides calibrated per call)
 FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibration
@@ -110,8 +124,6 @@ def check_tolerances(settings: Settings) -> None:
     precision.  As in Hairer's DOPRI5/DOP853 codes: rtol > 10 eps (below it the error
     estimate is rounding noise and the step shrinks until it underflows, or forever) and
     atol > 0."""
-    from ..errors import ModelError
-
     if not catalog.INTEGRATORS[int(settings.integrator)].adaptive:
         return
     if not (settings.rtol > RTOL_FLOOR):
@@ -130,9 +142,6 @@ _RATE_SETTINGS = ("alpha", "beta")
 
 def _setting(model: Model, name: str, value):
     """One `simulate` setting in SI from a number or from text with units (as on the command line)."""
-    from ..errors import ModelError, did_you_mean
-    from ..language.units import parse_quantity
-
     fields = [f.name for f in dataclasses.fields(Settings)]
     where = f"simulate({name}=...)"
     if name not in fields:
@@ -170,12 +179,8 @@ def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Set
     ``output_step="10 us"``, ``integrator="dop853"``).  ``revolutions`` sets t_end and
     ``per_rev`` the output step from the period of the model's constant-speed rotation driver
     (the crank)."""
-    from ..errors import ModelError
-
     changes = {k: _setting(model, k, v) for k, v in changes.items() if v is not None}
     if revolutions is not None or per_rev is not None:
-        from ..results.section import driver_period
-
         found = driver_period(model)
         what = "revolutions" if revolutions is not None else "per_rev"
         if found is None:
@@ -209,9 +214,6 @@ OTHER_INTEGRATOR_NAMES = {"rk45": "dopri5", "ode45": "dopri5", "dopri": "dopri5"
 def integrator_of(name: str, where: str = "integrator") -> Integrator:
     """The integrator called `name` (catalog.INTEGRATORS); a ModelError naming the valid ones
     (and the closest) otherwise.  `where` labels the error (e.g. "--integrator")."""
-    from .. import catalog
-    from ..errors import ModelError, did_you_mean
-
     names = catalog.names(catalog.INTEGRATORS)
     if str(name).lower() not in names:
         ours = OTHER_INTEGRATOR_NAMES.get(str(name).lower())
@@ -233,9 +235,7 @@ def _state_name(model: Model, i: int) -> str:
 
 
 def _bad_method() -> int:
-    from ..kernel.integrators import BAD_METHOD
-
-    return BAD_METHOD
+    return integrators.BAD_METHOD
 
 
 def _failure_message(model: Model, status: int, info: int, t: float, settings: Settings,
@@ -262,14 +262,10 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
     if status == Status.SINGULAR:
         return f"the constraint matrix became singular {at}{_row_owner(model, info)}: a toggle or locked position"
     if status == Status.DRIFT:
-        from ..kernel.dynamics import DRIFT_POSITION, DRIFT_VELOCITY
-
-        return (f"the constraints drifted beyond |C| = {DRIFT_POSITION:g} or |C'| = {DRIFT_VELOCITY:g} (m, rad, "
+        return (f"the constraints drifted beyond |C| = {dynamics.DRIFT_POSITION:g} or |C'| = {dynamics.DRIFT_VELOCITY:g} (m, rad, "
                 f"per second for C') {at}{_row_owner(model, info)}: the fixed RK4 step is too long for this "
                 "motion, or a singular position was crossed (use a shorter step, or dopri5/dop853)")
     if status == Status.CONSTRAINTS_LOST:
-        from ..mechanism.model import lost_bound
-
         return (f"the constraints gave way {at}{_row_owner(model, info)}: a residual beyond "
                 f"{lost_bound(settings.rtol):g} of the mechanism's size ({model.size:.3g} m) or of its speed; "
                 "a driver pushed past a limit position (toggle, dead centre) the mechanism cannot pass, or the "
@@ -297,16 +293,14 @@ def _near_singular(model: Model, y: np.ndarray, t: float, y0: np.ndarray) -> str
     """When a run stalls (step underflow, blow-up), say so if the constraint matrix has
     become nearly singular there (a toggle or locked position): its smallest relative
     singular value (mass-scaled Jacobian) fell below a tenth of the initial pose's."""
-    from ..kernel import constraint_eval, constraint_rows
-
-    m = constraint_rows(model.kernel)
+    m = kernel.constraint_rows(model.kernel)
     n = model.ncoord
     if m == 0 or not np.all(np.isfinite(y)):
         return ""
 
     def scaled(state, tt):
         C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
-        if constraint_eval(model.kernel, state[:n], state[n:], tt, C, Cq, Ct, g) != 0:
+        if kernel.constraint_eval(model.kernel, state[:n], state[n:], tt, C, Cq, Ct, g) != 0:
             return None
         return Cq * np.sqrt(model.kernel.minv)
 
@@ -325,8 +319,6 @@ def _near_singular(model: Model, y: np.ndarray, t: float, y0: np.ndarray) -> str
 
 
 def _row_owner(model: Model, row: int) -> str:
-    from ..mechanism.model import JOINT_ROWS
-
     k = model.kernel
     for j, name in enumerate(model.joint_names):
         if k.joint_row[j] <= row < k.joint_row[j] + JOINT_ROWS[k.joint_type[j]]:
@@ -342,8 +334,6 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     deeper than the radial clearance (too soft a contact for that clearance, e.g. a
     stiffness of 1e6 N/m^1.5 or a clearance of 1 µm with steel).  ``deepest`` holds
     the largest penetration of each clearance joint over the run (`_deepest`)."""
-    from ..mechanism.model import CP_CLEARANCE
-
     warnings = []
     for c, name in enumerate(model.clearance_names):
         clearance = float(model.kernel.clearance_param[c, CP_CLEARANCE])
@@ -376,12 +366,10 @@ def _absurd_state(model: Model, y: np.ndarray, t: float) -> str:
 
 def _projection_note(settings: Settings, ws) -> list[str]:
     """`projection = auto` turned the projection on: say when (a singular position or redundant joints)."""
-    from ..kernel.workspace import DN_PROJECT_FROM, FL_PROJECTING
-
-    t = float(ws.dense[DN_PROJECT_FROM])
+    t = float(ws.dense[workspace.DN_PROJECT_FROM])
     if settings.projection != "auto" or np.isnan(t):
         return []
-    if ws.flags[FL_PROJECTING] == 2:
+    if ws.flags[workspace.FL_PROJECTING] == 2:
         return [f"the constraint residuals drifted past their bound at t = {t:.9g} s: the positions and "
                 "velocities are projected onto the constraints from then on (projection = auto)"]
     return [f"the constraints lost rank at t = {t:.9g} s (a singular position or redundant joints): the "
@@ -393,8 +381,6 @@ ENERGY_PER_RTOL = 1e3  # a workless mechanism's energy may drift by this many rt
 
 def _workless(model: Model) -> bool:
     """No driver, no clearance joint, no damper or actuator: the total energy is conserved."""
-    from ..mechanism.model import ForceType
-
     k = model.kernel
     if model.ndriver or model.nclearance:
         return False
@@ -463,8 +449,6 @@ def select_signals(table, wanted):
     """The signals of `table` named in `wanted` (full names ``slider.x`` or whole
     entities ``slider``), with their columns renumbered onto the kept columns.
     Returns (table, kept column indices)."""
-    from ..errors import ModelError, did_you_mean
-
     names = {s.name for s in table}
     entities = {s.entity for s in table}
     for w in wanted:
@@ -501,34 +485,22 @@ def simulate(
     only if it holds the results of a run (``overwrite=True``: any file), and never the model
     file or a file it includes.
     """
-    from .first_compile import first_call
-    from ..kernel import advance, make_workspace
-
     settings = run_settings(model, **settings_changes)
     check_settings(settings, given=_given(settings_changes), source=model.source_path)
     check_tolerances(settings)
     _check_rows(model, settings, max_rows)
-    q, qd = assemble(model)
-    changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
-    km = model.kernel
-    cfg = settings.cfg(model.size)
-    y = np.concatenate([q, qd])
-    clock = np.zeros(4)  # t, h, t0, work budget of one call (right-hand sides)
-    clock[3] = FIRST_BUDGET
-    contact = np.zeros((model.nclearance, 3))
-    stats = np.zeros(N_STATS, dtype=np.int64)
-    ws = make_workspace(km)
-    nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
-    # with a file, the kernel writes its rows straight into the block that goes to the file next
-    rows_held = flush_rows(nobs) if output is not None else BUFFER_ROWS
-    out_t = np.zeros(rows_held)
-    out = np.zeros((rows_held, nobs))
-    table, cols = signal_selection(model, signals, cfg)
+    run = _Run(model, settings, output, signals, overwrite)
+    with _deferred_interrupts() as received:
+        try:
+            run.loop(received, progress)
+        finally:
+            run.finish(received)
+    return run.outcome()
 
-    # compile (or load from the cache) outside the timed loop, on throw-away copies
-    first_call(advance, km, cfg, y.copy(), clock.copy(), contact.copy(), stats.copy(), ws, 0.0, out_t[:1], out[:1])
 
-    attrs = {
+def _header(model: Model, settings: Settings) -> dict:
+    """The attributes a results file starts with: the model's text, parameters and the settings."""
+    return {
         "model_source": model.source_text,
         "model_path": model.source_path,
         "model_key": model.source_key,
@@ -537,121 +509,168 @@ def simulate(
         "version": __version__,
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},
     }
-    writer = ResultsWriter(output, table, attrs, overwrite=overwrite, inputs=model.source_files) \
-        if output is not None else None
-    times, blocks = [], []  # all rows, kept only without an output file
-    held = [0]  # rows of out_t/out not yet written to the file
-    deepest: dict[str, float] = {}
-    disk_full: list[DiskFull] = []
 
-    def flush():
-        k = held[0]
-        held[0] = 0
-        if writer and k and not disk_full:
-            block = out[:k] if cols is None else out[:k, cols]
-            _deepest(table, block, deepest)
-            _energy_drift(table, block, deepest)
+
+class _Run:
+    """One run of `simulate`: the time loop's arrays (allocated once), the writer, the rows kept in
+    memory without a file, and what the rows tell on the way (deepest penetration, energy drift).
+    The steps: `__init__` (assemble, allocate, compile), `loop`, `finish` (the run's attributes,
+    the file closed) and `outcome` (the `Results`, or the exception that carries them)."""
+
+    def __init__(self, model: Model, settings: Settings, output, signals, overwrite: bool):
+        self.model, self.settings, self.advance = model, settings, kernel.advance
+        q, qd = assemble(model)
+        self.changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
+        self.y0 = np.concatenate([q, qd])
+        self.km, self.cfg, self.y = model.kernel, settings.cfg(model.size), self.y0.copy()
+        self.clock = np.zeros(4)  # t, h, t0, work budget of one call (right-hand sides)
+        self.clock[3] = FIRST_BUDGET
+        self.contact = np.zeros((model.nclearance, 3))
+        self.stats = np.zeros(N_STATS, dtype=np.int64)
+        self.ws = kernel.make_workspace(self.km)
+        self.nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
+        # with a file, the kernel writes its rows straight into the block that goes to the file next
+        self.rows_held = flush_rows(self.nobs) if output is not None else BUFFER_ROWS
+        self.out_t, self.out = np.zeros(self.rows_held), np.zeros((self.rows_held, self.nobs))
+        self.table, self.cols = signal_selection(model, signals, self.cfg)
+        # compile (or load from the cache) outside the timed loop, on throw-away copies
+        first_call(kernel.advance, self.km, self.cfg, self.y.copy(), self.clock.copy(), self.contact.copy(),
+                   self.stats.copy(), self.ws, 0.0, self.out_t[:1], self.out[:1])
+        self.attrs = _header(model, settings)
+        self.writer = ResultsWriter(output, self.table, self.attrs, overwrite=overwrite,
+                                    inputs=model.source_files) if output is not None else None
+        self.times: list[np.ndarray] = []  # all rows, kept only without an output file
+        self.blocks: list[np.ndarray] = []
+        self.held = 0  # rows of out_t/out not yet written to the file
+        self.track: dict[str, float] = {}  # deepest penetration per joint, energy drift
+        self.disk_full: list[DiskFull] = []
+        self.wall, self.status = 0.0, int(Status.DONE)
+        self.absurd = _absurd_state(model, self.y, 0.0)  # a state beyond every physical bound: not worth a step
+
+    def _watch(self, rows: np.ndarray) -> None:
+        _deepest(self.table, rows, self.track)
+        _energy_drift(self.table, rows, self.track)
+
+    def flush(self) -> None:
+        """Write the rows held to the file (a full disk is noted, and ends the loop)."""
+        k, self.held = self.held, 0
+        if self.writer and k and not self.disk_full:
+            block = self.out[:k] if self.cols is None else self.out[:k, self.cols]
+            self._watch(block)
             try:
-                writer.append(out_t[:k], block)
+                self.writer.append(self.out_t[:k], block)
             except DiskFull as exc:
-                disk_full.append(exc)
+                self.disk_full.append(exc)
 
-    # One call of the kernel runs to t_end unless its output buffer (BUFFER_ROWS) fills or
-    # its work budget (CALL_SECONDS, which bounds the time between returns: progress bar,
-    # Ctrl-C) is spent -- never at an intermediate t_stop, which would cut steps short.
-    # (Cutting calls at 1/200 of the run as well cost 0.035 us per output row.)
-    t_end = settings.t_end
-    wall = 0.0
-    status = int(Status.DONE)
-    interrupted = 0
-    last_flush = _time.perf_counter()
-    room = rows_held  # rows to hold before the next write: ends it on a chunk boundary of the file
-    absurd = [_absurd_state(model, y, 0.0)]  # a state beyond every physical bound: not worth a step
-    with _deferred_interrupts() as received:
-        try:
-            while not received and not absurd[0]:
-                start = _time.perf_counter()
-                rhs_before = int(stats[ST_RHS])
-                k = held[0]
-                m = min(BUFFER_ROWS, room - k) if writer else BUFFER_ROWS
-                status, n = advance(km, cfg, y, clock, contact, stats, ws, t_end, out_t[k:k + m], out[k:k + m])
-                now = _time.perf_counter()
-                wall += now - start
-                clock[3] = _next_budget(int(stats[ST_RHS]) - rhs_before, now - start, clock[3])
-                if n:
-                    if writer:
-                        held[0] = k + n
-                        if held[0] >= room or now - last_flush >= FLUSH_SECONDS:
-                            flush()
-                            room = rows_held - writer.n % ResultsWriter.CHUNK
-                            last_flush = _time.perf_counter()
-                    else:
-                        chunk_t = out_t[:n].copy()
-                        chunk = out[:n].copy() if cols is None else out[:n, cols]
-                        _deepest(table, chunk, deepest)
-                        _energy_drift(table, chunk, deepest)
-                        times.append(chunk_t)
-                        blocks.append(chunk)
-                if progress:
-                    progress(float(clock[0]), t_end)
-                if status != Status.BUFFER_FULL or disk_full:
-                    break
-                absurd[0] = _absurd_state(model, y, float(clock[0]))
-        finally:
-            flush()
-            finished = status == Status.DONE and clock[0] >= t_end and not disk_full
-            interrupted = received[0] if received and not finished else 0
-            complete = status == Status.DONE and not interrupted and not disk_full
-            t_kept = float(clock[0])
-            if disk_full:
-                t_kept = writer.t_last
-                message = f"{disk_full[0].message}; stopped at t = {t_kept:.9g} s"
-            elif interrupted:
-                message = f"interrupted ({signal.Signals(interrupted).name}) at t = {clock[0]:.9g} s"
-            elif complete:
-                message = "finished"
-            else:
-                message = _failure_message(model, status, int(stats[ST_INFO]), float(clock[0]), settings, contact)
-                if status in (Status.STEP_UNDERFLOW, Status.NONFINITE, Status.CONTACT_SOLVE):
-                    message += _near_singular(model, y, float(clock[0]), np.concatenate([q, qd]))
-            run_attrs = {
-                "complete": complete,
-                "status": "disk_full" if disk_full else "interrupted" if interrupted else Status(status).name.lower(),
-                "message": message,
-                "t_reached": t_kept,
-                "wall_time": wall,
-                "n_steps": int(stats[ST_STEPS]),
-                "n_rejected": int(stats[ST_REJECTED]),
-                "n_rhs": int(stats[ST_RHS]),
-                "n_contact_events": int(stats[ST_CONTACT_EVENTS]),
-                "n_outputs": int(stats[ST_OUTPUTS]),
-            }
-            unphysical = _physics_warnings(model, deepest)
-            run_attrs["warnings"] = (unphysical + _projection_note(settings, ws)
-                                     + _energy_warning(model, settings, deepest))
-            run_attrs["assembly_changes"] = changes
-            if absurd[0] and not interrupted and not disk_full:
-                complete, message = False, absurd[0]
-                run_attrs.update(complete=False, status="absurd_state", message=message)
-            elif complete and unphysical:  # finished, but not physical: not a result to use
-                complete = False
-                message = "the results are not physical: " + unphysical[0]
-                run_attrs.update(complete=False, status="not_physical", message=message)
-            if writer:
-                writer.close(run_attrs)
-    units = {s.name: s.unit for s in table}
-    if writer:
-        results = FileResults(writer.path, "/", units, {**attrs, **run_attrs})
-    else:
-        rows = np.concatenate(blocks) if blocks else np.zeros((0, nobs if cols is None else len(cols)))
-        results = Results(time=np.concatenate(times) if times else np.zeros(0),
-                          signals={s.name: s.extract(rows) for s in table}, units=units,
-                          attrs={**attrs, **run_attrs})
-    if interrupted:
-        raise RunInterrupted(interrupted, results)
-    if not complete:
-        raise SimulationError(message, time=t_kept, results=results)
-    return results
+    def _keep_in_memory(self, n: int) -> None:
+        chunk_t = self.out_t[:n].copy()
+        chunk = self.out[:n].copy() if self.cols is None else self.out[:n, self.cols]
+        self._watch(chunk)
+        self.times.append(chunk_t)
+        self.blocks.append(chunk)
+
+    def loop(self, received: list[int], progress) -> None:
+        """Call the kernel until t_end, a failure, a signal (`received`) or a full disk.
+
+        One call of the kernel runs to t_end unless its output buffer (BUFFER_ROWS) fills or
+        its work budget (CALL_SECONDS, which bounds the time between returns: progress bar,
+        Ctrl-C) is spent -- never at an intermediate t_stop, which would cut steps short.
+        (Cutting calls at 1/200 of the run as well cost 0.035 us per output row.)"""
+        t_end, stats, clock = self.settings.t_end, self.stats, self.clock
+        last_flush = _time.perf_counter()
+        room = self.rows_held  # rows to hold before the next write: ends it on a chunk boundary of the file
+        while not received and not self.absurd:
+            start = _time.perf_counter()
+            rhs_before = int(stats[ST_RHS])
+            k = self.held
+            m = min(BUFFER_ROWS, room - k) if self.writer else BUFFER_ROWS
+            self.status, n = self.advance(self.km, self.cfg, self.y, clock, self.contact, stats, self.ws, t_end,
+                                          self.out_t[k:k + m], self.out[k:k + m])
+            now = _time.perf_counter()
+            self.wall += now - start
+            clock[3] = _next_budget(int(stats[ST_RHS]) - rhs_before, now - start, clock[3])
+            if n and self.writer:
+                self.held = k + n
+                if self.held >= room or now - last_flush >= FLUSH_SECONDS:
+                    self.flush()
+                    room = self.rows_held - self.writer.n % ResultsWriter.CHUNK
+                    last_flush = _time.perf_counter()
+            elif n:
+                self._keep_in_memory(n)
+            if progress:
+                progress(float(clock[0]), t_end)
+            if self.status != Status.BUFFER_FULL or self.disk_full:
+                break
+            self.absurd = _absurd_state(self.model, self.y, float(clock[0]))
+
+    def _message(self) -> str:
+        """Why the run ended, in words (before the checks of `finish` may overrule it)."""
+        if self.disk_full:
+            return f"{self.disk_full[0].message}; stopped at t = {self.t_kept:.9g} s"
+        if self.interrupted:
+            return f"interrupted ({signal.Signals(self.interrupted).name}) at t = {self.clock[0]:.9g} s"
+        if self.complete:
+            return "finished"
+        t = float(self.clock[0])
+        message = _failure_message(self.model, self.status, int(self.stats[ST_INFO]), t, self.settings,
+                                   self.contact)
+        if self.status in (Status.STEP_UNDERFLOW, Status.NONFINITE, Status.CONTACT_SOLVE):
+            message += _near_singular(self.model, self.y, t, self.y0)
+        return message
+
+    def _statistics(self) -> dict:
+        stats = self.stats
+        status = "disk_full" if self.disk_full else "interrupted" if self.interrupted else \
+            Status(self.status).name.lower()
+        return {
+            "complete": self.complete, "status": status, "message": self.message, "t_reached": self.t_kept,
+            "wall_time": self.wall, "n_steps": int(stats[ST_STEPS]), "n_rejected": int(stats[ST_REJECTED]),
+            "n_rhs": int(stats[ST_RHS]), "n_contact_events": int(stats[ST_CONTACT_EVENTS]),
+            "n_outputs": int(stats[ST_OUTPUTS]),
+        }
+
+    def finish(self, received: list[int]) -> None:
+        """The rows held written, how the run ended (`run_attrs`) and the file closed with it; a
+        finished run that is not physical, or that stopped in an absurd state, is not complete."""
+        self.flush()
+        finished = self.status == Status.DONE and self.clock[0] >= self.settings.t_end and not self.disk_full
+        self.interrupted = received[0] if received and not finished else 0
+        self.complete = self.status == Status.DONE and not self.interrupted and not self.disk_full
+        self.t_kept = self.writer.t_last if self.disk_full else float(self.clock[0])
+        self.message = self._message()
+        run_attrs = self._statistics()
+        unphysical = _physics_warnings(self.model, self.track)
+        run_attrs["warnings"] = (unphysical + _projection_note(self.settings, self.ws)
+                                 + _energy_warning(self.model, self.settings, self.track))
+        run_attrs["assembly_changes"] = self.changes
+        if self.absurd and not self.interrupted and not self.disk_full:
+            self.complete, self.message = False, self.absurd
+            run_attrs.update(complete=False, status="absurd_state", message=self.message)
+        elif self.complete and unphysical:  # finished, but not physical: not a result to use
+            self.complete = False
+            self.message = "the results are not physical: " + unphysical[0]
+            run_attrs.update(complete=False, status="not_physical", message=self.message)
+        self.run_attrs = run_attrs
+        if self.writer:
+            self.writer.close(run_attrs)
+
+    def outcome(self) -> Results:
+        """The run's `Results` (read back from the file, or from the rows kept); raises
+        `RunInterrupted` or `SimulationError` carrying them when the run did not finish."""
+        units = {s.name: s.unit for s in self.table}
+        attrs = {**self.attrs, **self.run_attrs}
+        if self.writer:
+            results = FileResults(self.writer.path, "/", units, attrs)
+        else:
+            width = self.nobs if self.cols is None else len(self.cols)
+            rows = np.concatenate(self.blocks) if self.blocks else np.zeros((0, width))
+            results = Results(time=np.concatenate(self.times) if self.times else np.zeros(0),
+                              signals={s.name: s.extract(rows) for s in self.table}, units=units, attrs=attrs)
+        if self.interrupted:
+            raise RunInterrupted(self.interrupted, results)
+        if not self.complete:
+            raise SimulationError(self.message, time=self.t_kept, results=results)
+        return results
 
 
 class Simulation:
@@ -674,9 +693,6 @@ class Simulation:
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
                  overwrite: bool = False, **settings_changes):
-        from .first_compile import first_call
-        from ..kernel import advance, make_workspace
-
         self.model = model
         self.settings = run_settings(model, **settings_changes)
         check_settings(self.settings, given=_given(settings_changes), source=model.source_path)
@@ -691,7 +707,7 @@ class Simulation:
         self._clock = np.zeros(3)
         self._contact = np.zeros((model.nclearance, 3))
         self._stats = np.zeros(N_STATS, dtype=np.int64)
-        self._ws = make_workspace(self._km)
+        self._ws = kernel.make_workspace(self._km)
         nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
         self._out_t, self._out = np.zeros(BUFFER_ROWS), np.zeros((BUFFER_ROWS, nobs))
         self._table, self._cols = signal_selection(model, signals, self._cfg)
@@ -701,9 +717,9 @@ class Simulation:
         self._wall = 0.0
         self._status = int(Status.DONE)
         self._failure = ""
-        first_call(advance, self._km, self._cfg, self._y.copy(), self._clock.copy(),  # compile first
+        first_call(kernel.advance, self._km, self._cfg, self._y.copy(), self._clock.copy(),  # compile first
                    self._contact.copy(), self._stats.copy(), self._ws, 0.0, self._out_t[:1], self._out[:1])
-        self._ws = make_workspace(self._km)
+        self._ws = kernel.make_workspace(self._km)
         self._attrs = {
             "model_source": model.source_text, "model_path": model.source_path, "parameters": model.parameters,
             "version": __version__,
@@ -728,8 +744,6 @@ class Simulation:
         """Advance to time `t` (seconds or text with units).  ``callback(sim)`` runs after every
         chunk the time loop hands back (about 200 per run: a live plot, a progress line);
         if it returns True the run stops there, before `t`."""
-        from ..kernel import advance
-
         t_stop = _seconds(t, "t")
         check_stop(t_stop, self.t_end)
         if self._failure:
@@ -742,7 +756,7 @@ class Simulation:
         with _deferred_interrupts() as received:
             while not received:  # until DONE: a long step may have outputs still to hand back
                 start = _time.perf_counter()
-                status, n = advance(self._km, self._cfg, self._y, self._clock, self._contact, self._stats,
+                status, n = kernel.advance(self._km, self._cfg, self._y, self._clock, self._contact, self._stats,
                                     self._ws, t_stop, self._out_t[:cap], self._out[:cap])
                 self._wall += _time.perf_counter() - start
                 self._status = int(status)
@@ -773,9 +787,6 @@ class Simulation:
     def set_load(self, name: str, value) -> None:
         """Change a force element for the rest of the run (SI): the torque of a `torque`, the
         (fx, fy) of a `constant` force, the actuator of a spring-damper."""
-        from ..errors import ModelError, did_you_mean
-        from ..mechanism.model import ForceType
-
         if name not in self.model.force_names:
             raise ModelError(f"no force element `{name}`", "set_load",
                              hint=did_you_mean(name, self.model.force_names) or
@@ -808,8 +819,6 @@ class Simulation:
     def __getitem__(self, name: str) -> np.ndarray:
         """A signal's samples so far (as `Results`)."""
         if name not in self._where:
-            from ..errors import did_you_mean
-
             hint = did_you_mean(name, self._where)
             raise KeyError(f"no signal {name!r}" + (f"; {hint}" if hint else ""))
         return self._where[name].extract(self._rows())
@@ -867,7 +876,5 @@ class Simulation:
 def _seconds(value, name: str) -> float:
     """A time in seconds from a number or from text with units (``"1 ms"``)."""
     if isinstance(value, str):
-        from ..language.units import parse_quantity
-
         return parse_quantity(value, "time", where=f"{name}=")
     return float(value)

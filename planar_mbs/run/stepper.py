@@ -15,9 +15,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
+from ..kernel import advance, make_workspace
 from ..mechanism.kinematics import assemble
-from ..mechanism.model import N_STATS, ST_INFO, Model, Status, observation_size
+from ..mechanism.model import N_STATS, ST_INFO, ST_OUTPUTS, Model, Status, observation_size
 from ..results.signals import signal_table
+from .first_compile import first_call
+from .simulation import _failure_message, run_settings
 
 ROWS = 256  # observation rows fetched per kernel call
 
@@ -26,9 +29,6 @@ class Stepper:
     """One trajectory of ``model`` (settings as in `simulate`), advanced by `run_to`."""
 
     def __init__(self, model: Model, **settings_changes):
-        from ..kernel import make_workspace
-        from .simulation import run_settings
-
         self.model = model
         self.settings = run_settings(model, **settings_changes)
         self.cfg = self.settings.cfg(model.size)
@@ -46,8 +46,6 @@ class Stepper:
     def restore(cls, model: Model, y, contact, t: float, **settings_changes) -> "Stepper":
         """A trajectory from a saved kernel state (``y``, ``contact`` of a run at time ``t``),
         its output grid ``k * output_step`` continued from ``t``."""
-        from ..mechanism.model import ST_OUTPUTS
-
         st = cls(model, **settings_changes)
         st.y[:] = y
         st.contact[:] = contact
@@ -62,8 +60,6 @@ class Stepper:
     def copy(self) -> "Stepper":
         """An independent trajectory in the same state (a fresh workspace: the kernel keeps
         nothing in it between calls once a segment has ended at its ``t_stop``)."""
-        from ..kernel import make_workspace
-
         new = object.__new__(Stepper)
         new.__dict__.update(self.__dict__)
         for name in ("y", "clock", "contact", "stats", "cfg"):
@@ -75,10 +71,6 @@ class Stepper:
     def run_to(self, t_stop: float) -> tuple[np.ndarray, np.ndarray]:
         """Integrate to ``t_stop``; returns the output times and observation rows written
         on the way (the output grid of the settings).  Raises `SimulationError`."""
-        from .first_compile import first_call
-        from ..kernel import advance
-        from .simulation import _failure_message
-
         times, rows = [], []
         while True:
             status, n = first_call(advance, self.model.kernel, self.cfg, self.y, self.clock, self.contact,

@@ -4,7 +4,8 @@
 revolutions at a time, so that it can report progress in revolutions, stop as
 soon as the Poincaré points have settled (`planar_mbs.results.section.settling`), and
 hand back the final kernel state (for a Lyapunov exponent from there, see
-`planar_mbs.results.lyapunov`).
+`planar_mbs.results.lyapunov`).  `run_until_settled` is `mbs run --until-settled`: that, with
+the results written to a file.
 """
 from __future__ import annotations
 
@@ -14,10 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..results.hdf5 import Results
+from ..errors import ModelError
+from ..mechanism.model import ST_CONTACT_EVENTS, ST_REJECTED, ST_RHS, ST_STEPS
+from ..results.hdf5 import Results, write_beside
+from ..results.section import driver_period, settling_of_results
+from .simulation import signal_selection
 from .stepper import Stepper
 
 CHECK_EVERY = 50  # revolutions between two settling checks of a run --until-settled
+PER_REV_UNTIL_SETTLED = 90  # output samples per revolution of a run until settled (`mbs run --until-settled`)
 
 
 @dataclass
@@ -38,13 +44,8 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
     ``min_revolutions``, where the section points have settled on a periodic orbit; chaotic
     motion runs to the end, since chaos can stop after hundreds of revolutions).  ``signals`` keeps only
     those signals (names or entities, as in `simulate`)."""
-    from ..results.section import driver_period, settling_of_results
-    from .simulation import signal_selection
-
     found = driver_period(model)
     if found is None:
-        from ..errors import ModelError
-
         raise ModelError("a run by revolutions needs a rotation driver at constant speed", model.source_path)
     period = found[0]
     st = Stepper(model, output_step=period / per_rev, t_end=revolutions * period, **settings)
@@ -72,6 +73,22 @@ def long_run(model, revolutions: int, per_rev: int = 8, signals=None, *, until_s
     if settled is None:
         settled = settling_of_results(res, model, periodic_only=until_settled)
     return LongRun(res, st, period, done, settled, time.perf_counter() - start)
+
+
+def run_until_settled(model, out, max_revolutions: int, progress: Callable[[int, int], None] | None = None,
+                      overwrite: bool = False, **settings) -> LongRun:
+    """`long_run` until the section settles (at most `max_revolutions`, `PER_REV_UNTIL_SETTLED`
+    samples each), its results written to the file `out` with the run's statistics (`mbs run
+    --until-settled`; ``overwrite`` as in `simulate`)."""
+    run = long_run(model, max_revolutions, PER_REV_UNTIL_SETTLED, until_settled=True, progress=progress,
+                   **settings)
+    res, stats = run.results, run.stepper.stats
+    res.attrs.update(t_reached=float(res.time[-1]), revolutions=run.revolutions, wall_time=run.wall_time,
+                     settled_at=run.settled_at if run.settled_at is not None else -1,
+                     n_steps=int(stats[ST_STEPS]), n_rejected=int(stats[ST_REJECTED]), n_rhs=int(stats[ST_RHS]),
+                     n_contact_events=int(stats[ST_CONTACT_EVENTS]))
+    write_beside(out, res, overwrite=overwrite, inputs=model.source_files)
+    return run
 
 
 def _results(model, table, times, blocks) -> Results:
