@@ -101,19 +101,3 @@ def test_output_step_does_not_change_the_trajectory(law):
         np.testing.assert_array_equal(fine[2][::100][same], coarse[2][same])
         np.testing.assert_array_equal(fine[3], coarse[3])
 
-
-KERNEL_FILES = ("loop.py", "integrators.py", "dynamics.py", "events.py", "workspace.py", "jit.py")
-
-
-@pytest.mark.parametrize("name", KERNEL_FILES)
-def test_every_function_of_the_time_loop_fits_on_a_screen(name):
-    """No function of these kernel modules is longer than 80 lines (the time loop is named steps)."""
-    import ast
-    from pathlib import Path
-
-    import planar_mbs.kernel as pk
-
-    path = Path(pk.__file__).parent / name
-    long = [(node.name, node.end_lineno - node.lineno + 1) for node in ast.walk(ast.parse(path.read_text()))
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 80]
-    assert long == [], long
