@@ -71,14 +71,23 @@
 from __future__ import annotations
 
 import hashlib
+import importlib
 import os
 import stat
+import struct
 import sys
 import tempfile
+from functools import partial
 from pathlib import Path
 
+import llvmlite.binding as ll  # loaded by numba itself
 import numba
 from numba import njit
+
+try:  # numba's private caching module, which the fast loading builds on (`fast_path_problem` checks it)
+    from numba.core import caching
+except ImportError:  # a numba without it: the public cache path (`fast_path_problem` says why)
+    caching = None
 
 _HERE = Path(__file__).resolve().parent
 # every file a kernel is compiled from: the kernel modules, the model's codes and layouts, and
@@ -179,8 +188,6 @@ def fast_path_problem() -> str | None:
                                      "CPUCodeLibrary._finalize_final_module",
                                      "CPUCodeLibrary._get_module_for_linking", "JitEngine._load_defined_symbols"),
               "llvmlite.binding": ("ObjectFileRef.from_data", "parse_bitcode")}
-    import importlib
-
     for module, names in needed.items():
         for name in names:
             try:
@@ -197,10 +204,6 @@ def fast_path_problem() -> str | None:
 def defined_symbols(object_code: bytes) -> set[str] | None:
     """Names of the functions and data an ELF object file defines (its symbol table), or None for
     another object format.  The same set numba takes from the library's linking bitcode."""
-    import struct
-
-    import llvmlite.binding as ll
-
     if object_code[:4] != b"\x7fELF" or object_code[4] != 2 or object_code[5] != 1:
         return None  # not 64-bit little-endian ELF
     sections = {s.name(): s.data() for s in ll.ObjectFileRef.from_data(object_code).sections()}
@@ -220,8 +223,6 @@ def _unserialize(codegen, state):
     library's linking bitcode unless another function is compiled against it: that parse was 40-60 ms
     of a warm `mbs run` (the time loop's library is 0.8 MB of bitcode), and a run compiles nothing.
     The defined symbols come from the object file's symbol table instead."""
-    from functools import partial
-
     name, kind, data = state
     symbols = defined_symbols(data[0]) if kind == "object" else None
     if symbols is None or not isinstance(getattr(getattr(codegen, "_engine", None), "_defined_symbols", None), set):
@@ -240,8 +241,6 @@ def _module_for_linking(library, linking_bitcode):
     """The bitcode parsed when a new function links to a cached library (numba's
     ``_get_module_for_linking`` of a loaded library returns exactly this module)."""
     if library._shared_module is None:
-        import llvmlite.binding as ll
-
         library._shared_module = ll.parse_bitcode(linking_bitcode)
     return library._shared_module
 
@@ -250,8 +249,6 @@ def _fast_cache_class():
     """numba's `FunctionCache` with the source-hash stamp, the two loading shortcuts and, last, a
     locator for `private_cache_dir`; built here, not at import, because it subclasses numba's private
     classes, which `fast_path_problem` checks first."""
-    from numba.core import caching
-
     class _Stamped:
         """A locator whose source stamp also holds SOURCE_HASH: a cached kernel whose index was written
         with other kernel sources is not loaded.  Its folder is made and tried for writing once per

@@ -1,12 +1,14 @@
 """Preallocated work arrays of one run (allocated once, passed to the kernels)."""
 from __future__ import annotations
 
+import os
 from typing import NamedTuple
 
 import numpy as np
 
 from .. import catalog
 from ..mechanism.model import JOINT_ROWS, N_STATS, KernelModel, observation_size
+from .constraints import row_bodies
 
 
 # stage and dense-output buffer rows: the most any integrator uses (catalog.INTEGRATORS)
@@ -135,8 +137,6 @@ RESTORE = 1.0  # 1: the projection keeps the kinetic energy a withheld constrain
 def solver_settings() -> np.ndarray:
     """[REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] of the multiplier solve (`dynamics.schur_factor`,
     `dynamics.multipliers`) and the velocity projection (`dynamics.project`)."""
-    import os
-
     env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore,rate"
     settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE, RATE])
     if env:  # the values given replace the first ones, the rest keep their defaults
@@ -146,8 +146,6 @@ def solver_settings() -> np.ndarray:
 
 
 def make_workspace(km: KernelModel) -> Workspace:
-    from .constraints import row_bodies
-
     nb, nj, nd, nc, m = sizes(km)
     n = 3 * nb
     N = 2 * n
@@ -174,7 +172,5 @@ def make_workspace(km: KernelModel) -> Workspace:
 def envelope_size(km: KernelModel) -> int:
     """Entries of the envelope of S (sum over rows of r - first[r] + 1): the memory and,
     squared per row, the work of one envelope factorisation."""
-    from .constraints import row_bodies
-
     first, _ = envelope(row_bodies(km))
     return int(np.sum(np.arange(len(first)) - first + 1))

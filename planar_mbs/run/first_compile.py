@@ -8,14 +8,30 @@ at once on stderr that the solver is being compiled, once, then how long it has 
 rewritten every second on a terminal, a line every `LOG_EVERY` seconds in a plain log, and a
 last line with the total.  Meanwhile a helper process compiles the kernels the time loop's typing
 reaches last (`HELPER_KERNELS`), so that this process loads them from the cache: measured on the
-README's first command, 39.4 s of CPU here and 29.9 s in the helper, against 71.2 s in one process
-(docs/benchmarks.md, "Start-up").
+README's first command about 64 s of CPU here and 44 s in the helper, against 115 s in one process
+(at a load of about 4 on 2 cores: docs/benchmarks.md, "Start-up").
 """
 from __future__ import annotations
 
+import glob
+import importlib
+import inspect
+import os
+import subprocess
 import sys
+import tempfile
 import threading
 import time
+
+from ..lazy import lazy
+from .children import die_with_parent
+
+# the helper's imports: numba and the compiler load only in the helper process, never before the
+# "compiling" line (`announce_if_cold` runs before the model is read)
+np = lazy("numpy")
+numba = lazy("numba")
+kernel = lazy("..kernel", __package__)
+compiler = lazy("..mechanism.compile", __package__)
 
 LOG_EVERY = 15.0  # seconds between two "still compiling" lines in a plain log
 HEAD = ("compiling the solver (numba, once: later runs load it from the cache in under a second; "
@@ -42,16 +58,11 @@ def _index_files() -> list:
     """numba's index files of `kernel.loop.advance`: in the package (``__pycache__``), under
     ``NUMBA_CACHE_DIR`` or the user's cache folder (``<folder>_<hash>/`` subfolders), and in the other
     folders `kernel/jit.py` may choose (docs/install.md)."""
-    import glob
-    import os
-
     chosen = os.environ.get("NUMBA_CACHE_DIR")  # numba then looks nowhere else
     if chosen:
         roots = [os.path.join(glob.escape(chosen), "kernel_*"),
                  os.path.join(glob.escape(chosen), "planar_mbs-*", "kernel_*")]  # jit.py's public cache
     else:
-        import tempfile
-
         user = os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "numba")
         roots = [os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "kernel", "__pycache__"),
                  os.path.join(glob.escape(user), "kernel_*"),
@@ -154,11 +165,7 @@ _TINY = ("body crank { mass = 1 kg  inertia = 1 kg*m^2  position = (0.5, 0)  ang
 
 def _signature(dispatcher, km, ws) -> tuple:
     """numba argument types of `dispatcher` as `advance` calls it, from its parameter names."""
-    import inspect
-
-    import numpy as np
-    from numba import typeof, types
-
+    typeof, types = numba.typeof, numba.types
     by_name = {"km": typeof(km), "ws": typeof(ws), "contact": typeof(np.zeros((1, 3))),
                "stats": typeof(np.zeros(1, np.int64)), "kend": types.int64, "method": types.int64,
                "first": types.int64, "last": types.int64}
@@ -169,15 +176,9 @@ def _signature(dispatcher, km, ws) -> tuple:
 
 def helper_main() -> None:
     """The helper process: compile `HELPER_KERNELS` into numba's cache; killed when its parent ends."""
-    import importlib
-
-    from ..mechanism.compile import compile_text
-    from ..kernel import make_workspace
-    from .children import die_with_parent
-
     die_with_parent()
-    km = compile_text(_TINY).kernel
-    ws = make_workspace(km)
+    km = compiler.compile_text(_TINY).kernel
+    ws = kernel.make_workspace(km)
     for module, name in HELPER_KERNELS:
         dispatcher = getattr(importlib.import_module(f"planar_mbs.kernel.{module}"), name)
         if cache_is_cold(dispatcher):
@@ -186,9 +187,6 @@ def helper_main() -> None:
 
 def _start_helper():
     """The helper process (None on one core or where it cannot start)."""
-    import os
-    import subprocess
-
     if (os.cpu_count() or 1) < 2:
         return None
     # this very package first on the helper's path (not another copy installed elsewhere)
