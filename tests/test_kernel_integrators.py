@@ -259,3 +259,18 @@ def test_an_unknown_method_gets_no_dense_output_and_no_run():
     c[CFG_METHOD] = len(SPECS)
     st, _, _, _, stats, _ = K.run(km, q0, qd0, c, 0.1)
     assert st == Status.BAD_INPUT and stats[ST_INFO] == I.BAD_METHOD
+
+
+@pytest.mark.parametrize("spec", SPECS, ids=IDS)
+def test_the_stage_loop_reads_every_nonzero_coefficient_of_the_tableau(spec):
+    """The stage loop (`rk_stages`) sums only the non-zero A_sj, read from STAGE_W/STAGE_J: rebuilt
+    into a dense matrix they give back the catalog's `a` exactly, and no entry is a zero."""
+    from planar_mbs.kernel import integrators as I
+
+    for s, row in enumerate(spec.a):
+        dense = np.zeros(len(row))
+        nz = I.STAGE_NZ[spec.code, s]
+        dense[I.STAGE_J[spec.code, s, :nz]] = I.STAGE_W[spec.code, s, :nz]
+        assert np.array_equal(dense, np.asarray(row, dtype=float)), (spec.name, s)
+        assert np.all(I.STAGE_W[spec.code, s, :nz] != 0.0)
+        assert np.all(np.diff(I.STAGE_J[spec.code, s, :nz]) > 0)  # in the order of j: the same sums

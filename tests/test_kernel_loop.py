@@ -100,3 +100,4 @@ def test_output_step_does_not_change_the_trajectory(law):
         assert len(tf) == len(tc) == 13 and same.sum() >= 10
         np.testing.assert_array_equal(fine[2][::100][same], coarse[2][same])
         np.testing.assert_array_equal(fine[3], coarse[3])
+

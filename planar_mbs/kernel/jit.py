@@ -9,7 +9,7 @@
   the old contact physics; here every kernel's cache stamp also holds a hash of
   all the sources the kernels are compiled from (`KERNEL_SOURCES`), so a change
   to any of them recompiles every kernel.
-  First compilation of all kernels: about 30 s (docs/benchmarks.md).
+  First compilation of all kernels: docs/benchmarks.md ("Start-up").
 * ``error_model="numpy"``: a division by zero gives inf/NaN, which the time
   loop reports as a non-finite state, instead of raising inside compiled code.
 * ``_nrt=False``: no numba runtime reference counting.  The kernels never
@@ -30,6 +30,21 @@
   of 3 x 11, interleaved) for 7 s more of first compilation, which every model pays (`advance`
   compiles all methods): not taken.  Inlining small helpers
   (`jac_dot`) made it slower: each use is measured, not assumed.
+* A kernel that is not inlined is a library of its own, into which numba links the code of every
+  kernel it calls and then optimises and emits machine code for all of it again (LLVM is about half
+  of the first compilation: benchmarks/compile_profile.py).  Inlining the small kernels between `advance` and the stage loop
+  (`fixed_step`, `passage_check`, `dense_prepare`, `initial_step`: `rk_stages` then linked into three
+  libraries instead of six) did not shorten it: 101.6 s of CPU against 94.5 s for everything in one
+  process, back to back on a busy machine; the front end then types and lowers each inlined copy.
+  Not taken.
+* The steps of `loop.advance` (`_resume`, `_adaptive`, `_contact_event`, `_end_step`, ...) are
+  inlined at their one call site each: the loop reads as named steps and compiles to what it was as
+  one function (bit-identical results on every shipped model, same speed).  The first compilation
+  got longer: 4 % of CPU in one process (115.2 s against 110.9 s, side by side, compile events per
+  kernel: `advance`'s own share did not grow), 10-14 % for the README's first command with the
+  compile helper (docs/benchmarks.md, "Start-up"); not explained yet.  Only the steps called once per
+  call of `advance` could be left to a call at no run-time cost, and those that reach `_emit` or `rhs`
+  would then be libraries that compile those again.
 * `observe` is inlined at its one call site in the time loop (`loop.observe_inlined` in `loop._emit`,
   which also writes a run's first row and a last sample off the grid): one output row of the
   slider-crank with every signal 0.94 -> 0.70-0.80 us in the loop (1.27 -> 1.01-1.21 us with the

@@ -222,53 +222,65 @@ def observe(km, cfg, t, y, contact, ws, row):
         for i in range(lay[OB_QDD], lay[OB_CLEARANCE]):
             row[i] = math.nan
     if (skip & OBS_SKIP_CLEARANCE) == 0:
-        for k in range(nc):
-            ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
-            F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact)
-            col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
-            row[col + CS_EX] = ex
-            row[col + CS_EY] = ey
-            row[col + CS_E] = e
-            row[col + CS_PENETRATION] = delta
-            row[col + CS_FN] = F
-            row[col + CS_FX] = -F * nx - Ft * ny  # normal + friction force on the journal
-            row[col + CS_FY] = -F * ny + Ft * nx
-            row[col + CS_IN_CONTACT] = 1.0 if contact_mode(contact, k) == TOUCHING else 0.0
-            row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
-            row[col + CS_FRICTION] = Ft
-            row[col + CS_SLIP] = vt
-            bj = km.clearance_body[k, 1]
-            row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
-            row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
-            row[col + CS_FILM_PRESSURE] = film_peak(km, k, q, qd, e, vn)
+        _observe_clearances(km, q, qd, contact, ws, row, lay[OB_CLEARANCE])
     else:
         for i in range(lay[OB_CLEARANCE], lay[OB_SYSTEM]):
             row[i] = math.nan
-    col = lay[OB_SYSTEM]
+    _observe_system(km, q, qd, contact, ws, row, lay[OB_SYSTEM], (skip & OBS_SKIP_ENERGY) == 0, errors)
+    return 0
+
+
+@kernel(inline=True)
+def _observe_clearances(km, q, qd, contact, ws, row, col0):
+    """The clearance joints' block of an observation row (eccentricity, penetration, forces, contact point)."""
+    for k in range(km.clearance_body.shape[0]):
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+        F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact)
+        col = col0 + N_CLEARANCE_SIGNALS * k
+        row[col + CS_EX] = ex
+        row[col + CS_EY] = ey
+        row[col + CS_E] = e
+        row[col + CS_PENETRATION] = delta
+        row[col + CS_FN] = F
+        row[col + CS_FX] = -F * nx - Ft * ny  # normal + friction force on the journal
+        row[col + CS_FY] = -F * ny + Ft * nx
+        row[col + CS_IN_CONTACT] = 1.0 if contact_mode(contact, k) == TOUCHING else 0.0
+        row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
+        row[col + CS_FRICTION] = Ft
+        row[col + CS_SLIP] = vt
+        bj = km.clearance_body[k, 1]
+        row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
+        row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
+        row[col + CS_FILM_PRESSURE] = film_peak(km, k, q, qd, e, vn)
+
+
+@kernel(inline=True)
+def _observe_system(km, q, qd, contact, ws, row, col, energy, errors):
+    """The system block of an observation row: energies and constraint errors (NaN where skipped)."""
+    n = q.shape[0]
     T = math.nan
     V = math.nan
-    if (skip & OBS_SKIP_ENERGY) == 0:
+    if energy:
         T = 0.0
         nb = n // 3
         for b in range(nb):
             T += (0.5 * km.body_mass[b] * (qd[3 * b] ** 2 + qd[3 * b + 1] ** 2)
                   + 0.5 * km.body_inertia[b] * qd[3 * b + 2] ** 2)
         V = force_potential(km, q, qd)
-        if nc > 0:
+        if km.clearance_body.shape[0] > 0:
             V += contact_energy(km, q, qd, contact)
     perr = math.nan
     verr = math.nan
     if errors:
         perr = 0.0
         verr = 0.0
-        for r in range(m):
+        for r in range(ws.C.shape[0]):
             perr = max(perr, abs(ws.C[r]))
             verr = max(verr, abs(ws.Ct[r] + jac_dot(ws, r, qd)))
     row[col + SYS_KINETIC] = T
     row[col + SYS_POTENTIAL] = V
     row[col + SYS_POSITION_ERROR] = perr
     row[col + SYS_VELOCITY_ERROR] = verr
-    return 0
 
 
 @kernel(inline=True)
@@ -490,47 +502,42 @@ def _worst_component(method, cfg, y, h, ws):
 
 @kernel
 def _all_finite(a):
+    """Whether every entry of `a` is finite (the time loop's guard against NaN and infinity)."""
     for i in range(a.shape[0]):
         if not math.isfinite(a[i]):
             return False
     return True
 
 
-@kernel
-def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
-    """Integrate y = (q, q') from clock[0] towards t_stop; see the module docstring.
+# The steps of `advance`, each inlined at its one call site (`@kernel(inline=True)`): a call that is
+# not inlined passes every array of the model and workspace tuples (kernel/jit.py), and the loop's
+# machine code stays what it was when `advance` was one function (same results, same speed).
 
-    clock = [t, h (current step, 0 = automatic), t0 (start of the run), work budget]:
-    with clock[3] > 0 (optional) the call returns BUFFER_FULL after the step in which
-    it has used that many right-hand sides, so that the caller regains control (signals,
-    progress) after a bounded time; the run continues exactly.
-    Returns (status, n_written).  On an error clock[0] is the time of failure
-    and y the last good state; on STEP_UNDERFLOW limited by the error estimate,
-    stats[ST_INFO] is the state component whose error limited the step."""
+
+@kernel(inline=True)
+def _refused(km, cfg, y, stats, out_t, out):
+    """BAD_INPUT for arrays that do not fit the model, an unknown method or an unsupported law; else 0."""
     N = y.shape[0]
-    n = N // 2
-    nb = n // 3
     nc = km.clearance_body.shape[0]
-    nj = km.joint_type.shape[0]
-    nd = km.driver_type.shape[0]
     cap = out_t.shape[0]
-    nw = cap - cap  # 0, but not a constant: `_emit(..., nw, ...)` with a literal 0 is compiled once more
     method = int(cfg[CFG_METHOD])
-    dto = cfg[CFG_OUTPUT_STEP]
-    nobs = layout(nb, nj, nd, nc)[OB_SIZE]
-    if (cap == 0 or not (dto > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
+    nobs = layout(N // 6, km.joint_type.shape[0], km.driver_type.shape[0], nc)[OB_SIZE]
+    if (cap == 0 or not (cfg[CFG_OUTPUT_STEP] > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
             or N != 2 * km.minv.shape[0]):
-        return BAD_INPUT, 0
+        return BAD_INPUT
     if not method_ok(method) or (not ADAPTIVE[method] and not (cfg[CFG_STEP] > 0.0)):
         stats[ST_INFO] = BAD_METHOD  # unknown, without dense output, or fixed-step without a step
-        return BAD_INPUT, 0
+        return BAD_INPUT
     for k in range(nc):
         if not law_supported(km.clearance_law[k]):
             stats[ST_INFO] = k
-            return BAD_INPUT, 0
-    t0 = clock[2]
-    t = clock[0]
-    # finish the last step of the previous call
+            return BAD_INPUT
+    return 0
+
+
+@kernel(inline=True)
+def _resume(km, cfg, t0, t, y, clock, contact, stats, ws, out_t, out, nw):
+    """Finish the previous call's last step (pending outputs, mode switch) and write a run's first row."""
     if ws.flags[FL_PENDING_OUTPUTS] == 1:
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, math.nan, y)
         if st != 0:
@@ -549,209 +556,270 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         if st != 0:
             return st, 0
         stats[ST_OUTPUTS] = 1
+    return 0, nw
+
+
+@kernel(inline=True)
+def _start(km, cfg, t, y, contact, stats, ws):
+    """f(t, y) into ws.f, the first stage of the first step; NONFINITE for a non-finite y or f."""
     if not _all_finite(y):
-        return NONFINITE, nw
+        return NONFINITE
     st = rhs(km, cfg, t, y, contact, ws, stats, ws.f)
     if st != 0:
-        return st, nw
+        return st
     if not _all_finite(ws.f):
-        return NONFINITE, nw
-    hmax = cfg[CFG_HMAX] if cfg[CFG_HMAX] > 0.0 else math.inf
-    hmin = cfg[CFG_HMIN]
-    maxsteps = cfg[CFG_MAX_STEPS]
-    expo = ERROR_EXPONENT[method]  # 1/(q+1), q = order of the error estimate (catalog)
-    budget = clock[3] if clock.shape[0] > 3 else 0.0
-    rhs_start = stats[ST_RHS]
-    steps_start = stats[ST_STEPS]
+        return NONFINITE
+    return 0
+
+
+@kernel(inline=True)
+def _first_step(method, km, cfg, t, y, clock, contact, stats, ws, hmax):
+    """The first trial step: the fixed step, else the last call's, the setting's or Hairer's hinit."""
     if not ADAPTIVE[method]:
-        h = cfg[CFG_STEP]
-    else:
-        h = clock[1]
-        if not (h > 0.0):
-            order = float(METHOD_ORDER[method])
-            h = cfg[CFG_STEP] if cfg[CFG_STEP] > 0.0 else initial_step(km, cfg, t, y, contact, ws, stats, hmax, order)
-        h = min(h, hmax)
-    while t < t_stop:
-        if nw >= cap:
+        return cfg[CFG_STEP]
+    h = clock[1]
+    if not (h > 0.0):
+        order = float(METHOD_ORDER[method])
+        h = cfg[CFG_STEP] if cfg[CFG_STEP] > 0.0 else initial_step(km, cfg, t, y, contact, ws, stats, hmax, order)
+    return min(h, hmax)
+
+
+@kernel(inline=True)
+def _pause(cfg, stats, nw, cap, budget, steps_start, rhs_start):
+    """Why the loop stops before its next step (BUFFER_FULL: buffer full or work budget used; MAX_STEPS), or 0."""
+    maxsteps = cfg[CFG_MAX_STEPS]
+    if nw >= cap:
+        return BUFFER_FULL
+    if maxsteps > 0 and stats[ST_STEPS] >= maxsteps:
+        return MAX_STEPS
+    if budget > 0.0 and stats[ST_STEPS] > steps_start and stats[ST_RHS] - rhs_start >= budget:
+        return BUFFER_FULL
+    return 0
+
+
+@kernel(inline=True)
+def _fixed(method, km, cfg, t, y, h, t_stop, contact, stats, ws):
+    """One fixed step (RK4) with its drift and passage checks (no error control).  Returns (status, hh, last)."""
+    hh = h
+    last = False
+    if t + hh >= t_stop - STRETCH * hh:
+        hh = t_stop - t
+        last = True
+    ws.flags[FL_STEP_REG] = 0
+    st = fixed_step(method, km, cfg, t, y, hh, contact, ws, stats)
+    if st == 0:
+        st = drift_check(ws, ws.yb[y.shape[0] // 2:], stats, DRIFT_POSITION, DRIFT_VELOCITY)
+    if st == 0 and ws.flags[FL_STEP_REG] == 1:
+        st = passage_check(method, km, cfg, t, y, hh, contact, ws, stats)
+    return st, hh, last
+
+
+@kernel(inline=True)
+def _trial_length(cfg, t, t0, h, t_stop, stats, ws):
+    """A trial step from t: h, cut to land on t_stop or on the next output after a passage.  Returns (hh, last, cut)."""
+    dto = cfg[CFG_OUTPUT_STEP]
+    hh = h
+    last = False
+    cut = False
+    if t + hh >= t_stop - STRETCH * hh:
+        hh = t_stop - t
+        last = True
+    elif ws.flags[FL_PASSAGE] == 1:
+        # the last step passed near a singular position, where the dense output is not
+        # controlled: a grid output inside this step gets a step of its own
+        tk = t0 + stats[ST_OUTPUTS] * dto
+        if t + GRID_TOL * dto < tk < t + hh:
+            hh = tk - t
+            cut = True
+    return hh, last, cut
+
+
+@kernel(inline=True)
+def _next_h(expo, err, hh, h, hmax, rejected, last, cut, ws):
+    """The step after an accepted trial: PI controller (Hairer's DOPRI5, beta = PI_BETA; previous error in ws.dense)."""
+    errold = ws.dense[DN_ERR_OLD] if ws.dense[DN_ERR_OLD] > 0.0 else 1e-4
+    fac = FAC_MAX if err == 0.0 else SAFETY * err ** -(expo - 0.75 * PI_BETA) * errold ** PI_BETA
+    ws.dense[DN_ERR_OLD] = max(err, 1e-4)
+    fac = min(FAC_MAX, max(FAC_MIN, fac))
+    if rejected:
+        fac = min(fac, 1.0)
+    hnew = hh * fac
+    if (last or cut) and hnew < h and fac >= 1.0:
+        hnew = h  # a step shortened to land on t_stop or an output says nothing against h
+    return min(hnew, hmax)
+
+
+@kernel(inline=True)
+def _adaptive(method, km, cfg, t, t0, y, h, hmax, t_stop, clock, contact, stats, ws):
+    """Trial steps of an adaptive method, shorter after each rejection, until one is accepted.
+    Returns (status, next h, accepted step hh, last)."""
+    expo = ERROR_EXPONENT[method]  # 1/(q+1), q = order of the error estimate (catalog)
+    rejected = False
+    nonfinite = False
+    solve_failed = False
+    stage_status = 0
+    hh = h
+    while True:
+        if h < cfg[CFG_HMIN]:
             clock[1] = h
-            return BUFFER_FULL, nw
-        if maxsteps > 0 and stats[ST_STEPS] >= maxsteps:
-            clock[1] = h
-            return MAX_STEPS, nw
-        if budget > 0.0 and stats[ST_STEPS] > steps_start and stats[ST_RHS] - rhs_start >= budget:
-            clock[1] = h
-            return BUFFER_FULL, nw
-        last = False
-        hh = h
-        if not ADAPTIVE[method]:
-            if t + hh >= t_stop - STRETCH * hh:
-                hh = t_stop - t
-                last = True
-            ws.flags[FL_STEP_REG] = 0
-            st = fixed_step(method, km, cfg, t, y, hh, contact, ws, stats)
-            if st == 0:
-                st = drift_check(ws, ws.yb[n:], stats, DRIFT_POSITION, DRIFT_VELOCITY)  # no error control
-            if st == 0 and ws.flags[FL_STEP_REG] == 1:
-                st = passage_check(method, km, cfg, t, y, hh, contact, ws, stats)
-            if st != 0:
-                clock[0] = t
-                return st, nw
+            if solve_failed:
+                return stage_status, h, hh, False
+            if nonfinite:
+                return NONFINITE, h, hh, False
+            stats[ST_INFO] = _worst_component(method, cfg, y, hh, ws)
+            return STEP_UNDERFLOW, h, hh, False
+        hh, last, cut = _trial_length(cfg, t, t0, h, t_stop, stats, ws)
+        ws.flags[FL_STEP_REG] = 0
+        st, err = rk_trial(method, km, cfg, t, y, hh, contact, ws, stats)
+        if st == 0 and err <= 1.0:
+            st = end_stage(method, km, cfg, t, hh, contact, ws, stats)
+        if st == CONTACT_SOLVE or st == SINGULAR:
+            # a trial stage went past the end of an implicit law's branch (no force exists there), or
+            # a too long trial step reached a pose where the constraints are dependent: the trial fails
+            # like a non-finite one, and the run stops with this status only if the step cannot shrink
+            solve_failed = True
+            stage_status = st
+            err = math.inf
+        elif st != 0:
+            return st, h, hh, last
         else:
-            rejected = False
-            nonfinite = False
             solve_failed = False
-            stage_status = 0
-            while True:
-                if h < hmin:
-                    clock[0] = t
-                    clock[1] = h
-                    if solve_failed:
-                        return stage_status, nw
-                    if nonfinite:
-                        return NONFINITE, nw
-                    stats[ST_INFO] = _worst_component(method, cfg, y, hh, ws)
-                    return STEP_UNDERFLOW, nw
-                hh = h
-                last = False
-                cut = False
-                if t + hh >= t_stop - STRETCH * hh:
-                    hh = t_stop - t
-                    last = True
-                elif ws.flags[FL_PASSAGE] == 1:
-                    # the last step passed near a singular position, where the dense output is not
-                    # controlled: a grid output inside this step gets a step of its own
-                    tk = t0 + stats[ST_OUTPUTS] * dto
-                    if t + GRID_TOL * dto < tk < t + hh:
-                        hh = tk - t
-                        cut = True
-                ws.flags[FL_STEP_REG] = 0
-                st, err = rk_trial(method, km, cfg, t, y, hh, contact, ws, stats)
-                if st == 0 and err <= 1.0:
-                    st = end_stage(method, km, cfg, t, hh, contact, ws, stats)
-                if st == CONTACT_SOLVE or st == SINGULAR:
-                    # a trial stage went past the end of an implicit law's branch (no force
-                    # exists there), or a too long trial step reached a pose where the
-                    # constraints are dependent: the trial fails like a non-finite one, and
-                    # the run stops with this status only if the step cannot shrink further
-                    solve_failed = True
-                    stage_status = st
-                    err = math.inf
-                elif st != 0:
-                    clock[0] = t
-                    return st, nw
-                else:
-                    solve_failed = False
-                if err <= 1.0:
-                    # PI controller (Hairer's DOPRI5: beta = 0.04), previous error in ws.dense[DN_ERR_OLD]
-                    errold = ws.dense[DN_ERR_OLD] if ws.dense[DN_ERR_OLD] > 0.0 else 1e-4
-                    fac = FAC_MAX if err == 0.0 else SAFETY * err ** -(expo - 0.75 * PI_BETA) * errold ** PI_BETA
-                    ws.dense[DN_ERR_OLD] = max(err, 1e-4)
-                    fac = min(FAC_MAX, max(FAC_MIN, fac))
-                    if rejected:
-                        fac = min(fac, 1.0)
-                    hnew = hh * fac
-                    if (last or cut) and hnew < h and fac >= 1.0:
-                        hnew = h  # a step shortened to land on t_stop or an output says nothing against h
-                    h = min(hnew, hmax)
-                    break
-                stats[ST_REJECTED] += 1
-                rejected = True
-                nonfinite = not (err < math.inf)
-                fac = FAC_MIN if nonfinite else max(FAC_MIN, SAFETY * err ** -expo)
-                h = hh * min(fac, 1.0)
-            ws.flags[FL_PASSAGE] = ws.flags[FL_STEP_REG]
-            if lost_check(cfg, ws, ws.yb[n:], stats) != 0:
-                if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
-                    # `projection = auto`: the residuals drifted past the bound without a loss of
-                    # rank (long runs, hard impacts); projected from the next step on
-                    ws.flags[FL_PROJECTING] = 2
-                    ws.dense[DN_PROJECT_FROM] = t + hh
-                else:
-                    clock[0] = t  # the constraints gave way: a driver past a limit position
-                    return CONSTRAINTS_LOST, nw
-        ws.flags[FL_DENSE_METHOD] = method
-        ws.flags[FL_DENSE_READY] = 0  # the dense output of this step is not prepared yet
-        stats[ST_STEPS] += 1
-        tnew = t_stop if last else t + hh
-        for i in range(N):
-            ws.ya[i] = y[i]
-        ws.dense[DN_TA] = t
-        ws.dense[DN_H] = hh
-        ws.dense[DN_T_END] = tnew
-        kev = -1
-        th = 1.0
-        if nc > 0:
-            if EXTRA_STAGES[method] > 0:  # screen first: its dense output costs stages
-                if event_possible(km, ws, contact, END_STAGE[method]):
-                    st = dense_prepare(km, cfg, contact, ws, stats)
-                    if st != 0:
-                        clock[0] = t
-                        return st, nw
-                    kev, th = locate_event(km, ws, contact)
-            else:
+        if err <= 1.0:
+            return 0, _next_h(expo, err, hh, h, hmax, rejected, last, cut, ws), hh, last
+        stats[ST_REJECTED] += 1
+        rejected = True
+        nonfinite = not (err < math.inf)
+        fac = FAC_MIN if nonfinite else max(FAC_MIN, SAFETY * err ** -expo)
+        h = hh * min(fac, 1.0)
+
+
+@kernel(inline=True)
+def _held(cfg, t, hh, y, stats, ws):
+    """CONSTRAINTS_LOST after an accepted step whose constraints gave way (`lost_check`), else 0."""
+    ws.flags[FL_PASSAGE] = ws.flags[FL_STEP_REG]
+    if lost_check(cfg, ws, ws.yb[y.shape[0] // 2:], stats) != 0:
+        if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
+            # `projection = auto`: the residuals drifted past the bound without a loss of
+            # rank (long runs, hard impacts); projected from the next step on
+            ws.flags[FL_PROJECTING] = 2
+            ws.dense[DN_PROJECT_FROM] = t + hh
+        else:
+            return CONSTRAINTS_LOST  # the constraints gave way: a driver past a limit position
+    return 0
+
+
+@kernel(inline=True)
+def _accept(method, t, hh, last, t_stop, y, stats, ws):
+    """Keep an accepted step from (t, y) of length hh for its dense output; returns its end time."""
+    ws.flags[FL_DENSE_METHOD] = method
+    ws.flags[FL_DENSE_READY] = 0  # the dense output of this step is not prepared yet
+    stats[ST_STEPS] += 1
+    tnew = t_stop if last else t + hh
+    for i in range(y.shape[0]):
+        ws.ya[i] = y[i]
+    ws.dense[DN_TA] = t
+    ws.dense[DN_H] = hh
+    ws.dense[DN_T_END] = tnew
+    return tnew
+
+
+@kernel(inline=True)
+def _contact_event(method, km, cfg, t, hh, tnew, y, contact, stats, ws):
+    """The first contact onset or separation in the step: y and the kept step end there.
+    Returns (status, joint or -1, theta, end time)."""
+    kev = -1
+    th = 1.0
+    if km.clearance_body.shape[0] > 0:
+        if EXTRA_STAGES[method] > 0:  # screen first: its dense output costs stages
+            if event_possible(km, ws, contact, END_STAGE[method]):
+                st = dense_prepare(km, cfg, contact, ws, stats)
+                if st != 0:
+                    return st, kev, th, tnew
                 kev, th = locate_event(km, ws, contact)
-            if kev >= 0 and th < 1.0:
-                tnew = t + th * hh
-                dense_eval(ws, th, y)
-                ws.dense[DN_T_END] = tnew
-            elif kev >= 0:
+        else:
+            kev, th = locate_event(km, ws, contact)
+        if kev >= 0 and th < 1.0:
+            tnew = t + th * hh
+            dense_eval(ws, th, y)
+            ws.dense[DN_T_END] = tnew
+        elif kev >= 0:
+            for i in range(y.shape[0]):
+                y[i] = ws.yb[i]
+    return 0, kev, th, tnew
+
+
+@kernel(inline=True)
+def _switch_event(km, cfg, t, hh, tnew, kev, th, y, contact, stats, ws):
+    """The first switch of a comparison before the contact event: the step ends there instead; the
+    new state into y and the switches to make into ws.flags.  Returns (status, end time)."""
+    N = y.shape[0]
+    sev = -1
+    if km.expr_switch.shape[0] > 0:
+        st = dense_prepare(km, cfg, contact, ws, stats) if dense_pending(ws) else 0
+        if st != 0:
+            return st, tnew
+        sev, ths = locate_switch(km, ws, th if kev >= 0 else 1.0 + 1e-9)
+        if sev >= 0:  # a comparison switches first: the step ends there, a later contact event waits
+            kev = -1
+            if ths < 1.0:
+                tnew = t + ths * hh
+                dense_eval(ws, ths, y)
+            else:
                 for i in range(N):
                     y[i] = ws.yb[i]
-        sev = -1
-        if km.expr_switch.shape[0] > 0:
-            st = dense_prepare(km, cfg, contact, ws, stats) if dense_pending(ws) else 0
-            if st != 0:
-                clock[0] = t
-                return st, nw
-            sev, ths = locate_switch(km, ws, th if kev >= 0 else 1.0 + 1e-9)
-            if sev >= 0:  # a comparison switches first: the step ends there, a later contact event waits
-                kev = -1
-                if ths < 1.0:
-                    tnew = t + ths * hh
-                    dense_eval(ws, ths, y)
-                else:
-                    for i in range(N):
-                        y[i] = ws.yb[i]
-                ws.dense[DN_T_END] = tnew
-        ws.flags[FL_SWITCH_EXPR] = sev
-        if kev < 0 and sev < 0:
-            for i in range(N):
-                y[i] = ws.yb[i]
-        ws.flags[FL_SWITCH_JOINT] = kev
-        t = tnew
-        clock[0] = t
+            ws.dense[DN_T_END] = tnew
+    ws.flags[FL_SWITCH_EXPR] = sev
+    if kev < 0 and sev < 0:
+        for i in range(N):
+            y[i] = ws.yb[i]
+    ws.flags[FL_SWITCH_JOINT] = kev
+    return 0, tnew
+
+
+@kernel(inline=True)
+def _end_step(method, km, cfg, t0, t, h, y, clock, contact, stats, ws, out_t, out, nw):
+    """Write the step's outputs, switch modes, project, and f at the new state into ws.f.
+    Returns (status, n_written, next h)."""
+    N = y.shape[0]
+    clock[0] = t
+    clock[1] = h
+    st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, math.nan, y)
+    if st != 0:
+        return st, nw, h
+    if pending:
+        ws.flags[FL_PENDING_OUTPUTS] = 1
+        return BUFFER_FULL, nw, h
+    st, restart, hcap = _finish_step(km, cfg, t, y, contact, stats, ws)
+    if st != 0:
+        return st, nw, h
+    if ADAPTIVE[method]:
+        h = min(h, hcap)
         clock[1] = h
-        st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, math.nan, y)
+    if not _all_finite(y):
+        clock[0] = ws.dense[DN_TA]
+        for i in range(N):
+            y[i] = ws.ya[i]
+        return NONFINITE, nw, h
+    if restart:
+        st = rhs(km, cfg, t, y, contact, ws, stats, ws.f)
         if st != 0:
-            return st, nw
-        if pending:
-            ws.flags[FL_PENDING_OUTPUTS] = 1
-            return BUFFER_FULL, nw
-        st, restart, hcap = _finish_step(km, cfg, t, y, contact, stats, ws)
-        if st != 0:
-            return st, nw
-        if ADAPTIVE[method]:
-            h = min(h, hcap)
-            clock[1] = h
-        if not _all_finite(y):
-            clock[0] = ws.dense[DN_TA]
-            for i in range(N):
-                y[i] = ws.ya[i]
-            return NONFINITE, nw
-        if restart:
-            st = rhs(km, cfg, t, y, contact, ws, stats, ws.f)
-            if st != 0:
-                return st, nw
-        else:
-            kf = END_STAGE[method]
-            for i in range(N):
-                ws.f[i] = ws.K[kf, i]
-        if not _all_finite(ws.f):
-            return NONFINITE, nw
-    # a last sample at t_stop when it is off the output grid
+            return st, nw, h
+    else:
+        kf = END_STAGE[method]
+        for i in range(N):
+            ws.f[i] = ws.K[kf, i]
+    if not _all_finite(ws.f):
+        return NONFINITE, nw, h
+    return 0, nw, h
+
+
+@kernel(inline=True)
+def _final_sample(km, cfg, t0, t, t_stop, h, y, clock, contact, stats, ws, out_t, out, nw):
+    """A last sample at t_stop when it is off the output grid.  Returns (status, n_written)."""
+    dto = cfg[CFG_OUTPUT_STEP]
     tlast = t0 + (stats[ST_OUTPUTS] - 1) * dto
     if abs(tlast - t_stop) > GRID_TOL * dto and ws.dense[DN_FINAL_SAMPLE] != t_stop and t == t_stop:
-        if nw >= cap:
+        if nw >= out_t.shape[0]:
             clock[1] = h
             return BUFFER_FULL, nw
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
@@ -760,3 +828,61 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         ws.dense[DN_FINAL_SAMPLE] = t_stop
     clock[1] = h
     return DONE, nw
+
+
+@kernel
+def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
+    """Integrate y = (q, q') from clock[0] towards t_stop; see the module docstring.
+
+    clock = [t, h (current step, 0 = automatic), t0 (start of the run), work budget]:
+    with clock[3] > 0 (optional) the call returns BUFFER_FULL after the step in which
+    it has used that many right-hand sides, so that the caller regains control (signals,
+    progress) after a bounded time; the run continues exactly.
+    Returns (status, n_written).  On an error clock[0] is the time of failure
+    and y the last good state; on STEP_UNDERFLOW limited by the error estimate,
+    stats[ST_INFO] is the state component whose error limited the step."""
+    cap = out_t.shape[0]
+    nw = cap - cap  # 0, but not a constant: `_emit(..., nw, ...)` with a literal 0 is compiled once more
+    st = _refused(km, cfg, y, stats, out_t, out)
+    if st != 0:
+        return st, 0
+    method = int(cfg[CFG_METHOD])
+    t0 = clock[2]
+    t = clock[0]
+    st, nw = _resume(km, cfg, t0, t, y, clock, contact, stats, ws, out_t, out, nw)
+    if st != 0:
+        return st, nw
+    st = _start(km, cfg, t, y, contact, stats, ws)
+    if st != 0:
+        return st, nw
+    hmax = cfg[CFG_HMAX] if cfg[CFG_HMAX] > 0.0 else math.inf
+    budget = clock[3] if clock.shape[0] > 3 else 0.0
+    rhs_start = stats[ST_RHS]
+    steps_start = stats[ST_STEPS]
+    h = _first_step(method, km, cfg, t, y, clock, contact, stats, ws, hmax)
+    while t < t_stop:
+        st = _pause(cfg, stats, nw, cap, budget, steps_start, rhs_start)
+        if st != 0:
+            clock[1] = h
+            return st, nw
+        if not ADAPTIVE[method]:
+            st, hh, last = _fixed(method, km, cfg, t, y, h, t_stop, contact, stats, ws)
+        else:
+            st, h, hh, last = _adaptive(method, km, cfg, t, t0, y, h, hmax, t_stop, clock, contact, stats, ws)
+            if st == 0:
+                st = _held(cfg, t, hh, y, stats, ws)
+        if st != 0:
+            clock[0] = t
+            return st, nw
+        tnew = _accept(method, t, hh, last, t_stop, y, stats, ws)
+        st, kev, th, tnew = _contact_event(method, km, cfg, t, hh, tnew, y, contact, stats, ws)
+        if st == 0:
+            st, tnew = _switch_event(km, cfg, t, hh, tnew, kev, th, y, contact, stats, ws)
+        if st != 0:
+            clock[0] = t
+            return st, nw
+        t = tnew
+        st, nw, h = _end_step(method, km, cfg, t0, t, h, y, clock, contact, stats, ws, out_t, out, nw)
+        if st != 0:
+            return st, nw
+    return _final_sample(km, cfg, t0, t, t_stop, h, y, clock, contact, stats, ws, out_t, out, nw)
