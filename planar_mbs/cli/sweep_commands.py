@@ -6,15 +6,23 @@ Exit codes as everywhere: 0 success, 2 bad model / usage / a sweep file from
 another model, 3 at least one case failed (its results up to the failure are kept),
 130 interrupted, 143 stopped by SIGTERM (finished cases are kept; rerunning the command resumes).
 """
+import logging
 import math
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+from rich.table import Table
+from rich.text import Text
 
-from planar_mbs import catalog
+from planar_mbs import catalog, load_model, read_results
+from planar_mbs.errors import MbsError, ModelError
+from planar_mbs.lazy import lazy
+from planar_mbs.sweep.progress import ProgressTally
 
 from .common import ExitCode
 from .common import console as _console
@@ -30,6 +38,16 @@ from .common import (
     positive_time,
 )
 
+# numpy, h5py, numba, lark: loaded when a command runs, never by `mbs --help` (which imports this module)
+sweep_scan = lazy("planar_mbs.sweep.scan")
+simulation = lazy("planar_mbs.run.simulation")
+hdf5 = lazy("planar_mbs.results.hdf5")
+analysis = lazy("planar_mbs.results.analysis")
+server = lazy("planar_mbs.sweep.server")  # multiprocessing: only when a sweep ends
+rich_progress = lazy("rich.progress")  # only on a terminal, once the first case finishes
+# dask.distributed (optional, slow to import): only with --scheduler
+distributed = lazy("distributed")
+distributed_security = lazy("distributed.security")
 
 
 def _check_sweep_files(model: Path, output: Path, sets: list[str], keep: Optional[list[str]]) -> None:
@@ -39,17 +57,13 @@ def _check_sweep_files(model: Path, output: Path, sets: list[str], keep: Optiona
               for i, f in enumerate(model_files(model))]
     check_output(output, "--output", inputs)
     if keep:
-        from planar_mbs import load_model
-        from planar_mbs.sweep.scan import kept_signals
-
-        kept_signals(load_model(model, **_sets(sets)), keep)  # signal or entity names, as the sweep reads them
+        # signal or entity names, as the sweep reads them
+        sweep_scan.kept_signals(load_model(model, **_sets(sets)), keep)
 
 
 def _pair(text: Optional[str]) -> Optional[list[str]]:
     if text is None:
         return None
-    from planar_mbs.errors import ModelError
-
     x, sep, y = text.partition(":")
     if not sep or not x.strip() or not y.strip():
         raise ModelError(f"`--poincare {text}` is not X:Y", "--poincare", hint="e.g. `--poincare slider.vx:slider.ax`")
@@ -60,10 +74,7 @@ def _angle(text: Optional[str]) -> Optional[float]:
     """An angle with units (`90deg`, `1.2rad`; plain numbers are degrees)."""
     if text is None:
         return None
-    from planar_mbs.errors import ModelError
-    from planar_mbs.sweep.scan import parameter_number
-
-    parsed = parameter_number(text)
+    parsed = sweep_scan.parameter_number(text)
     if parsed is None or parsed[1] not in ("", "deg", "rad", "°"):
         raise ModelError(f"`--angle {text}` is not an angle", "--angle", hint="e.g. `--angle 90deg`")
     value, unit = parsed
@@ -175,11 +186,8 @@ def sweep(
 
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
-    from planar_mbs.errors import MbsError
-    from planar_mbs.sweep.scan import parse_param, run_sweep
-
     try:
-        axes = [parse_param(p) for p in param]
+        axes = [sweep_scan.parse_param(p) for p in param]
         settings = _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs)
         section = _section_options(poincare, period, angle, transient, clock, no_section)
         keep_list = None if keep is not None and keep.strip() == "all" else \
@@ -187,7 +195,7 @@ def sweep(
         _check_sweep_files(model, output, set_ or [], keep_list)
         workers = None if scheduler else jobs or os.cpu_count() or 1  # a cluster's: unknown here
         with _interruptible(), _SweepProgress(quiet, workers) as bar, _cluster(scheduler) as executor:
-            summary = run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
+            summary = sweep_scan.run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
                                 jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
                                 progress=bar.update, worker_timeout=worker_timeout, force=force)
@@ -198,19 +206,14 @@ def sweep(
                                     "again to resume")
         raise typer.Exit(128 + _interruptible.signum(err))
     finally:
-        from planar_mbs.sweep.server import remove_temp_folder
-
-        remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
+        server.remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
     _report_sweep(summary, [a.name for a in axes])
 
 
 def _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs) -> dict:
     """The settings of every case that the options give (None: the model's), each checked."""
-    from planar_mbs.errors import ModelError
-    from planar_mbs.run.simulation import integrator_of
-
     if integrator is not None:
-        integrator_of(integrator, "--integrator")
+        simulation.integrator_of(integrator, "--integrator")
     settings = {k: v for k, v in dict(
         t_end=positive_time(t_end, "--t-end"), output_step=positive_time(output_step, "--output-step"),
         rtol=check_rtol(rtol), atol=atol, integrator=integrator.lower() if integrator else None).items()
@@ -255,21 +258,16 @@ class _interruptible:
     SIGNALS = ("SIGINT", "SIGTERM")
 
     def __enter__(self):
-        import signal
-        import threading
-
-        from planar_mbs.sweep.scan import PENDING_INTERRUPTS, note_interrupt
-
         def interrupt(signum, frame):
-            note_interrupt(signum)
+            sweep_scan.note_interrupt(signum)
             raise KeyboardInterrupt
 
         def unraisable(report):
-            if not (isinstance(report.exc_value, KeyboardInterrupt) and PENDING_INTERRUPTS):
+            if not (isinstance(report.exc_value, KeyboardInterrupt) and sweep_scan.PENDING_INTERRUPTS):
                 self.hook(report)  # a dropped interrupt is raised again, not printed as "Exception ignored"
 
         self.previous = {}
-        PENDING_INTERRUPTS.clear()
+        sweep_scan.PENDING_INTERRUPTS.clear()
         self.hook, sys.unraisablehook = sys.unraisablehook, unraisable
         if threading.current_thread() is threading.main_thread():
             for name in self.SIGNALS:
@@ -278,8 +276,6 @@ class _interruptible:
         return self
 
     def __exit__(self, *exc):
-        import signal
-
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
         sys.unraisablehook = self.hook
@@ -289,9 +285,8 @@ class _interruptible:
     def signum(err: KeyboardInterrupt) -> int:
         """The signal that stopped the sweep: the run's own (`simulation.RunInterrupted`, a case run
         in this process), else the last one noted, else SIGINT."""
-        from planar_mbs.sweep.scan import PENDING_INTERRUPTS
-
-        return int(getattr(err, "signum", 0) or (PENDING_INTERRUPTS[-1] if PENDING_INTERRUPTS else 2))
+        pending = sweep_scan.PENDING_INTERRUPTS
+        return int(getattr(err, "signum", 0) or (pending[-1] if pending else 2))
 
 
 class _cluster:
@@ -304,15 +299,11 @@ class _cluster:
     def __enter__(self):
         if self.address is None:
             return None
-        from planar_mbs.errors import ModelError
-
         try:
-            from distributed import Client
+            Client = distributed.Client
         except ImportError:
             raise ModelError("--scheduler needs dask.distributed", "--scheduler",
                              hint="pip install 'dask[distributed]'") from None
-        import logging
-
         # distributed logs a lost scheduler with tracebacks, and a callback that fails then on its event
         # loop is logged by asyncio ("Exception in callback ..."); the sweep reports it in one sentence
         # (distributed's logging config gives some children levels of their own, tornado.application
@@ -347,12 +338,8 @@ def _check_tls(address: str) -> None:
     "Trust"); without them dask fails with a TypeError about an ssl_context: say what to set."""
     if not address.lower().startswith("tls://"):
         return
-    from distributed.security import Security
-
-    sec = Security()  # reads distributed.comm.tls.* (files in ~/.config/dask or DASK_ variables)
+    sec = distributed_security.Security()  # reads distributed.comm.tls.* (files in ~/.config/dask or DASK_ variables)
     if not (sec.tls_ca_file and sec.tls_client_cert):
-        from planar_mbs.errors import ModelError
-
         raise ModelError(f"--scheduler {address}: a TLS scheduler needs this client's certificates, and dask's "
                          "configuration names none", "--scheduler",
                          hint="set " + ", ".join(TLS_SETTINGS) + " (files: the CA certificate, this client's "
@@ -360,8 +347,6 @@ def _check_tls(address: str) -> None:
 
 
 def _print_table(rows, params) -> None:
-    from rich.table import Table
-
     t = Table(title_justify="left")
     for col in ["case", *params, "status", "verdict", "K", "λ/T", "D2"]:
         t.add_column(col)
@@ -380,8 +365,6 @@ class _SweepProgress:
     EVERY = 60.0  # seconds between two lines when stderr is not a terminal
 
     def __init__(self, quiet: bool, workers=None):
-        from planar_mbs.sweep.progress import ProgressTally
-
         self.quiet = quiet
         self.tally = ProgressTally(workers)
         self.bar = None
@@ -403,17 +386,16 @@ class _SweepProgress:
                 self.printed = now
             return
         if self.bar is None:
-            from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn
-            from rich.text import Text
-
-            class Tally(ProgressColumn):  # drawn at every refresh: the clock and the time left move between cases
+            # drawn at every refresh: the clock and the time left move between cases
+            class Tally(rich_progress.ProgressColumn):
                 def render(column, task):
                     return Text(self.tally.line())
 
             # twice a second, not rich's default 10: over a 58-minute scan of 969 cases the sweep's process
             # used 45 CPU s where its own work is about 3 s (benchmarks/scan_phases.py); the rest is the redraws
-            self.bar = Progress(TextColumn("sweep"), BarColumn(), Tally(), TextColumn("{task.fields[last]}"),
-                                console=console, transient=True, refresh_per_second=2)
+            rp = rich_progress
+            self.bar = rp.Progress(rp.TextColumn("sweep"), rp.BarColumn(), Tally(), rp.TextColumn("{task.fields[last]}"),
+                                   console=console, transient=True, refresh_per_second=2)
             self.bar.start()
             self.task = self.bar.add_task("sweep", total=total, completed=done, last="")
         last = ""
@@ -445,8 +427,6 @@ def analyze(
 
     For a sweep file, prints the stored verdict of every case.
     """
-    from planar_mbs.errors import MbsError
-
     try:
         _analyze(results, poincare, period, angle, transient, clock, store)
     except MbsError as err:
@@ -457,20 +437,14 @@ def analyze(
 
 
 def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
-    from planar_mbs import read_results
-    from planar_mbs.results.analysis import classify, poincare_section, store_section
-    from planar_mbs.sweep.scan import read_case_table
-
-    from planar_mbs.results.hdf5 import check_results_file, open_results
-
     file, _, group = str(results).partition(":")
-    check_results_file(file)
+    hdf5.check_results_file(file)
     opts = _section_options(poincare, period, angle, transient, clock, False)
 
-    with open_results(file) as f:
+    with hdf5.open_results(file) as f:
         is_sweep = f.attrs.get("kind") == "sweep"
     if is_sweep and not group:
-        rows = read_case_table(file)
+        rows = sweep_scan.read_case_table(file)
         params = list(rows[0]["values"]) if rows else []
         _print_table(rows, params)
         return
@@ -484,37 +458,32 @@ def _analyze(results, poincare, period, angle, transient, clock, store) -> None:
         return
     res = read_results(results)
     signals = opts.pop("signals", None)  # None: the slider, chosen as plots and sweeps do
-    sec = poincare_section(res, signals, **opts)
-    verdict = classify(sec)
+    sec = analysis.poincare_section(res, signals, **opts)
+    verdict = analysis.classify(sec)
     _print_verdict(con, results, sec, verdict)
     if store:
-        store_section(file, group, sec, verdict)
+        analysis.store_section(file, group, sec, verdict)
         con.print(f"stored in {file}:{(group or '').rstrip('/')}/poincare", markup=False)
 
 
 def _stored_case(file: str, group: str):
     """(section, verdict) stored for a sweep's case that has no signals; None otherwise."""
-    from planar_mbs.results.analysis import read_section
-    from planar_mbs.results.hdf5 import open_results
-
-    with open_results(file) as f:
+    with hdf5.open_results(file) as f:
         g = f.get(group)
         if g is None or "signals" in g or "poincare" not in g:
             return None
-        sec, verdict = read_section(g)
+        sec, verdict = analysis.read_section(g)
     return (sec, verdict) if verdict is not None else None
 
 
 def _print_verdict(con, results, sec, verdict) -> None:
-    from planar_mbs.results.analysis import report
-
     con.print(f"Poincaré section of {results}: {len(sec)} points of {', '.join(sec.names)} "
               f"({sec.kind}" + (f", period {sec.period:.6g} s" if sec.period else "") + f", {sec.method}, "
               f"transient {sec.transient:g})", markup=False)
     if sec.method == "interpolated":
         con.print("  interpolation error (relative to each signal's spread): "
                   + ", ".join(f"{k} {v:.1e}" for k, v in sec.interp_error.items()), markup=False)
-    for line in report(sec, verdict):  # the one wording of a verdict (run --until-settled prints it too)
+    for line in analysis.report(sec, verdict):  # the one wording of a verdict (run --until-settled prints it too)
         con.print(line, markup=False)
 
 
@@ -538,16 +507,10 @@ def sweep_replay(
 ) -> None:
     """Run one case of a sweep again, from what the sweep file records (the model with its includes,
     the --set values, the settings): the same results as `mbs run` with those settings, bit for bit."""
-    from planar_mbs.errors import MbsError
-    from planar_mbs.results.hdf5 import check_results_file
-    from planar_mbs.sweep.scan import replay_case
-
-    from .common import check_output as _check_output
-
     try:
-        check_results_file(scan)
-        _check_output(output, "--output", [("the sweep file", scan)])
-        res = replay_case(scan, case, output)
+        hdf5.check_results_file(scan)
+        check_output(output, "--output", [("the sweep file", scan)])
+        res = sweep_scan.replay_case(scan, case, output)
     except MbsError as err:
         _fail(err)
     _console().print(f"case {case}: {res.attrs.get('message', 'finished')} ({len(res.time)} rows) → {output}",
@@ -564,17 +527,11 @@ def sweep_merge(
 ) -> None:
     """Merge sweep files of the same model and settings (e.g. computed on two machines) into one;
     a case found in two files is refused."""
-    from planar_mbs.errors import MbsError
-    from planar_mbs.results.hdf5 import check_results_file
-    from planar_mbs.sweep.scan import merge_sweeps
-
-    from .common import check_output as _check_output
-
     try:
         for p in inputs:
-            check_results_file(p)
-        _check_output(output, "--output", [("a file to merge", p) for p in inputs])
-        n = merge_sweeps(inputs, output, overwrite=overwrite)
+            hdf5.check_results_file(p)
+        check_output(output, "--output", [("a file to merge", p) for p in inputs])
+        n = sweep_scan.merge_sweeps(inputs, output, overwrite=overwrite)
     except MbsError as err:
         _fail(err)
     _console().print(f"{n} case(s) from {len(inputs)} files → {output}", markup=False)
