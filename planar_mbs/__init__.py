@@ -17,10 +17,10 @@ and `mbs --help` stay fast.
 """
 from __future__ import annotations
 
-__version__ = "0.1.0"
-__all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results", "__version__"]
+from .lazy import lazy
+from .version import __version__
 
-from .lazy import lazy  # noqa: E402  (after __version__, which the modules below read from here)
+__all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results", "__version__"]
 
 # Each loads on first use (lark, numpy, numba, h5py): `import planar_mbs` loads none of them.
 _re = lazy("re")

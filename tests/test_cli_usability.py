@@ -37,6 +37,14 @@ simulate { t_end = 10 ms  output_step = 1 ms }
 """
 
 
+def test_the_version_is_the_one_pyproject_declares():
+    import tomllib
+    from pathlib import Path
+
+    declared = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]["version"]
+    assert planar_mbs.__version__ == declared
+
+
 def test_version():
     r = runner.invoke(app, ["--version"])
     assert r.exit_code == 0 and r.output.strip() == f"mbs (planar_mbs) {planar_mbs.__version__}"

@@ -2,7 +2,8 @@
 as planar_mbs.cli), with the imports inside functions and the lazily declared ones
 (``name = lazy(".module", __package__)``, `planar_mbs/lazy.py`) counted too, read with `ast`.
 
-The package's own ``__init__`` (the public facade, which declares its modules lazily) is not a node: ``from . import __version__`` in a module is not a dependency cycle."""
+The package's own ``__init__`` (the public facade, which declares its modules lazily) is not a node; no
+module of the package imports it (the version a file is stamped with comes from ``planar_mbs.version``)."""
 from __future__ import annotations
 
 import ast
@@ -131,7 +132,7 @@ def test_no_import_cycle():
 
 # The package's folders in the order of the data flow, lowest first (docs/architecture.md):
 # a module imports from its own folder and the folders before it, never from one after it.
-STAGES = ["lazy", "catalog", "errors", "pykernel", "language", "mechanism", "kernel", "results", "run", "sweep",
+STAGES = ["lazy", "version", "catalog", "errors", "pykernel", "language", "mechanism", "kernel", "results", "run", "sweep",
           "outputs", "cli"]
 
 
@@ -236,3 +237,22 @@ def test_a_relative_lazy_name_needs_its_package():
     with pytest.raises(ValueError, match="needs the package"):
         lazy(".store")
     assert "not loaded yet" in repr(lazy("no_such_module_anywhere"))
+
+
+def test_no_module_of_the_package_imports_its_facade():
+    """The facade (`planar_mbs/__init__.py`) stands above every stage: a module that took a name from it
+    (not a submodule through it, as `from .. import catalog`) would be an arrow back up; the version
+    comes from `planar_mbs.version`.  The command line, the one layer above the facade, may use it."""
+    mods = modules()
+    found = []
+    for name, path in mods.items():
+        if name == "planar_mbs" or name.startswith("planar_mbs.cli"):
+            continue
+        base = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                mod = ".".join(base[: len(base) - node.level + 1] + ([node.module] if node.module else [])) \
+                    if node.level else node.module
+                if mod == "planar_mbs":
+                    found += [f"{name}: {a.name}" for a in node.names if f"planar_mbs.{a.name}" not in mods]
+    assert found == []

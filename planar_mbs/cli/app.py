@@ -21,7 +21,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from planar_mbs import __version__, catalog
+from planar_mbs import catalog
+from planar_mbs.version import __version__
 from planar_mbs.lazy import lazy
 
 from .common import internal_error

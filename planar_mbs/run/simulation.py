@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__, catalog
+from .. import catalog
+from ..version import __version__
 from ..errors import ModelError, SimulationError, did_you_mean
 from ..lazy import lazy
 from ..language.units import parse_quantity

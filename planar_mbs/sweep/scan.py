@@ -56,7 +56,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .. import __version__
+from ..version import __version__
 from ..errors import MbsError, ModelError, SimulationError, did_you_mean
 from ..language.units import quantity
 from ..lazy import lazy
