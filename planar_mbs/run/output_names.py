@@ -18,11 +18,15 @@ from .simulation import run_settings
 _COMPARED = ("t_end", "output_step", "integrator", "rtol", "atol", "step")  # a run that differs only in its time
 
 
+def _tag(pairs) -> str:
+    """``_name=value`` for each pair, each value kept to letters, digits and ``.+-`` (a file name)."""
+    return "".join(f"_{name}={re.sub(r'[^A-Za-z0-9.+-]', '', value)}" for name, value in pairs)
+
+
 def default_output(model: Path, sets: dict[str, str]) -> Path:
     """results/<model name>.h5, with the --set values in the name (results/a_speed=2500rpm.h5), so a
     run with other values never replaces the previous one; results/ is ignored by git."""
-    tag = "".join(f"_{name}={re.sub(r'[^A-Za-z0-9.+-]', '', value)}" for name, value in sets.items())
-    return Path("results") / f"{model.stem}{tag}.h5"
+    return Path("results") / f"{model.stem}{_tag(sets.items())}.h5"
 
 
 def beside_another_run(out: Path, model, changes: dict, given: dict) -> Path:
@@ -42,7 +46,7 @@ def beside_another_run(out: Path, model, changes: dict, given: dict) -> Path:
            for k in _COMPARED):
         return out
     text = lambda v: f"{v:g}" if isinstance(v, float) else str(v)  # noqa: E731  (-n 100 -> n=100)
-    tag = "".join(f"_{opt}={re.sub(r'[^A-Za-z0-9.+-]', '', text(v))}" for opt, v in given.items() if v is not None)
+    tag = _tag((opt, text(v)) for opt, v in given.items() if v is not None)
     return out.with_name(f"{out.stem}{tag or '_other'}{out.suffix}")
 
 
