@@ -1,12 +1,13 @@
 """Where the kernels' first compilation goes: numba's compile events of one cold run, per kernel.
 
-    NUMBA_CACHE_DIR=$(mktemp -d) .venv/bin/python benchmarks/compile_profile.py [integrator]
+    NUMBA_CACHE_DIR=$(mktemp -d) .venv/bin/python benchmarks/compile_profile.py [integrator] [--numba-inliner]
 
 Runs the clearance slider-crank for 2 ms in this process (the compile helper of
 `planar_mbs.run.first_compile` switched off) and prints, per kernel, the wall time of its own
 compilation (typing, lowering and LLVM, its callees' compilations subtracted) and the LLVM part, with
 the process's CPU time.  An empty NUMBA_CACHE_DIR makes the run cold; on a busy machine compare
-shares, not seconds.
+shares, not seconds.  ``--numba-inliner`` leaves numba's inliner as numba has it (without
+`planar_mbs.kernel.inline_copy`), for the before/after of that change.
 """
 from __future__ import annotations
 
@@ -50,16 +51,21 @@ def main() -> None:
     event.register("numba:compile", rec)
     event.register("numba:llvm_lock", rec)
     import planar_mbs as mbs
+    from planar_mbs.kernel import inline_copy
     from planar_mbs.run import first_compile
 
     first_compile._start_helper = lambda: None
+    args = [a for a in sys.argv[1:] if a != "--numba-inliner"]
+    if len(args) < len(sys.argv) - 1:
+        inline_copy.apply = lambda: False
     t0 = time.perf_counter()
-    settings = {"integrator": sys.argv[1]} if len(sys.argv) > 1 else {}
+    settings = {"integrator": args[0]} if args else {}
     mbs.simulate(mbs.load_model(MODEL), t_end="2 ms", **settings)
     ru = resource.getrusage(resource.RUSAGE_SELF)
     total = sum(rec.own.values())
     print(f"wall {time.perf_counter() - t0:.1f} s, CPU {ru.ru_utime + ru.ru_stime:.1f} s; "
-          f"compilation {total:.1f} s of wall, LLVM {sum(rec.llvm.values()):.1f} s")
+          f"compilation {total:.1f} s of wall, LLVM {sum(rec.llvm.values()):.1f} s; "
+          f"one scope copy per inlining: {inline_copy.is_applied()}")
     for name, own in rec.own.most_common(20):
         print(f"  {name:28s} {own:7.2f} s ({100 * own / total:4.1f} %)  LLVM {rec.llvm[name]:6.2f} s")
 
