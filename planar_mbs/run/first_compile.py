@@ -1,15 +1,15 @@
 """The one-time compilation of the time loop, said out loud.
 
-numba compiles the kernels the first time a model runs on a machine (about a minute of CPU,
-longer on a busy one) and keeps the machine code in its cache; later runs load it in a fraction
+numba compiles the kernels the first time a model runs on a machine (about 85 s of CPU, about
+a minute on 2 cores, longer on a busy machine) and keeps the machine code in its cache; later runs load it in a fraction
 of a second.  Without a word, that first minute looks like a hang.  `first_call` makes the
 first call of `kernel.advance` in a process and, when numba's cache holds nothing for it, says
 at once on stderr that the solver is being compiled, once, then how long it has taken: a line
 rewritten every second on a terminal, a line every `LOG_EVERY` seconds in a plain log, and a
 last line with the total.  Meanwhile a helper process compiles the kernels the time loop's typing
 reaches last (`HELPER_KERNELS`), so that this process loads them from the cache: measured on the
-README's first command about 64 s of CPU here and 44 s in the helper, against 115 s in one process
-(at a load of about 4 on 2 cores: docs/benchmarks.md, "Start-up").
+README's first command 55 s of wall time and 90 s of CPU in the two processes, against 82-85 s of
+wall time in one process (2 idle cores: docs/benchmarks.md, "Start-up").
 """
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ compiler = lazy("..mechanism.compile", __package__)
 
 LOG_EVERY = 15.0  # seconds between two "still compiling" lines in a plain log
 HEAD = ("compiling the solver (numba, once: later runs load it from the cache in under a second; "
-        "about a minute of CPU)")
+        "about a minute)")
 _ANNOUNCED = False  # HEAD printed in this process
 
 
