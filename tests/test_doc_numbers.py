@@ -285,3 +285,19 @@ def test_the_readme_layout_is_the_packages_stages():
     folders = {p.name for p in (ROOT / "planar_mbs").iterdir() if (p / "__init__.py").exists()}
     assert folders <= set(named), folders - set(named)
     assert [s for s in named if s in folders] == [s for s in STAGES if s in folders]
+
+
+def test_the_integrator_orders_of_validation_are_measured():
+    """docs/validation.md's table of measured convergence orders: a row for every integrator of the
+    catalog, each slope the one the convergence test measures (to the two decimals shown)."""
+    from test_kernel_integrators import measured_order
+
+    from planar_mbs import catalog
+
+    text = (ROOT / "docs" / "validation.md").read_text(encoding="utf-8")
+    section = text[text.index("## Integrators"):]
+    section = section[:section.index("\n## ", 5)]
+    rows = {m[1]: float(m[2]) for m in re.finditer(r"^\| (\w+) \| (\d+\.\d+)", section, re.M)}
+    assert sorted(rows) == sorted(s.name.upper() for s in catalog.INTEGRATORS)
+    for spec in catalog.INTEGRATORS:
+        assert rows[spec.name.upper()] == round(measured_order(spec)[0], 2), spec.name
