@@ -301,3 +301,18 @@ def test_the_integrator_orders_of_validation_are_measured():
     assert sorted(rows) == sorted(s.name.upper() for s in catalog.INTEGRATORS)
     for spec in catalog.INTEGRATORS:
         assert rows[spec.name.upper()] == round(measured_order(spec)[0], 2), spec.name
+
+
+def test_the_benchmarks_page_is_what_its_generator_writes(monkeypatch):
+    """docs/benchmarks.md is written by benchmarks/report.py from docs/benchmarks_data.json, keeping the
+    blocks written by hand (marked) and the sections other scripts measure: rendering it again from the
+    data gives the page unchanged, so a hand edit outside the marked blocks, or a generator text the page
+    no longer has, fails here (the page's numbers then come from the data, not from an edit)."""
+    import json
+
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import report
+
+    page = (ROOT / "docs" / "benchmarks.md").read_text(encoding="utf-8")
+    data = json.loads((ROOT / "docs" / "benchmarks_data.json").read_text(encoding="utf-8"))
+    assert report.render(data, page) == page
