@@ -236,6 +236,21 @@ def test_help_names_values_in_words(argv):
         assert "Usage: mbs run [OPTIONS] MODEL" in r.output
 
 
+@pytest.mark.parametrize("argv", [["run"], ["plot"], ["view"], ["sweep"], ["analyze"], ["check"]])
+def test_a_commands_help_wraps_its_paragraphs_at_the_terminals_width(argv):
+    """A docstring's line breaks are not kept in --help (at 1000 columns each paragraph of the description
+    is one line; at 80 the terminal's width wraps it, not the docstring's): `mbs sweep --help` once showed
+    half-lines wherever its docstring broke a line."""
+    wide = runner.invoke(app, [*argv, "--help"], env={"COLUMNS": "1000"}).output
+    description = wide.split("Usage:", 1)[1].split("╭", 1)[0].strip("\n").split("\n")[2:]
+    paragraphs = [line.strip() for line in description if line.strip()]
+    assert paragraphs, wide
+    blank_separated = "\n".join(line.strip() for line in description).split("\n\n")
+    assert all("\n" not in para.strip() for para in blank_separated), wide  # one line per paragraph
+    if argv == ["sweep"]:
+        assert "the verdict on its motion (periodic, quasi-periodic or chaotic) under" in wide
+
+
 def test_mbs_help_lists_every_exit_code_and_completion():
     r = runner.invoke(app, ["--help"], env={"COLUMNS": "300"})
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()

@@ -53,7 +53,25 @@ def _name_value(param) -> None:
     param.metavar = _BY_TYPE.get(name, "VALUE")
 
 
+def reflow(text: str | None) -> str | None:
+    """A docstring's paragraphs each on one line, for typer's rich help, which keeps a docstring's line
+    breaks and wraps again at the terminal's width, leaving ragged half-lines.  A paragraph with an
+    indented line (an example) is kept as written."""
+    if not text:
+        return text
+    paragraphs = []
+    for para in text.split("\n\n"):
+        lines = para.split("\n")
+        paragraphs.append(para if any(line.startswith("  ") for line in lines) else
+                          " ".join(line.strip() for line in lines))
+    return "\n\n".join(paragraphs)
+
+
 class ReadableCommand(typer.core.TyperCommand):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.help = reflow(self.help)
+
     def get_params(self, ctx):
         params = super().get_params(ctx)
         for p in params:
