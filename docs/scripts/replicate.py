@@ -477,14 +477,19 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
     cpu += sum(json.loads(p.read_text())["cpu"] for p in work.glob("lyap_*.json"))
     gen["run"] = (f"Runs behind this page: {n_long} runs of {REVOLUTIONS} revolutions, {n_tight} of them again at "
                   f"rtol 1e-8, Lyapunov exponents of {n_lyap} cases; {cpu / 60:.0f} min of CPU in the time loops "
-                  f"(runs made from {len(commits)} working states of this repository, between commit eca561b "
-                  "and commit aeb8a50, whose time loop was reorganised but computes the same numbers; the "
-                  "time-loop changes of commit f16adbe (contact detection) came after these runs and may move "
-                  f"contact onsets; each run's commit is in docs/replication_data.json); {len(figures)} figures; "
+                  f"(runs made from {_made_from(commits)}; each run's commit is in docs/replication_data.json); "
+                  f"{len(figures)} figures; "
                   f"drawing and analysis {wall:.0f} s.")
     data["commits"] = commits
     (ROOT / "docs" / "replication_data.json").write_text(json.dumps(data, indent=1, default=_json))
     return gen
+
+
+def _made_from(commits: list[str]) -> str:
+    """Which versions of the repository the runs were made from, in words."""
+    if len(commits) == 1:
+        return f"one version of this repository, commit {commits[0][:10]}"
+    return f"{len(commits)} versions of this repository (commits " + ", ".join(c[:10] for c in commits) + ")"
 
 
 def fill_page(gen: dict[str, str]) -> None:
