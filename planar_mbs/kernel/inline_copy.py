@@ -5,9 +5,9 @@ Each ``@kernel(inline=True)`` call site makes numba copy the callee's IR
 one ``Scope``, which holds every variable of the function, so each block's copy copies the whole
 scope again: the work grows with blocks x variables, and the time loop's steps, which inline
 other inlined kernels, are large in both (numba issue #8989, "Spurious deep copies in inlining",
-open).  Measured on the first compilation of the clearance slider-crank in one process: 120 s of
-CPU before, 77 s after; results bit-identical on every shipped model and three integrators
-(docs/benchmarks.md, "Start-up").
+open).  Measured on the first compilation of the clearance slider-crank in one process, two pairs
+run side by side: 103.3 s and 97.9 s of CPU before, 84.8 s and 81.8 s after; results bit-identical
+on every shipped model and three integrators (docs/benchmarks.md, "Start-up").
 
 `apply` makes the block copies of one inlining share one ``deepcopy`` memo, so the copied blocks
 share one copied scope, as the original blocks share one.  It touches two private names of numba
