@@ -207,7 +207,8 @@ def _ratio_facts(data, scipy_ratios) -> dict:
     counts = [rows[r["baseline"]]["rhs"] / rows[r["ours"]]["rhs"] for r in data["ratios"]["rows"]
               if r["baseline"].startswith("scipy") and r.get("ours") and "rhs" in rows.get(r["baseline"], {})]
     cost = [v["numpy"] / v["library"] for v in data["rhs"].values()]
-    return dict(scipy_verdict=verdict, count_lo=min(counts), count_hi=max(counts), cost_lo=min(cost), cost_hi=max(cost), signals=skip["all signals"]["signals"],
+    return dict(scipy_verdict=verdict, count_lo=min(counts), count_hi=max(counts), cost_lo=min(cost),
+                cost_hi=max(cost), signals=skip["all signals"]["signals"],
                 faster=100 * (1 - skip["outputs every 1 ms"]["loop"] / skip["outputs every 10 us"]["loop"]),
                 rk4_error=rk4["error"], gap=rk4["rhs"] / dop["rhs"], dop_rhs=dop["rhs"], rk4_rhs=rk4["rhs"],
                 need=rk4["rhs"] / 50, impacts=data["wp_clearance"]["impacts"])
