@@ -202,24 +202,11 @@ def joint_rows_eval(km, jt, q, qd, cs, C, J, gamma):
         gamma[r] = -(gix - gjx)
         gamma[r + 1] = -(giy - gjy)
         if typ == WELD:
-            ra = r + 2
-            _, _, phi_i, _, _, _ = body_state(q, qd, bi)
-            _, _, phi_j, _, _, _ = body_state(q, qd, bj)
-            C[ra] = phi_j - phi_i - km.joint_param[jt, PHI0]
-            if bj >= 0:
-                J[ra, 1, 2] += 1.0
-            if bi >= 0:
-                J[ra, 0, 2] -= 1.0
+            _angle_row(km, jt, q, qd, bi, bj, C, J, r + 2)
     elif typ == TRANSLATIONAL or typ == REVOLUTE_TRANSLATIONAL:
         rn = r
         if typ == TRANSLATIONAL:
-            _, _, phi_i, _, _, _ = body_state(q, qd, bi)
-            _, _, phi_j, _, _, _ = body_state(q, qd, bj)
-            C[r] = phi_j - phi_i - km.joint_param[jt, PHI0]
-            if bj >= 0:
-                J[r, 1, 2] += 1.0
-            if bi >= 0:
-                J[r, 0, 2] -= 1.0
+            _angle_row(km, jt, q, qd, bi, bj, C, J, r)
             rn = r + 1
         C[rn], gamma[rn] = _axis_row(J, rn, cs, bi, bj, Pix, Piy, aix, aiy, vix, viy, wi,
                                      Pjx, Pjy, ajx, ajy, vjx, vjy, wj,
@@ -268,6 +255,19 @@ def driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma):
         return BAD_INPUT
     Ct[r] = -fd
     return 0
+
+
+@kernel
+def _angle_row(km, jt, q, qd, bi, bj, C, J, row):
+    """The relative-angle row of a weld or a translational joint: phi_j - phi_i - phi0 = 0 (its gamma
+    is 0: the row is linear in the coordinates)."""
+    _, _, phi_i, _, _, _ = body_state(q, qd, bi)
+    _, _, phi_j, _, _, _ = body_state(q, qd, bj)
+    C[row] = phi_j - phi_i - km.joint_param[jt, PHI0]
+    if bj >= 0:
+        J[row, 1, 2] += 1.0
+    if bi >= 0:
+        J[row, 0, 2] -= 1.0
 
 
 @kernel
