@@ -57,3 +57,71 @@ def test_a_contraction_has_its_exponent():
     """A linear map x -> 0.5 x: exponent ln 0.5 whatever d0 (the method is exact when linear)."""
     e = benettin(lambda x: 0.5 * x, np.zeros(2), np.array([1e-3, 0.0]), _euclid, _pull, 1e-3, 50, discard=0)
     assert e.value == pytest.approx(np.log(0.5), rel=1e-12)
+
+
+OSCILLATOR = """
+# A carriage on a rail held by a spring-damper at its rest length: m s'' + c s' + k (s - l0) = 0
+param m = 2 kg
+param k = 200 N/m
+param c = 2 N*s/m
+body carriage { mass = m  inertia = 0.02 kg*m^2  position = (0.2 m, 0) }
+joint rail = translational(ground (0, 0), carriage (0, 0), axis = (1, 0))
+force spring = spring_damper(ground (0, 0), carriage) { stiffness = k  damping = c  length = 0.2 m }
+simulate { t_end = 1 s }
+"""
+
+
+def test_mechanism_exponent_of_a_damped_oscillator(tmp_path):
+    """`mechanism_exponent` through the compiled time loop, against the closed form: after one damped
+    period T_d = 2 pi / (w sqrt(1 - z^2)) every perturbation of m s'' + c s' + k s = 0 comes back to its
+    own direction times exp(-c T_d / 2m), so each period's log growth is exactly -c T_d / 2m.  The
+    companion is pulled back 16 times per period and both trajectories resume from where they stopped,
+    so this also checks that a resumed trajectory continues from the state it was given."""
+    from planar_mbs import load_model
+    from planar_mbs.results.lyapunov import mechanism_exponent
+    from planar_mbs.run.stepper import Stepper
+
+    path = tmp_path / "oscillator.mbs"
+    path.write_text(OSCILLATOR)
+    m, k, c = 2.0, 200.0, 2.0
+    w_d = np.sqrt(k / m - (c / (2 * m)) ** 2)
+    period = 2 * np.pi / w_d
+    expected = -c / (2 * m) * period  # -0.316 per period
+    stepper = Stepper(load_model(path), integrator="dop853", rtol=1e-12, atol=1e-14, output_step=period / 16)
+    e = mechanism_exponent(stepper, period, 16, seed=3, discard=2)
+    assert e.value == pytest.approx(expected, rel=1e-6)
+    assert np.allclose(e.logs, expected, rtol=1e-6)
+
+
+PENDULUM = """
+# A hinged arm on a torsion spring-damper: I_O th'' + c th' + k th = 0, I_O = 0.01 + 1 * 0.1^2 kg m^2
+body arm { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.1 m, 0) }
+joint O = revolute(ground (0, 0), arm (-0.1 m, 0))
+force hinge = rotational_spring_damper(ground, arm) { stiffness = 2 N*m/rad  damping = 0.12 N*m*s/rad  angle = 0 deg }
+simulate { t_end = 1 s }
+"""
+
+
+@pytest.mark.parametrize("periods", [1, 2])
+def test_floquet_and_benettin_of_a_damped_pendulum(tmp_path, periods):
+    """A hinged arm (two constraint rows, so the perturbations must keep to the joint) whose angle obeys
+    I th'' + c th' + k th = 0: both multipliers of any period map have modulus exp(-c T / 2I), and over
+    the damped period T_d the map is exp(-c T_d / 2I) times the identity.  Floquet's finite differences
+    and Benettin's renormalised companion must both give -c T / 2I per period (here about -0.99 over
+    half the damped period), from any period, the rest position being periodic with every period."""
+    from planar_mbs import load_model
+    from planar_mbs.results.lyapunov import floquet_exponent, mechanism_exponent
+    from planar_mbs.run.stepper import Stepper
+
+    path = tmp_path / "pendulum.mbs"
+    path.write_text(PENDULUM)
+    inertia, k, c = 0.02, 2.0, 0.12
+    period = np.pi / np.sqrt(k / inertia - (c / (2 * inertia)) ** 2)  # half the damped period
+    expected = -c / (2 * inertia) * period
+    stepper = Stepper(load_model(path), integrator="dop853", rtol=1e-11, atol=1e-14, output_step=period / 16)
+    fl = floquet_exponent(stepper, period, periods)
+    assert fl.value == pytest.approx(expected, rel=1e-6)
+    assert np.allclose(np.abs(fl.multipliers), np.exp(expected * periods), rtol=1e-6)
+    assert fl.closure == 0.0  # the rest position
+    e = mechanism_exponent(stepper, period, 12, seed=1, discard=2)
+    assert e.value == pytest.approx(expected, rel=1e-4)

@@ -12,6 +12,8 @@ perturbed states gives a spread.
 
 `benettin` is generic (any state, any ``advance``); `mechanism_exponent` applies it
 to a model, segment = one driver period, from a given kernel state (a settled one).
+`floquet_exponent` is a second, independent estimate for a periodic orbit: the
+multipliers of its period map, differentiated by central differences.
 """
 from __future__ import annotations
 
@@ -77,20 +79,32 @@ def state_scale(model, omega: float) -> np.ndarray:
     return np.concatenate([w, w / omega])
 
 
+def _constraints(model, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(C, Cq, Ct) of the state ``y`` at time ``t``."""
+    n = 3 * model.nbody
+    m = kernel.constraint_rows(model.kernel)
+    C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
+    if m:
+        kernel.constraint_eval(model.kernel, y[:n], y[n:], t, C, Cq, Ct, g)
+    return C, Cq, Ct
+
+
+def _null_space(Cq: np.ndarray) -> np.ndarray:
+    """Columns spanning the motions the constraint Jacobian allows."""
+    if Cq.shape[0] == 0:
+        return np.eye(Cq.shape[1])
+    _, s, vt = np.linalg.svd(Cq)
+    rank = int(np.sum(s > 1e-10 * s[0]))
+    return vt[rank:].T
+
+
 def tangent_perturbation(model, y: np.ndarray, t: float, rng) -> np.ndarray:
     """A random direction of (q, q') that keeps the constraints to first order: positions
     unchanged, velocities in the null space of the constraint Jacobian (a motion the joints
     allow)."""
     n = 3 * model.nbody
-    m = kernel.constraint_rows(model.kernel)
-    dv = rng.normal(size=n)
-    if m:
-        C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
-        kernel.constraint_eval(model.kernel, y[:n], y[n:], t, C, Cq, Ct, g)
-        _, s, vt = np.linalg.svd(Cq)
-        rank = int(np.sum(s > 1e-10 * s[0]))
-        null = vt[rank:]
-        dv = null.T @ (null @ dv)
+    null = _null_space(_constraints(model, y, t)[1])
+    dv = null @ (null.T @ rng.normal(size=n))
     return np.concatenate([np.zeros(n), dv])
 
 
@@ -130,3 +144,58 @@ def mechanism_exponent(stepper, period: float, revolutions: int, *, d0: float = 
     # per driver period: the logs of the segments of each revolution summed
     logs = e.logs[: revolutions * per_rev].reshape(revolutions, per_rev).sum(axis=1)
     return Exponent(e.value * per_rev, logs, discard)
+
+
+@dataclass
+class Floquet:
+    """Multipliers of a periodic orbit's map over ``periods`` driver periods."""
+
+    value: float  # largest log |multiplier| per driver period
+    multipliers: np.ndarray  # eigenvalues of the period map, largest modulus first
+    closure: float  # distance (as in `state_scale`) between the orbit's start and its end: 0 if periodic
+
+
+def floquet_exponent(stepper, period: float, periods: int = 1, *, eps: float = 1e-6) -> Floquet:
+    """Largest Floquet exponent of the periodic orbit through the state of ``stepper``, per driver period.
+
+    The orbit's map over ``periods`` driver periods is differentiated by central differences: each
+    coordinate of the motions the joints allow (positions and velocities in the null space of the
+    constraint Jacobian, weighted by `state_scale`) is moved by ±``eps``, the velocities are put back
+    on the velocity constraints, and both states run from fresh copies of the stepper (contact modes
+    and stored impact velocities of the reference).  The eigenvalues μ of the map's matrix are the
+    multipliers; the exponent is max log|μ| / ``periods``.  Unlike `mechanism_exponent` nothing is
+    renormalised and no trajectory runs beside another, so it checks Benettin's estimate
+    independently (on a periodic orbit the two must agree)."""
+    model = stepper.model
+    n = 3 * model.nbody
+    w = state_scale(model, 2 * np.pi / period)
+    y0, t0 = stepper.y.copy(), stepper.t
+    null = _null_space(_constraints(model, y0, t0)[1])
+    f = null.shape[1]
+    basis = np.zeros((2 * n, 2 * f))
+    basis[:n, :f] = null
+    basis[n:, f:] = null
+    Q, _ = np.linalg.qr(w[:, None] * basis)  # orthonormal in the weighted distance
+
+    def start(dy):
+        y = y0 + dy
+        _, Cq, Ct = _constraints(model, y, t0)
+        if Cq.shape[0]:
+            y[n:] -= np.linalg.lstsq(Cq, Cq @ y[n:] + Ct, rcond=None)[0]
+        return y
+
+    def end(y):
+        s = stepper.copy()
+        s.y[:] = y
+        s.run_to(t0 + periods * period)
+        return s.y.copy()
+
+    closure = float(np.linalg.norm(Q.T @ (w * (end(y0) - y0))))
+    into, out = np.zeros((2 * f, 2 * f)), np.zeros((2 * f, 2 * f))
+    for j in range(2 * f):
+        plus, minus = start(eps * Q[:, j] / w), start(-eps * Q[:, j] / w)
+        into[:, j] = Q.T @ (w * (plus - minus))
+        out[:, j] = Q.T @ (w * (end(plus) - end(minus)))
+    mu = np.linalg.eigvals(out @ np.linalg.inv(into))
+    mu = mu[np.argsort(-np.abs(mu))]
+    return Floquet(float(np.log(np.abs(mu[0])) / periods), mu, closure)
