@@ -125,6 +125,48 @@ def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "l
     return f"{name}: {np.mean(vals):.3g} ± {np.std(vals):.2g} per period, {res['cpu']:.0f} s cpu"
 
 
+FLOQUET_PERIODS, FLOQUET_EPS, FLOQUET_SETTLE = (1, 2, 3, 4), (1e-6, 1e-5), 10
+
+
+def run_floquet(work: Path, joint: str, modulus: str, speed: str, law: str = "lankarani_nikravesh") -> str:
+    """Floquet exponents (`planar_mbs.results.lyapunov.floquet_exponent`) of the orbit the long run ended
+    on, after FLOQUET_SETTLE more periods at the Lyapunov settings, over each of FLOQUET_PERIODS periods
+    and with each difference step of FLOQUET_EPS: replicate.py shows the one of the verdict's period
+    (a chaotic case's closure shows that it has none)."""
+    from planar_mbs import load_model
+    from planar_mbs.errors import SimulationError
+    from planar_mbs.results.lyapunov import floquet_exponent
+    from planar_mbs.run.stepper import Stepper
+
+    name = job_name("floquet", joint, modulus, speed, law)
+    out = work / f"{name}.json"
+    src = work / f"{job_name('long', joint, modulus, speed, law)}.npz"
+    if out.exists():
+        return f"{name}: cached"
+    if not src.exists():
+        return f"{name}: no long run yet"
+    d = np.load(src)
+    T = json.loads(str(d["meta"]))["period"]
+    model = load_model(MODELS[joint], speed=speed, youngs_modulus=modulus, law=law)
+    cpu = time.process_time()
+    st = Stepper.restore(model, d["y"], d["contact"], float(d["clock"][0]), output_step=T / LYAP_PER_REV,
+                         **LYAP_SETTINGS)
+    runs = []
+    try:
+        st.run_to(st.t + FLOQUET_SETTLE * T)
+        for periods in FLOQUET_PERIODS:
+            for eps in FLOQUET_EPS:
+                f = floquet_exponent(st, T, periods, eps=eps)
+                runs.append({"periods": periods, "eps": eps, "value": f.value, "closure": f.closure,
+                             "moduli": np.abs(f.multipliers).tolist()})
+    except SimulationError as err:
+        runs.append({"error": str(err)})
+    res = {"runs": runs, "settings": LYAP_SETTINGS, "settle": FLOQUET_SETTLE, "cpu": time.process_time() - cpu,
+           "commit": git_commit()}
+    out.write_text(json.dumps(res))
+    return f"{name}: {len(runs)} maps, {res['cpu']:.0f} s cpu"
+
+
 def main_lyapunov(cases: list[tuple], work: Path) -> None:
     for case in cases:
         for attempt in range(240):  # wait for the long run of the case
@@ -133,6 +175,7 @@ def main_lyapunov(cases: list[tuple], work: Path) -> None:
                 break
             time.sleep(30)
         print(time.strftime("%H:%M:%S"), msg, flush=True)
+        print(time.strftime("%H:%M:%S"), run_floquet(work, *case), flush=True)
 
 
 def continue_run(work: Path, kind: str, joint: str, modulus: str, speed: str, more: int,
