@@ -147,6 +147,16 @@ def lyapunov_of(work: Path, joint: str, modulus: str, speed: str) -> dict | None
             "revolutions": d["revolutions"], "from_revolution": d["from_revolution"], "runs": d["runs"]}
 
 
+def floquet_of(work: Path, joint: str, modulus: str, speed: str, periods: int | None) -> dict | None:
+    """The Floquet exponents (both difference steps) over the verdict's period, if the case is periodic."""
+    path = work / f"{R.job_name('floquet', joint, modulus, speed)}.json"
+    if periods is None or not path.exists():
+        return None
+    runs = [r for r in json.loads(path.read_text())["runs"] if r.get("periods") == periods]
+    return {"periods": periods, "values": {f"{r['eps']:g}": r["value"] for r in runs},
+            "closure": max((r["closure"] for r in runs), default=float("nan"))} if runs else None
+
+
 def case_summary(work: Path, joint: str, modulus: str, speed: str) -> dict | None:
     got = load_run(work, "long", joint, modulus, speed)
     if got is None:
@@ -164,6 +174,7 @@ def case_summary(work: Path, joint: str, modulus: str, speed: str) -> dict | Non
                         "revolutions": tight[1]["revolutions"],
                         "settled_revolution": vt.settled_revolution, "cpu": tight[1]["cpu"]}
     out["benettin"] = lyapunov_of(work, joint, modulus, speed)
+    out["floquet"] = floquet_of(work, joint, modulus, speed, v.period if v.verdict == "periodic" else None)
     return out
 
 
@@ -375,9 +386,19 @@ def peaks(path: Path, joint: str, from_rev: int = 1) -> dict[str, dict[str, floa
 
 # ---------------------------------------------------------------- tables
 def _lam(b: dict | None) -> str:
-    if not b or not b["n"]:
+    if not b:
         return "not run"
+    if not b["n"]:
+        return f"failed ({len(b['runs'])} of {len(b['runs'])} directions stopped)"
     return f"{b['mean']:.3g} ± {b['std']:.2g} ({b['n']} states, {b['revolutions'] - 10} rev)"
+
+
+def _floquet(f: dict | None) -> str:
+    """Floquet's exponent at the difference step 1e-6, that at 1e-5 beside it."""
+    if not f or "1e-06" not in f["values"]:
+        return "–"
+    other = f"; ε 1e-5: {f['values']['1e-05']:.3g}" if "1e-05" in f["values"] else ""
+    return f"{f['values']['1e-06']:.3g} ({f['periods']}T{other})"
 
 
 def _settled(cls: str, rev, revolutions: int, short: bool = False) -> str:
@@ -397,6 +418,9 @@ def _agree_lyapunov(s: dict) -> str:
     negative = b["mean"] + b["std"] < 0
     if s["class"] == "periodic" and not negative:
         return "Benettin λ not negative on a periodic orbit"
+    f = (s.get("floquet") or {}).get("values", {}).get("1e-06")
+    if s["class"] == "periodic" and f is not None and not 0.5 < b["mean"] / f < 2:
+        return f"Benettin and Floquet differ ({b['mean']:.2f} vs {f:.2f})"
     if s["class"] == "chaotic" and not positive:
         return "Benettin λ not clearly positive"
     if s["class"] == "chaotic" and not math.isnan(s["lyapunov"]) and abs(b["mean"] - s["lyapunov"]) > 0.5 * abs(b["mean"]):
@@ -435,8 +459,9 @@ def short_tables(files: dict) -> tuple[dict[str, str], dict]:
 def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: list[Path], wall: float) -> dict[str, str]:
     gen, data = {}, {"cases": summaries, "bifurcation": bif, "peaks": {}, "laws": {}}
     lines = ["| joint | E | speed | paper says | verdict after the transient | settled at revolution | revolutions run "
-             "| λ Benettin per rev (mean ± sd) | λ nearest-neighbour | K | rtol 1e-8 gives | agrees with paper | note |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| λ Benettin per rev (mean ± sd) | λ Floquet per rev (ε 1e-6) | λ nearest-neighbour | K | rtol 1e-8 gives "
+             "| agrees with paper | note |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for s in summaries:
         paper = PAPER_CLAIMS[s["joint"]][s["speed"]]
         ok = "yes" if s["class"] == paper else "no"
@@ -447,7 +472,7 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
                  + (f" ({t['revolutions']} rev)" if t["revolutions"] != s["revolutions"] else "")) if t else "not run"
         note = "; ".join(filter(None, [_agree_lyapunov(s), s["note"] if not s["agree"] else ""]))
         lines.append(f"| {s['joint']} | {s['E']} | {s['speed']} | {paper} | **{s['verdict']}** | {settled} | "
-                     f"{s['revolutions']} | {_lam(s.get('benettin'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")
+                     f"{s['revolutions']} | {_lam(s.get('benettin'))} | {_floquet(s.get('floquet'))} | {nn} | {s['K']:.2f} | {tight} | {ok} | {note} |")
     gen["verdicts"] = "\n".join(lines)
     short_gen, short_data = short_tables(files)
     gen.update(short_gen)
@@ -474,9 +499,9 @@ def tables(work: Path, files: dict, summaries: list[dict], bif: dict, figures: l
     n_tight = len([p for p in work.glob("tight_*.npz") if not p.stem.endswith("_cont")])
     n_lyap = len(list(work.glob("lyap_*.json")))
     cpu = sum(json.loads(str(np.load(p)["meta"]))["cpu"] for p in work.glob("*.npz"))
-    cpu += sum(json.loads(p.read_text())["cpu"] for p in work.glob("lyap_*.json"))
+    cpu += sum(json.loads(p.read_text())["cpu"] for p in [*work.glob("lyap_*.json"), *work.glob("floquet_*.json")])
     gen["run"] = (f"Runs behind this page: {n_long} runs of {REVOLUTIONS} revolutions, {n_tight} of them again at "
-                  f"rtol 1e-8, Lyapunov exponents of {n_lyap} cases; {cpu / 60:.0f} min of CPU in the time loops "
+                  f"rtol 1e-8, Benettin and Floquet exponents of {n_lyap} cases; {cpu / 60:.0f} min of CPU in the time loops "
                   f"(runs made from {_made_from(commits)}; each run's commit is in docs/replication_data.json); "
                   f"{len(figures)} figures; "
                   f"drawing and analysis {wall:.0f} s.")

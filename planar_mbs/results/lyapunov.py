@@ -116,12 +116,18 @@ def mechanism_exponent(stepper, period: float, revolutions: int, *, d0: float = 
     times per period (an impact can multiply a perturbation by 1e4 within one period: the
     companion must stay in the linear range).  The distance is measured
     with `state_scale` (d0 = 1e-6: 1 nm or 1 µrad); the contact modes and stored impact
-    velocities are each trajectory's own and are not part of the distance."""
+    velocities are each trajectory's own and are not part of the distance.
+
+    Both trajectories are projected onto the constraints after every step (``projection =
+    on``): pulling the companion back by a factor s moves it to ``ref + s (comp - ref)``, so
+    any constraint residual in which they differ would be multiplied by s at every
+    renormalisation; unprojected, the drift off the constraints (which neither grows nor
+    decays) outlasts an attracting orbit's perturbation and the estimate tends to 0."""
     model = stepper.model
     w = state_scale(model, 2 * np.pi / period)
     rng = np.random.default_rng(seed)
-    ref = stepper.copy()
-    comp = stepper.copy()
+    ref = stepper.copy(projection="on")
+    comp = stepper.copy(projection="on")
     dy = tangent_perturbation(model, ref.y, ref.t, rng)
     dy *= d0 / np.linalg.norm(w * dy)
     comp.y += dy

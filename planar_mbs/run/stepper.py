@@ -12,6 +12,8 @@ uninterrupted one only at the segment ends.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import SimulationError
@@ -57,13 +59,17 @@ class Stepper:
     def t(self) -> float:
         return float(self.clock[0])
 
-    def copy(self) -> "Stepper":
+    def copy(self, projection: str | None = None) -> "Stepper":
         """An independent trajectory in the same state (a fresh workspace: the kernel keeps
-        nothing in it between calls once a segment has ended at its ``t_stop``)."""
+        nothing in it between calls once a segment has ended at its ``t_stop``), with its
+        `projection` setting changed where given ("on", "off", "auto")."""
         new = object.__new__(Stepper)
         new.__dict__.update(self.__dict__)
         for name in ("y", "clock", "contact", "stats", "cfg"):
             setattr(new, name, getattr(self, name).copy())
+        if projection is not None:
+            new.settings = replace(self.settings, projection=projection)
+            new.cfg = new.settings.cfg(self.model.size)
         new.ws = make_workspace(self.model.kernel)
         new._out_t, new._out = self._out_t.copy(), self._out.copy()
         return new
