@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import SimulationError
-from ..kernel import advance, make_workspace
+from ..kernel import advance, make_workspace, project
 from ..mechanism.kinematics import assemble
 from ..mechanism.model import N_STATS, ST_INFO, ST_OUTPUTS, Model, Status, observation_size
 from ..results.signals import signal_table
@@ -53,6 +53,8 @@ class Stepper:
         st.contact[:] = contact
         st.clock[:] = (t, 0.0, 0.0)
         st.stats[ST_OUTPUTS] = int(round(t / st.settings.output_step)) + 1
+        if st.settings.projection == "on":
+            st._project()
         return st
 
     @property
@@ -70,9 +72,20 @@ class Stepper:
         if projection is not None:
             new.settings = replace(self.settings, projection=projection)
             new.cfg = new.settings.cfg(self.model.size)
+            if projection == "on":
+                new._project()
         new.ws = make_workspace(self.model.kernel)
         new._out_t, new._out = self._out_t.copy(), self._out.copy()
         return new
+
+    def _project(self) -> None:
+        """Put the state on the constraints at once, as `projection = on` keeps it after every step: a state
+        saved by a run at a looser tolerance may be off them by more than this run's bound, which its first
+        step would report as "the constraints gave way"."""
+        status = project(self.model.kernel, self.t, self.y, self.ws, self.stats)
+        if status != 0:
+            raise SimulationError(_failure_message(self.model, int(status), int(self.stats[ST_INFO]), self.t,
+                                                   self.settings, self.contact), time=self.t)
 
     def run_to(self, t_stop: float) -> tuple[np.ndarray, np.ndarray]:
         """Integrate to ``t_stop``; returns the output times and observation rows written
