@@ -89,15 +89,12 @@ LYAP_SETTINGS = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-13}
 LYAP_REVOLUTIONS, LYAP_PER_REV, LYAP_SEEDS, LYAP_D0 = 60, 16, 5, 1e-6
 
 
-def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "lankarani_nikravesh") -> str:
-    """Benettin exponents from the final state of the long run: LYAP_SEEDS perturbed companions
-    (d0 = LYAP_D0), one more at d0/100 to show whether the estimate depends on d0."""
+def _from_long_run(work: Path, kind: str, joint: str, modulus: str, speed: str, law: str):
+    """(job name, its output path, the long run's saved arrays, their meta, the model) for a job that starts
+    from the final state of a long run; a message instead when the job is done or the long run is not."""
     from planar_mbs import load_model
-    from planar_mbs.errors import SimulationError
-    from planar_mbs.results.lyapunov import mechanism_exponent
-    from planar_mbs.run.stepper import Stepper
 
-    name = job_name("lyap", joint, modulus, speed, law)
+    name = job_name(kind, joint, modulus, speed, law)
     out = work / f"{name}.json"
     src = work / f"{job_name('long', joint, modulus, speed, law)}.npz"
     if out.exists():
@@ -105,8 +102,21 @@ def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "l
     if not src.exists():
         return f"{name}: no long run yet"
     d = np.load(src)
-    meta = json.loads(str(d["meta"]))
     model = load_model(MODELS[joint], speed=speed, youngs_modulus=modulus, law=law)
+    return name, out, d, json.loads(str(d["meta"])), model
+
+
+def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "lankarani_nikravesh") -> str:
+    """Benettin exponents from the final state of the long run: LYAP_SEEDS perturbed companions
+    (d0 = LYAP_D0), one more at d0/100 to show whether the estimate depends on d0."""
+    from planar_mbs.errors import SimulationError
+    from planar_mbs.results.lyapunov import mechanism_exponent
+    from planar_mbs.run.stepper import Stepper
+
+    start = _from_long_run(work, "lyap", joint, modulus, speed, law)
+    if isinstance(start, str):
+        return start
+    name, out, d, meta, model = start
     T = meta["period"]
     cpu = time.process_time()
     runs = []
@@ -133,21 +143,15 @@ def run_floquet(work: Path, joint: str, modulus: str, speed: str, law: str = "la
     on, after FLOQUET_SETTLE more periods at the Lyapunov settings, over each of FLOQUET_PERIODS periods
     and with each difference step of FLOQUET_EPS: replicate.py shows the one of the verdict's period
     (a chaotic case's closure shows that it has none)."""
-    from planar_mbs import load_model
     from planar_mbs.errors import SimulationError
     from planar_mbs.results.lyapunov import floquet_exponent
     from planar_mbs.run.stepper import Stepper
 
-    name = job_name("floquet", joint, modulus, speed, law)
-    out = work / f"{name}.json"
-    src = work / f"{job_name('long', joint, modulus, speed, law)}.npz"
-    if out.exists():
-        return f"{name}: cached"
-    if not src.exists():
-        return f"{name}: no long run yet"
-    d = np.load(src)
-    T = json.loads(str(d["meta"]))["period"]
-    model = load_model(MODELS[joint], speed=speed, youngs_modulus=modulus, law=law)
+    start = _from_long_run(work, "floquet", joint, modulus, speed, law)
+    if isinstance(start, str):
+        return start
+    name, out, d, meta, model = start
+    T = meta["period"]
     cpu = time.process_time()
     st = Stepper.restore(model, d["y"], d["contact"], float(d["clock"][0]), output_step=T / LYAP_PER_REV,
                          **LYAP_SETTINGS)
