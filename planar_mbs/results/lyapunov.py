@@ -178,6 +178,9 @@ def floquet_exponent(stepper, period: float, periods: int = 1, *, eps: float = 1
     y0, t0 = stepper.y.copy(), stepper.t
     null = _null_space(_constraints(model, y0, t0)[1])
     f = null.shape[1]
+    if f == 0:
+        raise ValueError("the joints and drivers allow no motion: a mechanism without degrees of freedom has "
+                         "no Floquet multipliers")
     basis = np.zeros((2 * n, 2 * f))
     basis[:n, :f] = null
     basis[n:, f:] = null
