@@ -157,7 +157,7 @@ def multipliers(km, ws, x):
         refine(km, ws, x)
 
 
-@kernel
+@kernel(inline=True)
 def refine(km, ws, x):
     """The iterated Tikhonov solve of `multipliers` (ws.b, ws.res, ws.v as scratch): REFINE
     sweeps, then more while each shrinks the residual by at least RATE (up to 64).  A

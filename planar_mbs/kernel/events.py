@@ -83,7 +83,7 @@ def _ends(km, ws, k, sgn):
     return g0, h * v0, g1, h * v1
 
 
-@kernel
+@kernel(inline=True)
 def event_possible(km, ws, contact, kend):
     """Screening for DOP853 (whose accurate dense output costs three extra stages): True
     when any joint's g is positive at the step end, or its cubic Hermite interpolant from the
@@ -109,7 +109,7 @@ def _rate(km, ws, k, sgn, x):
     return ws.dense[DN_H] * v
 
 
-@kernel
+@kernel(inline=True)
 def _peak(km, ws, k, sgn, g0, d0, g1, d1):
     """Step fraction of the deepest interior point of g (the zero of dg/dtheta where it turns
     from + to -, on the dense output), or -1 when g has no interior maximum that could reach
@@ -148,7 +148,7 @@ def _peak(km, ws, k, sgn, g0, d0, g1, d1):
     return _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi)
 
 
-@kernel
+@kernel(inline=True)
 def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi):
     """Zero of dg/dtheta in [lo, hi] (flo > 0 > fhi), Illinois regula falsi."""
     side = 0
@@ -176,7 +176,7 @@ def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi):
     return 0.5 * (lo + hi)
 
 
-@kernel
+@kernel(inline=True)
 def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
     """Bracket end on the new side (g > 0) of the crossing of g in [lo, hi] (flo <= 0 < fhi),
     refined by Illinois regula falsi (bisection safeguard) to tol."""
@@ -281,7 +281,7 @@ def init_modes(km, y, contact):
             contact[k, CT_IMPACT_VELOCITY] = IMPACT_VELOCITY_FLOOR
 
 
-@kernel
+@kernel(inline=True)
 def locate_switch(km, ws, best):
     """Earliest comparison of an expression that changes inside the last step before step fraction
     ``best`` (an earlier event's).  Returns (s, theta): its index (-1: none) and the step fraction

@@ -345,7 +345,7 @@ def _atan2_dual(y, y1, y2, x, x1, x2):
     return math.atan2(y, x), d1, d2
 
 
-@kernel
+@kernel(inline=True)
 def flip_switch(km, s, t, y):
     """Switch s takes its value at (t, y), on its new side (at an event)."""
     n = y.shape[0] // 2

@@ -309,7 +309,7 @@ def hermite_eval(ws, theta, out, kend):
         out[i] = h00 * ws.ya[i] + h01 * ws.yb[i] + h * (h10 * K[0, i] + h11 * K[kend, i])
 
 
-@kernel
+@kernel(inline=True)
 def initial_step(km, cfg, t, y, contact, ws, stats, hmax, order):
     """Hairer's starting step (hinit) for a method of the given order from
     ws.f = f(t, y); uses ws.ys, ws.yt."""

@@ -32,11 +32,17 @@
   (`jac_dot`) made it slower: each use is measured, not assumed.
 * A kernel that is not inlined is a library of its own, into which numba links the code of every
   kernel it calls and then optimises and emits machine code for all of it again (LLVM is about half
-  of the first compilation: benchmarks/compile_profile.py).  Inlining the small kernels between `advance` and the stage loop
-  (`fixed_step`, `passage_check`, `dense_prepare`, `initial_step`: `rk_stages` then linked into three
-  libraries instead of six) did not shorten it: 101.6 s of CPU against 94.5 s for everything in one
-  process, back to back on a busy machine; the front end then types and lowers each inlined copy.
-  Not taken.
+  of the first compilation: benchmarks/compile_profile.py).  So a kernel with one call site and no
+  caller in Python is inlined there (`passage_check`, `initial_step`, `refine`, `flip_switch` and the
+  event helpers `event_possible`, `locate_switch`, `_peak`, `_crossing`, `_illinois_rate`): its code
+  is optimised and emitted once, in its caller, instead of also in a library of its own.  With
+  `inline_copy` (below) making numba's inlining cheap, one process's first compilation took 74.3 s of
+  CPU against 79.6 s (LLVM 45.8 s against 51.5 s, a pair side by side) and the README's first command
+  49.8-53.4 s against 53.4-61.3 s (five and four cold runs alternating, 2 idle cores), results
+  bit-identical on every shipped model with DOPRI5, RK4 and DOP853, the time loop as fast.  Before
+  `inline_copy`, inlining `fixed_step`, `passage_check`, `dense_prepare` and `initial_step` had made
+  it longer (101.6 s against 94.5 s).  Inlining 23 more kernels of one call site made it longer again
+  (86.5 s against 78.7 s): those land in `_emit` and `project`, whose front end grew by 11 and 4.5 s.
 * The steps of `loop.advance` (`_resume`, `_adaptive`, `_contact_event`, `_end_step`, ...) are
   inlined at their one call site each: the loop reads as named steps and compiles to what it was as
   one function (bit-identical results on every shipped model, same speed).  The first compilation

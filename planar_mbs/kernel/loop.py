@@ -448,7 +448,7 @@ def lost_check(cfg, ws, qd, stats):
     return 0
 
 
-@kernel
+@kernel(inline=True)
 def passage_check(method, km, cfg, t, y, h, contact, ws, stats):
     """After a fixed step (RK4) in which a factor was regularised (a singular position; ws.yb, ws.K hold
     the step): the same step in two halves.  The positions' difference over 2^p - 1 (Richardson, p the

@@ -153,10 +153,10 @@ def first_call(dispatcher, *args):
 # ---------------------------------------------------------------- a second process compiles what comes last
 # The kernels that numba's typing of `advance` reaches last (order measured with numba's compile events
 # on a cold cache): a helper process compiles them, the first one first, while this process compiles the
-# time loop from its start; when the typing reaches one of them it loads it from the cache instead.
-HELPER_KERNELS = (("loop", "_finish_step"), ("events", "locate_event"), ("events", "event_possible"),
-                  ("integrators", "rk_stages"), ("integrators", "fixed_step"),
-                  ("integrators", "initial_step"))
+# time loop from its start; when the typing reaches one of them it loads it from the cache instead
+# (`event_possible` and `initial_step` left the list when they were inlined at their one call site).
+HELPER_KERNELS = (("loop", "_finish_step"), ("events", "locate_event"), ("integrators", "rk_stages"),
+                  ("integrators", "fixed_step"))
 # any model gives the kernels the same argument types (arrays of fixed dtype and rank)
 _TINY = ("body crank { mass = 1 kg  inertia = 1 kg*m^2  position = (0.5, 0)  angle = 0 deg }\n"
          "joint O = revolute(ground (0, 0), crank (-0.5, 0))\n"
