@@ -199,15 +199,6 @@ def cylinder_solve(s, x0):
 
 
 @kernel
-def cylinder_penetration(law, p, F):
-    """delta(F) of a cylindrical law (the published explicit form)."""
-    A, B = cylinder_scales(law, p)
-    if F <= 0.0:
-        return 0.0
-    return A * F * (math.log(B / F) + 1.0)
-
-
-@kernel
 def normal_force(law, p, delta, vn, v_impact, f_last):
     """Normal force F >= 0 of a law at penetration delta > 0, normal velocity vn
     (> 0 approaching) and impact velocity v_impact; returns (F, status).  f_last is
