@@ -180,15 +180,17 @@ def test_benettin_after_a_long_transient_neither_stops_nor_drifts():
     assert np.allclose(values, fl.value, rtol=0.15)
 
 
-def test_floquet_of_a_mechanism_without_freedom_says_so(tmp_path):
-    """A crank turned by its driver has no motion of its own: no multipliers, said in words."""
+def test_a_mechanism_without_freedom_is_refused_in_words(tmp_path):
+    """A crank turned by its driver has no motion of its own: no exponent and no multipliers, said in words."""
     from planar_mbs import load_model
-    from planar_mbs.results.lyapunov import floquet_exponent
+    from planar_mbs.results.lyapunov import floquet_exponent, mechanism_exponent
     from planar_mbs.run.stepper import Stepper
 
     path = tmp_path / "crank.mbs"
     path.write_text("body crank { mass = 1 kg  inertia = 1 kg*m^2  position = (0.5, 0) }\n"
                     "joint O = revolute(ground (0, 0), crank (-0.5, 0))\n"
                     "driver turn = rotation(crank, speed = 60 rpm)\nsimulate { t_end = 1 s }\n")
-    with pytest.raises(ValueError, match="no Floquet multipliers"):
+    with pytest.raises(ValueError, match="no Lyapunov exponent or Floquet multiplier"):
         floquet_exponent(Stepper(load_model(path)), 1.0)
+    with pytest.raises(ValueError, match="no Lyapunov exponent or Floquet multiplier"):
+        mechanism_exponent(Stepper(load_model(path)), 1.0, 12)

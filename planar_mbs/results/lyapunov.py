@@ -67,6 +67,8 @@ def benettin(advance: Callable, reference, companion, distance: Callable, pull: 
 
 
 # ---------------------------------------------------------------- mechanisms
+NO_FREEDOM = ("the joints and drivers allow no motion: a mechanism without degrees of freedom has no "
+              "Lyapunov exponent or Floquet multiplier")
 LENGTH = 1e-3  # m: positions are measured in mm in the distance, angles in rad, rates over one radian of crank
 
 
@@ -129,6 +131,8 @@ def mechanism_exponent(stepper, period: float, revolutions: int, *, d0: float = 
     ref = stepper.copy(projection="on")
     comp = stepper.copy(projection="on")
     dy = tangent_perturbation(model, ref.y, ref.t, rng)
+    if not np.linalg.norm(w * dy) > 0:
+        raise ValueError(NO_FREEDOM)
     dy *= d0 / np.linalg.norm(w * dy)
     comp.y += dy
 
@@ -179,8 +183,7 @@ def floquet_exponent(stepper, period: float, periods: int = 1, *, eps: float = 1
     null = _null_space(_constraints(model, y0, t0)[1])
     f = null.shape[1]
     if f == 0:
-        raise ValueError("the joints and drivers allow no motion: a mechanism without degrees of freedom has "
-                         "no Floquet multipliers")
+        raise ValueError(NO_FREEDOM)
     basis = np.zeros((2 * n, 2 * f))
     basis[:n, :f] = null
     basis[n:, f:] = null
