@@ -467,10 +467,16 @@ def short_tables(files: dict) -> tuple[dict[str, str], dict]:
     return gen, data
 
 
-CLASS_CLAIMS = [  # §III.C's claims about the class of motion: (joint, speeds, class)
-    ("A", ("800rpm",), "chaotic"), ("A", ("1200rpm", "2500rpm"), "quasi-periodic"), ("A", ("5000rpm",), "periodic"),
-    ("B", ("800rpm",), "periodic"), ("B", ("1200rpm", "2500rpm"), "quasi-periodic"), ("B", ("5000rpm",), "chaotic"),
-]
+def class_claims() -> list[tuple[str, tuple[str, ...], str]]:
+    """§III.C's claims about the class of motion as the paper words them: (joint, speeds, class), the
+    speeds of one joint with the same class in one claim (from `PAPER_CLAIMS`)."""
+    claims = []
+    for joint, by_speed in PAPER_CLAIMS.items():
+        speeds_of: dict[str, list[str]] = {}
+        for speed, cls in by_speed.items():
+            speeds_of.setdefault(cls, []).append(speed)
+        claims += [(joint, tuple(speeds), cls) for cls, speeds in speeds_of.items()]
+    return claims
 
 
 def _case_words(s: dict) -> str:
@@ -523,7 +529,7 @@ def claims_table(summaries: list[dict], peaks: dict, bif: dict) -> str:
             cells.append("**reproduced** (table above)" if p and grows else "**not reproduced** (table above)")
         lines.append(f"| peaks of slider acceleration, joint reaction force and crank torque grow with crank speed, "
                      f"clearance at {joint} | " + " | ".join(cells) + " |")
-    for joint, speeds, claim in CLASS_CLAIMS:
+    for joint, speeds, claim in class_claims():
         cells = [_claim_cell([s for s in summaries if s["joint"] == joint and s["E"] == MODULI[tag]
                               and s["speed"] in speeds], claim) for tag in MODULI]
         lines.append(f"| {joint}: {claim} at {' and '.join(x[:-3] for x in speeds)} rpm | " + " | ".join(cells) + " |")

@@ -81,14 +81,14 @@ def state_scale(model, omega: float) -> np.ndarray:
     return np.concatenate([w, w / omega])
 
 
-def _constraints(model, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(C, Cq, Ct) of the state ``y`` at time ``t``."""
+def _jacobian(model, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Cq, Ct): the constraint Jacobian and the constraints' explicit time derivative at ``y``, ``t``."""
     n = 3 * model.nbody
     m = kernel.constraint_rows(model.kernel)
     C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
     if m:
         kernel.constraint_eval(model.kernel, y[:n], y[n:], t, C, Cq, Ct, g)
-    return C, Cq, Ct
+    return Cq, Ct
 
 
 def _null_space(Cq: np.ndarray) -> np.ndarray:
@@ -105,7 +105,7 @@ def tangent_perturbation(model, y: np.ndarray, t: float, rng) -> np.ndarray:
     unchanged, velocities in the null space of the constraint Jacobian (a motion the joints
     allow)."""
     n = 3 * model.nbody
-    null = _null_space(_constraints(model, y, t)[1])
+    null = _null_space(_jacobian(model, y, t)[0])
     dv = null @ (null.T @ rng.normal(size=n))
     return np.concatenate([np.zeros(n), dv])
 
@@ -180,7 +180,7 @@ def floquet_exponent(stepper, period: float, periods: int = 1, *, eps: float = 1
     n = 3 * model.nbody
     w = state_scale(model, 2 * np.pi / period)
     y0, t0 = stepper.y.copy(), stepper.t
-    null = _null_space(_constraints(model, y0, t0)[1])
+    null = _null_space(_jacobian(model, y0, t0)[0])
     f = null.shape[1]
     if f == 0:
         raise ValueError(NO_FREEDOM)
@@ -191,7 +191,7 @@ def floquet_exponent(stepper, period: float, periods: int = 1, *, eps: float = 1
 
     def start(dy):
         y = y0 + dy
-        _, Cq, Ct = _constraints(model, y, t0)
+        Cq, Ct = _jacobian(model, y, t0)
         if Cq.shape[0]:
             y[n:] -= np.linalg.lstsq(Cq, Cq @ y[n:] + Ct, rcond=None)[0]
         return y
