@@ -9,7 +9,12 @@ Two scans of models/slider_crank_clearance_a.mbs at 180 samples per revolution: 
 revolutions (short cases, about 0.4 s each) and 64 cases x 200 revolutions (about 2 s each).  Each
 `-j` runs as its own process, interleaved round by round (a burst of load hits all alike); the
 time is the median over the rounds; speed-up and efficiency (speed-up / jobs) are against -j 1 of
-the same run.  Jobs above the number of cores are skipped.  Prints a table; writes nothing else.
+the same run.  Jobs above the number of cores are skipped.  A small scan with a pool runs first,
+untimed: on a lent 16-core machine the first scan with a pool after numba's first compilation (a
+`-j 1` run) took 35 s longer before its first case, twice; not seen on the 2-core machine.  Beside each wall time, the CPU seconds
+the cases spent (each case's own, stored with it): where they grow with -j, the cores slow each
+other down (shared caches, memory, hyperthreads), which no scheduling can win back.  Prints a
+table; writes nothing else.
 """
 from __future__ import annotations
 
@@ -28,17 +33,67 @@ MODEL = ROOT / "models" / "slider_crank_clearance_a.mbs"
 SCANS = {"32 x 40 rev": ("speed=500rpm..6000rpm:32", 40), "64 x 200 rev": ("speed=500rpm..6000rpm:64", 200)}
 
 
-def one(param: str, revolutions: int, jobs: int, folder: Path) -> float:
+def one(param: str, revolutions: int, jobs: int, folder: Path) -> tuple[float, float, str]:
+    """Wall seconds of one `mbs sweep`, the CPU seconds its cases spent, and where its wall time went
+    (`timeline`)."""
+    import h5py
+
     out = folder / f"scan-j{jobs}.h5"
     out.unlink(missing_ok=True)
     cmd = [MBS, "sweep", str(MODEL), "-P", param, "-n", str(revolutions), "--per-rev", "180", "-j", str(jobs),
            "-q", "-o", str(out)]
-    t0 = time.perf_counter()
+    before = machine_times()
+    t0, begin = time.perf_counter(), time.time()
     r = subprocess.run(cmd, capture_output=True, text=True)
     dt = time.perf_counter() - t0
+    after = machine_times()
     if r.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({r.returncode}): {r.stderr[-2000:]}")
-    return dt
+    with h5py.File(out, "r") as f:
+        cases = [(float(g.attrs["case_started"]), float(g.attrs["case_wall_time"]), int(g.attrs["case_worker"]),
+                  float(g.attrs["case_cpu_time"])) for g in f["cases"].values()]
+    spent = [b - a for a, b in zip(before, after)]
+    share = " | ".join(f"{x / max(sum(spent), 1):.0%}" for x in spent) if spent else "- | - | -"
+    return dt, sum(c[3] for c in cases), f"{timeline(cases, begin, begin + dt, jobs)} | {share}"
+
+
+def machine_times() -> list[int]:
+    """The whole machine's CPU time so far, as Linux counts it (/proc/stat): [running, idle, stolen],
+    stolen being the time a virtual machine's CPUs waited for the host's; [] elsewhere."""
+    try:
+        fields = [int(x) for x in Path("/proc/stat").read_text().split("\n")[0].split()[1:9]]
+    except (OSError, ValueError):
+        return []
+    user, nice, system, idle, iowait, irq, softirq, steal = fields
+    return [user + nice + system + irq + softirq, idle + iowait, steal]
+
+
+def timeline(cases: list[tuple[float, float, int, float]], begin: float, end: float, jobs: int) -> str:
+    """Where a scan's wall time went, from each case's start, duration and process (stored with it):
+    the start-up before the first case, the cores' share of the time spent in cases, the gaps between
+    one process's cases (storing a case, waiting for the next), the spread of the processes' last
+    ends (a core finishing alone) and the end after the last case (gathering, the table, exit)."""
+    by_worker: dict[int, list[tuple[float, float]]] = {}
+    for started, wall, worker, _ in cases:
+        by_worker.setdefault(worker, []).append((started, started + wall))
+    gaps = sum(b[0] - a[1] for runs in by_worker.values() for a, b in zip(sorted(runs), sorted(runs)[1:]))
+    last_ends = [max(e for _, e in runs) for runs in by_worker.values()]
+    first = min(s for s, _, _, _ in cases)
+    busy = sum(w for _, w, _, _ in cases) / (jobs * (end - begin))
+    return (f"{first - begin:.2f} | {busy:.0%} | {gaps:.2f} | {max(last_ends) - min(last_ends):.2f} | "
+            f"{end - max(last_ends):.2f} | {len(by_worker)}")
+
+
+def topology() -> str:
+    """CPUs, and how many of them share a core (hyperthreads), as Linux counts them."""
+    cores = os.cpu_count() or 1
+    try:
+        siblings = Path("/sys/devices/system/cpu/cpu0/topology/thread_siblings_list").read_text().strip()
+        per_core = sum(len(range(int(a), int(b) + 1)) if "-" in part else 1
+                       for part in siblings.split(",") for a, _, b in [part.partition("-")])
+    except OSError:
+        per_core = 1
+    return f"{cores} CPUs, {per_core} per core"
 
 
 def serial_fraction(folder: Path, param: str, revolutions: int, rounds: int) -> None:
@@ -91,10 +146,12 @@ def main() -> None:
         return
     cores = os.cpu_count() or 1
     jobs = [j for j in map(int, args.jobs.split(",")) if j <= cores]
-    print(f"{cores} cores, python {sys.version.split()[0]}")
+    print(f"{topology()}, python {sys.version.split()[0]}")
     scans = {f"{args.cases} x {args.revolutions} rev": (f"speed=500rpm..6000rpm:{args.cases}", args.revolutions)} \
         if args.cases else SCANS
     with tempfile.TemporaryDirectory() as tmp:
+        warm = one("speed=1000rpm,2000rpm", 2, min(2, cores), Path(tmp))  # untimed: a cold cache compiles here
+        print(f"warm-up scan (untimed) {warm[0]:.1f} s")
         for name, (param, revolutions) in scans.items():
             if args.only and name != args.only:
                 continue
@@ -103,14 +160,25 @@ def main() -> None:
             for _ in range(args.rounds):
                 for j in jobs:
                     times[j].append(one(param, revolutions, j, Path(tmp)))
-            base = statistics.median(times[jobs[0]]) * jobs[0]
+            walls = {j: [w for w, _, _ in times[j]] for j in jobs}
+            cpu = {j: statistics.median(c for _, c, _ in times[j]) for j in jobs}
+            base = statistics.median(walls[jobs[0]]) * jobs[0]
             print(f"\n{name} (load average {load:.1f} before, {os.getloadavg()[0]:.1f} after)\n"
-                  "| -j | wall [s] | speed-up | efficiency | speed-up in each round |\n| --- | --- | --- | --- | --- |")
+                  "| -j | wall [s] | speed-up | efficiency | speed-up in each round | CPU s in the cases | "
+                  "… against the first -j |\n| --- | --- | --- | --- | --- | --- | --- |")
             for j in jobs:
-                t = statistics.median(times[j])
-                rounds = ", ".join(f"{a * jobs[0] / b:.2f}" for a, b in zip(times[jobs[0]], times[j]))
-                print(f"| {j} | {t:.2f} | {base / t:.2f} | {base / t / j:.0%} | {rounds} |")
-
+                t = statistics.median(walls[j])
+                rounds = ", ".join(f"{a * jobs[0] / b:.2f}" for a, b in zip(walls[jobs[0]], walls[j]))
+                print(f"| {j} | {t:.2f} | {base / t:.2f} | {base / t / j:.0%} | {rounds} | {cpu[j]:.1f} | "
+                      f"{cpu[j] / cpu[jobs[0]]:.2f} |", flush=True)
+            print("\nwhere the wall time went (each round): start-up before the first case [s] | cores busy in cases "
+                  "| gaps between a process's cases [s, all processes] | spread of the processes' last ends [s] | "
+                  "after the last case [s] | processes | the machine's CPU time running, idle and stolen by the host"
+                  "\n| -j | round | start-up | busy | gaps | spread | end | processes | running | idle | stolen |"
+                  "\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+            for j in jobs:
+                for k, (_, _, line) in enumerate(times[j]):
+                    print(f"| {j} | {k + 1} | {line} |")
 
 if __name__ == "__main__":
     main()

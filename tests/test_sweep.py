@@ -108,6 +108,9 @@ def test_sweep_file_layout_and_resume(tmp_path):
     assert s4.ran == [3] and len(read_case_table(out)) == 4
 
 
+MEASURED = ("wall_time", "cpu_time", "case_started", "case_worker")  # attributes a rerun changes
+
+
 def _tree(path) -> dict:
     """Every dataset (values) and attribute of a sweep file's cases and table, wall times left out."""
     out = {}
@@ -117,8 +120,9 @@ def _tree(path) -> dict:
             out[name] = obj[()].tobytes() if obj.dtype.kind != "O" else list(obj[()])
         for key, value in obj.attrs.items():
             # measured, not computed: n_rhs counts one more right-hand side each time the time
-            # loop is re-entered, which a wall-time budget decides (the results are the same)
-            if "wall_time" not in key and "cpu_time" not in key and key != "n_rhs":
+            # loop is re-entered, which a wall-time budget decides (the results are the same);
+            # when a case started and in which process
+            if not any(m in key for m in MEASURED) and key != "n_rhs":
                 out[f"{name}@{key}"] = value.tolist() if hasattr(value, "tolist") else value
 
     with h5py.File(path, "r") as f:

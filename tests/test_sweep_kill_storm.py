@@ -58,8 +58,10 @@ def _tree(path) -> dict:
                     out[f"{key}/{name}"] = obj[()].tobytes() if obj.dtype.kind != "O" else list(obj[()])
                 for a, v in obj.attrs.items():
                     # measured, not computed: n_rhs counts one more right-hand side each time the time
-                    # loop is re-entered, which a wall-time budget decides (the results are the same)
-                    if "wall_time" not in a and "cpu_time" not in a and a != "n_rhs":
+                    # loop is re-entered, which a wall-time budget decides (the results are the same);
+                    # when a case started and in which process
+                    if not any(m in a for m in ("wall_time", "cpu_time", "case_started", "case_worker")) \
+                            and a != "n_rhs":
                         out[f"{key}/{name}@{a}"] = str(v)
             f[f"cases/{index}"].visititems(visit)
             out[f"{r['key']}/row"] = str({k: v for k, v in r.items() if k != "wall_time"})

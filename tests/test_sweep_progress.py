@@ -79,20 +79,20 @@ def _scan_cases():
 
 def test_equal_cases_run_in_an_order_spread_over_every_parameter():
     specs, _ = _scan_cases()
-    order = run_order(specs, [36_000] * len(specs))
-    assert order == run_order(list(reversed(specs)), [36_000] * len(specs))  # fixed by the cases, not their order
+    order = run_order(specs, [(1.0, 36_000)] * len(specs))
+    assert order == run_order(list(reversed(specs)), [(1.0, 36_000)] * len(specs))  # fixed by the cases, not their order
     first = order[:100]
     assert len({s.values["speed"] for s in first}) >= 35  # the axes' order: 5 speeds in the first 100
     assert {s.values["law"] for s in order[:20]} == {"hertz", "lankarani_nikravesh", "flores", "gonthier"}
     longer = CaseSpec(1000, "m.mbs", {"speed": "1rpm", "law": "hertz", "clearance": "1mm"})
-    assert run_order([*specs[:3], longer], [10, 10, 10, 11])[0] is longer  # longest expected first
+    assert run_order([*specs[:8], longer], [(1.0, 10)] * 8 + [(1.0, 11)])[0] is longer  # most rows first
 
 
 def test_the_spread_order_makes_an_early_estimate_fair():
     """Costs that fall along the first axis: in the axes' order the first cases are all the dearest and
     after a tenth of them the time left is off by more than the whole scan; in `run_order` by under 10 %."""
     specs, cost = _scan_cases()
-    spread = [cost[s.key] for s in run_order(specs, [1] * len(specs))]
+    spread = [cost[s.key] for s in run_order(specs, [(1.0, 1)] * len(specs), workers=2)]
     in_axis_order = [cost[s.key] for s in specs]
     tenth = len(specs) // 10
     assert _errors(spread, workers=2)[tenth] < 0.10
@@ -173,3 +173,32 @@ def test_the_sweep_holds_no_finished_case():
         gc.collect()
         assert [r() is None for r in refs[:k]] == [True] * k  # every earlier outcome is gone
     assert got.result() is refs[4]()
+
+
+def _speed_scan(n: int):
+    """``n`` speeds at a fixed number of revolutions: equal rows, a span (and a cost) that grows with
+    1 / speed."""
+    specs = [CaseSpec(i, "m.mbs", v) for i, v in enumerate(expand([parse_param(f"speed=500rpm..6000rpm:{n}")]))]
+    rpm = [float(s.values["speed"].removesuffix("rpm")) for s in specs]
+    return specs, [(200 * 60 / r, 36_000) for r in rpm], {s.key: 1.0 + 3000.0 / r for s, r in zip(specs, rpm)}
+
+
+@pytest.mark.parametrize("cases, workers, within", [(64, 16, 0.10), (1000, 256, 0.15), (64, 2, 0.01)])
+def test_the_cheapest_cases_start_last_so_no_core_finishes_alone(cases, workers, within):
+    """The last cases to start are the cheapest, dearest first: the pool's end comes within ``within`` of
+    a perfect balance; the spread order alone leaves a core with a long case (20 % and 50 % late with
+    4 cases a worker)."""
+    specs, expected, cost = _speed_scan(cases)
+    order = run_order(specs, expected, workers)
+    span = {s.key: e[0] for s, e in zip(specs, expected)}
+    last = [span[s.key] for s in order[-2 * workers:]]
+    assert sorted(last, reverse=True) == last and max(last) <= min(span[s.key] for s in order[:-2 * workers])
+    balance = max(sum(cost.values()) / workers, max(cost.values()))  # no order can end before this
+
+    def late(o):
+        return _pool([cost[s.key] for s in o], workers)[-1][0] / balance - 1.0
+
+    spread = run_order(specs, [(1.0, 36_000)] * cases, 0)  # every case alike: the order of the hash alone
+    assert late(order) < within
+    if cases <= 4 * workers:
+        assert late(spread) > within  # the check can fail: the order of the hash alone fails it

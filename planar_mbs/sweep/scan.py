@@ -336,6 +336,10 @@ class CaseOutcome:
     units: dict | None = None
     part_bytes: int = 0
     cpu_time: float = 0.0  # CPU seconds of the case in its process (the benchmarks' serial fraction)
+    # the scan's timeline (benchmarks/scan_scaling.py): when the case started (Unix seconds) and which
+    # process ran it; the gaps between one process's cases (storing, waiting for the next) show there
+    started: float = 0.0
+    worker: int = 0
 
 
 def case_settings(model, spec: CaseSpec) -> dict:
@@ -366,7 +370,7 @@ def default_section_signals(model) -> tuple[str, str] | None:
 
 def run_case(spec: CaseSpec) -> CaseOutcome:
     """Compile, simulate and analyse one case, in memory (the worker side of a sweep)."""
-    start, cpu = time.perf_counter(), time.process_time()
+    start, cpu, started = time.perf_counter(), time.process_time(), time.time()
     try:
         overrides = {**spec.sets, **spec.values}
         model = spec.snapshot.compile(overrides) if spec.snapshot else compiler.load_model(spec.model_path, overrides)
@@ -400,7 +404,8 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     if res is not None:
         res.attrs.update(case=spec.index, case_key=spec.key, case_values=spec.values)
     return CaseOutcome(spec.index, spec.key, dict(spec.values), status, message, res, section, verdict,
-                       time.perf_counter() - start, summary=summary, units=units, cpu_time=time.process_time() - cpu)
+                       time.perf_counter() - start, summary=summary, units=units, cpu_time=time.process_time() - cpu,
+                       started=started, worker=os.getpid())
 
 
 def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
@@ -564,12 +569,13 @@ def check_section(model, section: dict | None) -> None:
                          hint=did_you_mean(clock, model.body_names) or "bodies: " + ", ".join(model.body_names))
 
 
-def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, force: bool = True) -> list[int]:
+def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None,
+                force: bool = True) -> list[tuple[float, int]]:
     """Compile every case once in the parent, so a bad value, a misspelt `--keep` signal or a
     section signal the model lacks stops the sweep before it starts; unless ``force``, refuse a case
     beyond `output_size.MAX_ROWS` output rows (each case's rows are held in a worker's memory) or
-    cases that together do not fit on the disk holding ``output``.  Returns each case's output rows
-    (the expected length of its run: the pool starts the longest first)."""
+    cases that together do not fit on the disk holding ``output``.  Returns each case's simulated span
+    and output rows (the expected length of its run: `run_order`)."""
     largest, total, rows = None, 0.0, []
     for spec in specs:
         try:
@@ -583,7 +589,7 @@ def check_cases(specs: Sequence[CaseSpec], output: str | Path | None = None, for
                 columns = len(kept_signals(m, spec.keep)) + 1 if spec.keep else 1
             check_section(m, spec.section)
             est = estimate(m, settings, columns)
-            rows.append(est.rows)
+            rows.append((float(settings.t_end), int(est.rows)))
             total += est.bytes
             if largest is None or est.rows > largest.rows:
                 largest = est
@@ -779,7 +785,8 @@ def run_sweep(
     lock = _lock(output)
     try:
         clean_leftovers(output)
-        state = _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force)
+        state = _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force,
+                            jobs or os.cpu_count() or 1)
     except BaseException:
         if lock.output is not None:
             lock.output.release()
@@ -828,12 +835,12 @@ class _Plan:
     rows: dict  # key -> row of every case known (the file's, the journal's)
     merged: list  # [[name, [values...]], ...]: the file's axes extended by this call's
     numbered: list  # this call's cases, with their indices in the file
-    pending: list  # ... those to run, longest expected first
+    pending: list  # ... those to run, in `run_order`
     skipped: list  # indices already done
     fresh: bool  # the scan file is started afresh (none yet, or --overwrite)
 
 
-def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force) -> _Plan:
+def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, force, workers) -> _Plan:
     """Read what the scan file and its journal hold (under the lock), number and check the cases to run."""
     rows: dict[str, dict] = {}
     folder = journal_folder(output)
@@ -871,19 +878,28 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
     pending = [s for s in numbered if rows.get(s.key, {}).get("status") not in done_status]
     skipped = [s.index for s in numbered if s not in pending]
     expected = check_cases(pending, output, force)
-    return _Plan(rows, merged, numbered, run_order(pending, expected), skipped, fresh)
+    return _Plan(rows, merged, numbered, run_order(pending, expected, workers), skipped, fresh)
 
 
-def run_order(specs: Sequence[CaseSpec], expected: Sequence[float]) -> list[CaseSpec]:
-    """The cases longest expected first (their output rows), so no core finishes alone; cases of equal
-    length in an order fixed by a hash of their key, spread over every parameter instead of the
-    order of the axes (all of the lowest speed first): the cases finished so far are then a fair sample
-    of those left, for the progress line's time left, and the same cases run in the same order again."""
-    def spread(spec: CaseSpec) -> bytes:
-        return hashlib.blake2b(spec.key.encode(), digest_size=8).digest()
+def run_order(specs: Sequence[CaseSpec], expected: Sequence[tuple[float, int]], workers: int = 1) -> list[CaseSpec]:
+    """The order the cases start in.  ``expected`` is each case's (simulated span, output rows).
 
-    order = sorted(range(len(specs)), key=lambda i: (-expected[i], spread(specs[i])))
-    return [specs[i] for i in order]
+    The cases with most output rows first, equal ones in an order fixed by a hash of their key, spread
+    over every parameter instead of the order of the axes (all of the lowest speed first): the cases
+    finished so far are then a fair sample of those left, for the progress line's time left, and the
+    same cases run in the same order again.  The last ``2 * workers`` to start are the cheapest by
+    (span, rows), dearest first, so no core is left with a long case while the others finish: a scan
+    over speeds at a fixed number of revolutions has equal rows, but a slow case simulates a longer
+    span and costs more (2x from 6000 to 500 rpm on the clearance slider-crank).  A pool simulated
+    with each case's measured CPU seconds (64 speeds of 200 revolutions on 16 cores) ends 11 % after
+    a perfect balance in this order, 18 % in the spread order alone (docs/benchmarks.md)."""
+    def spread(i: int) -> bytes:
+        return hashlib.blake2b(specs[i].key.encode(), digest_size=8).digest()
+
+    tail = set(sorted(range(len(specs)), key=lambda i: (expected[i], spread(i)))[:2 * max(workers, 1)])
+    bulk = sorted((i for i in range(len(specs)) if i not in tail), key=lambda i: (-expected[i][1], spread(i)))
+    last = sorted(tail, key=lambda i: (expected[i], spread(i)), reverse=True)
+    return [specs[i] for i in bulk + last]
 
 
 def _pending_row(spec: CaseSpec) -> dict:
@@ -1078,6 +1094,8 @@ def _store_case(f, outcome: CaseOutcome, compression: str | None) -> None:
     g.attrs["sweep_message"] = outcome.message
     g.attrs["case_wall_time"] = outcome.wall_time
     g.attrs["case_cpu_time"] = outcome.cpu_time
+    g.attrs["case_started"] = outcome.started
+    g.attrs["case_worker"] = outcome.worker
     if outcome.section is not None:
         write_section(g, outcome.section, outcome.verdict)
     if outcome.summary is not None:
