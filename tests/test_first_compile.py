@@ -135,3 +135,18 @@ def test_mbs_run_announces_before_reading_the_model(stderr, monkeypatch, tmp_pat
     monkeypatch.setattr(C, "load_model", load)
     assert run_model(Path(__file__).resolve().parents[1] / "models" / "slider_crank.mbs") == 2
     assert seen == [F.HEAD + "\n"]
+
+
+def test_the_helper_compiles_this_package_even_from_a_folder_holding_another(tmp_path, monkeypatch):
+    """Started from a folder that holds another `planar_mbs` (a second checkout, an old copy), the
+    helper still imports this one: `python -m` alone would put the current folder first, and the
+    helper would compile the other copy's kernels, or nothing, while this process compiles alone."""
+    marker = tmp_path / "imported-the-other-copy"
+    for sub in ("planar_mbs", "planar_mbs/run"):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / "__init__.py").write_text("")
+    (tmp_path / "planar_mbs/run/first_compile.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
+    monkeypatch.chdir(tmp_path)
+    helper = F._start_helper()  # this package's kernels are cached here: the real helper finds nothing to do
+    assert helper is not None and helper.wait(timeout=120) == 0
+    assert not marker.exists()

@@ -189,11 +189,12 @@ def _start_helper():
     """The helper process (None on one core or where it cannot start)."""
     if (os.cpu_count() or 1) < 2:
         return None
-    # this very package first on the helper's path (not another copy installed elsewhere)
+    # this very package first on the helper's path (not another copy installed elsewhere, nor one in
+    # the current folder: -P, else `-m` puts the current folder first)
     here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")])))
     try:
-        return subprocess.Popen([sys.executable, "-m", "planar_mbs.run.first_compile"], stdin=subprocess.DEVNULL,
+        return subprocess.Popen([sys.executable, "-P", "-m", "planar_mbs.run.first_compile"], stdin=subprocess.DEVNULL,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     except OSError:
         return None
