@@ -182,3 +182,21 @@ def _leftovers(temp: Path, tmp_path: Path) -> None:
     assert "NO NUMBA" in r.stderr  # the pool came from the fork server
     assert sorted(p.name for p in temp.iterdir()) == [alive.name]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]  # no journal left either
+
+
+def test_the_workers_run_this_package_even_from_a_folder_holding_another(tmp_path):
+    """Started from a folder that holds another `planar_mbs` (a source checkout beside an installed
+    release), the fork server and its workers import this one: multiprocessing starts the server as
+    `python -c`, which puts the current folder first and (CPython 3.11-3.13) ignores the sweep's path
+    before the preload."""
+    marker = tmp_path / "imported-the-other-copy"
+    (tmp_path / "planar_mbs").mkdir()
+    (tmp_path / "planar_mbs" / "__init__.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
+    mbs = str(Path(sys.executable).with_name("mbs"))
+    r = subprocess.run([mbs, "sweep", IDEAL, "-P", "speed=800rpm,1600rpm", "-n", "2", "--per-rev", "36", "-j", "2",
+                        "-q", "-o", str(tmp_path / "s.h5")], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert not marker.exists()
+    with h5py.File(tmp_path / "s.h5", "r") as f:
+        assert sorted(f["cases"]) == ["0", "1"] and all(f[f"cases/{k}"].attrs["sweep_status"] == "finished"
+                                                        for k in ("0", "1"))
