@@ -10,8 +10,7 @@ revolutions (short cases, about 0.4 s each) and 64 cases x 200 revolutions (abou
 `-j` runs as its own process, interleaved round by round (a burst of load hits all alike); the
 time is the median over the rounds; speed-up and efficiency (speed-up / jobs) are against -j 1 of
 the same run.  Jobs above the number of cores are skipped.  A small scan with a pool runs first,
-untimed: on a lent 16-core machine the first scan with a pool after numba's first compilation (a
-`-j 1` run) took 35 s longer before its first case, twice; not seen on the 2-core machine.  Beside each wall time, the CPU seconds
+untimed, so that no timed scan compiles the kernels.  Beside each wall time, the CPU seconds
 the cases spent (each case's own, stored with it): where they grow with -j, the cores slow each
 other down (shared caches, memory, hyperthreads), which no scheduling can win back.  Prints a
 table; writes nothing else.
