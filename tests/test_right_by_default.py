@@ -381,6 +381,21 @@ def test_energy_drift_of_a_workless_mechanism_is_reported(step, warned):
     assert any("total energy" in w for w in res.attrs["warnings"]) == warned
 
 
+@pytest.mark.parametrize("load", ["force push = expression(bob, fx = 1 N)",
+                                  "force push = expression(bob, torque = 0.01 N*m)",
+                                  "force strut = spring_damper(ground (0, 0), bob (0, 0)) { actuator = 0.5 N*(1 + t/1 s) }"])
+def test_a_load_that_does_work_is_no_energy_drift(load):
+    """The mass on its spring, pushed by a load without a potential (an expression, an actuator given
+    by an expression): its energy grows by the work done, which is no fault of the integration."""
+    text = ("body bob { mass = 1 kg  inertia = 1e-3 kg*m^2  position = (0.1, 0) }\n"
+            "force spring = spring_damper(ground (-1, 0), bob (0, 0)) { stiffness = 100 N/m  length = 1 m }\n"
+            f"{load}\nsimulate {{ t_end = 2 s  output_step = 10 ms }}\n")
+    res = simulate(text, "pushed.mbs")
+    E = res["system.total_energy"]
+    assert abs(E[-1] - E[0]) > 1e-3 * abs(E).max()  # the load did work
+    assert not any("total energy" in w for w in res.attrs["warnings"]), res.attrs["warnings"]
+
+
 def test_driven_crank_rocker_next_to_a_change_point():
     """A crank-rocker 0.1 µm from a change-point linkage (a + d = b + c): once a turn, with the crank
     pointing away from the rocker's pivot, coupler and rocker lie almost in line and the two

@@ -381,12 +381,16 @@ ENERGY_PER_RTOL = 1e3  # a workless mechanism's energy may drift by this many rt
 
 
 def _workless(model: Model) -> bool:
-    """No driver, no clearance joint, no damper or actuator: the total energy is conserved."""
+    """No driver, no clearance joint, no damper, actuator or expression load (none of which has a
+    potential in `kernel.forces.force_potential`): the total energy is conserved."""
     k = model.kernel
     if model.ndriver or model.nclearance:
         return False
     for typ, p in zip(k.force_type, k.force_param):
-        if int(typ) in (ForceType.SPRING_DAMPER, ForceType.ROTATIONAL_SPRING_DAMPER) and (p[1] != 0 or p[3] != 0):
+        if int(typ) == ForceType.EXPRESSION:
+            return False
+        if int(typ) in (ForceType.SPRING_DAMPER, ForceType.ROTATIONAL_SPRING_DAMPER) and \
+                (p[1] != 0 or p[3] != 0 or p[4] != 0):  # damping, a constant or an expression actuator
             return False
     return True
 
