@@ -259,8 +259,11 @@ def test_interpolations_against_their_definitions():
     assert rows[0, 2] == pytest.approx(rows[-2, 2] + 2 * rows[-2, 3] + 3 * rows[-2, 4])
 
 
-def test_a_nan_at_run_time_names_the_force_and_the_time():
-    text = FREE_MASS.format(load="fx = 1 N + 1 N/m^0.5 * sqrt(0.1 m - mass.x) * 0")
+@pytest.mark.parametrize("joint", ["", "joint rail = translational(ground, mass, axis = (1, 0))\n"])
+def test_a_nan_at_run_time_names_the_force_and_the_time(joint):
+    """Also on a jointed body, where the NaN reaches the constraint solve first (it was blamed on the
+    joint: "the constraint matrix became singular at joint `rail`")."""
+    text = FREE_MASS.format(load="fx = 1 N + 1 N/m^0.5 * sqrt(0.1 m - mass.x) * 0") + joint
     with pytest.raises(SimulationError) as info:
         mbs.simulate(mbs.compile_text(text))
     message = str(info.value)

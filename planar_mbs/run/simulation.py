@@ -243,7 +243,10 @@ def _failure_message(model: Model, status: int, info: int, t: float, settings: S
                      contact: np.ndarray) -> str:
     at = f"at t = {t:.9g} s"
     fault = model.kernel.expr_fault
-    if status in (Status.NONFINITE, Status.STEP_UNDERFLOW) and 0 <= fault[0] < model.nforce:
+    # a load that gave NaN in the failing step (after the last accepted time t) is the cause, also where
+    # its NaN reached the constraint solve first (a jointed body: "singular")
+    if 0 <= fault[0] < model.nforce and (status in (Status.NONFINITE, Status.STEP_UNDERFLOW) or
+                                         (status == Status.SINGULAR and fault[1] >= t)):
         return (f"the expression of force `{model.force_names[int(fault[0])]}` gave NaN or infinity at "
                 f"t = {fault[1]:.9g} s (the run stopped {at}): check it for a square root or logarithm of "
                 "a negative value, or a division by zero, along the motion")
