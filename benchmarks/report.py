@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import statistics
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,7 +43,9 @@ def process_table(pr, before=None) -> list[str]:
     when = (f"; \"before\": commit {b.get('commit', '?')}, {b.get('date', '?')}, load average "
             f"{b.get('load', [0])[0]:.1f}" if b else "")
     out = [f"Measured {pr['date']} (load average {pr['load'][0]:.1f} on {os.cpu_count()} cores), "
-           f"medians of {st['rounds']} interleaved rounds{when}.\n",
+           f"medians of {st['rounds']} interleaved rounds for the start-up rows, of {sw['rounds']} for the sweep"
+           + (f" ({sw['longer']['rounds']} for its longer cases)" if "longer" in sw else "")
+           + f", of {lv['rounds']} for the time loop, best of {o['rounds']} for the output rows{when}.\n",
            "| what | time [s] | against | its time [s] | ratio | target | before |",
            "| --- | ---: | --- | ---: | ---: | --- | ---: |"]
     rows = [("`mbs check models/slider_crank_clearance_a.mbs`", "mbs check", "`python -c \"import numpy\"`",
@@ -64,8 +67,8 @@ def process_table(pr, before=None) -> list[str]:
                    f"Exudyn takes {r:.2f}× | | "
                    f"{was(b.get('startup', {}).get('ratios', {}).get('exudyn / mbs run (slider_crank, whole process)', {}).get('ratio'), '.2f')}× |")
     r = st["ratios"]["scipy baseline / mbs run (clearance A, 5 rev, whole process)"]["ratio"]
-    out.append(f"| `mbs run models/slider_crank_clearance_a.mbs` (5 rev, rtol 1e-6, HDF5 file) | "
-               f"{t['mbs run clearance A 5 rev']:.3f} | scipy baseline, same case, whole process | "
+    out.append(f"| `mbs run models/slider_crank_clearance_a.mbs` (5 rev, its own rtol 1e-8, HDF5 file) | "
+               f"{t['mbs run clearance A 5 rev']:.3f} | scipy baseline, same case at rtol 1e-6, whole process | "
                f"{t['scipy baseline clearance A 5 rev']:.3f} | scipy takes {r:.1f}× | | "
                f"{was(b.get('startup', {}).get('ratios', {}).get('scipy baseline / mbs run (clearance A, 5 rev, whole process)', {}).get('ratio'), '.1f')}× |")
     spread_sw = f" (rounds: {sw['speedup_min']:.2f}–{sw['speedup_max']:.2f}×)" if "speedup_min" in sw else ""
@@ -94,7 +97,7 @@ def process_table(pr, before=None) -> list[str]:
             continue  # target_us, rounds
         old = ob.get(name, ob if name == "all signals" else {})  # earlier runs measured every signal only
         us = lambda v: "" if v is None else f"{v:.2f} µs"  # noqa: E731
-        out.append(f"| one output row, {name} ({sel['signals']} signals), in the time loop | {us(sel['loop_us'])} "
+        out.append(f"| one output row of `slider_crank.mbs`, {name} ({sel['signals']} signals), in the time loop | {us(sel['loop_us'])} "
                    f"| | | | | {us(old.get('loop_us'))} |")
         out.append(f"| one output row, {name}, in total with the HDF5 file | {us(sel['total_us'])} | | | | "
                    f"≤ {o['target_us']:g} µs: **{'met' if sel['total_us'] <= o['target_us'] else 'missed'}** | "
@@ -107,12 +110,14 @@ def process_table(pr, before=None) -> list[str]:
         out.append("| stage | seconds | share |\n| --- | ---: | ---: |")
         for k, v in sg["stages"].items():
             out.append(f"| {k} | {v:.4f} | {v / sg['loop']:.0%} |")
-        out.append(f"\nAgainst the scipy baseline's time loop: **{sg['ratio']:.0f}×** as measured; "
+        outputs = next(v for k, v in sg["stages"].items() if k.startswith("outputs"))
+        out.append(f"\nAgainst the scipy baseline's time loop: **{sg['ratio']:.0f}×** as measured here (this loop's "
+                   "best of three; the table's ratio is a median of rounds); "
                    f"{sg['ratio_no_outputs']:.0f}× with outputs only at the end (scipy's `t_eval` interpolates the state "
                    f"and computes no signals); {sg['ratio_hand_rhs']:.0f}× if every rhs cost what the yardstick costs. "
                    f"The yardstick is what per-model generated straight-line code would at best be: it would take "
                    f"{sg['stages']['right-hand sides'] * (1 - sg['hand_us'] / sg['rhs_us']) / sg['loop']:.0%} off this "
-                   "loop, about what the outputs cost. Per-model code generation (one compilation per model, "
+                   f"loop, where the outputs take {outputs / sg['loop']:.0%}. Per-model code generation (one compilation per model, "
                    "cached by a hash of it) was measured through this bound only, not built: the 100× goal rests as "
                    "much on the outputs and the integrator as on the rhs.\n")
     out.append("\n40-link chain (0.5 s, DOPRI5 rtol 1e-6, outputs every 1 ms), one process:\n")
@@ -249,7 +254,7 @@ def render(data, page: str = "") -> str:
         sc = _scipy_ratios(data)
         rk = [r["ratio"] for r in data["ratios"]["rows"] if r["baseline"].startswith("RK4") and r.get("ratio")]
         data["_verdict"] = dict(scipy_min=min(sc) if sc else None, scipy_max=max(sc) if sc else None,
-                                scipy_median=sorted(sc)[len(sc) // 2] if sc else None, rk4=rk[0] if rk else None)
+                                scipy_median=statistics.median(sc) if sc else None, rk4=rk[0] if rk else None)
         out.append(RATIO_TEXT.format(**data["_verdict"], **_ratio_facts(data, sc)))
         out.append("![clearance work-precision](images/bench_clearance_slider_crank.png)\n")
         out.append("<details><summary>all runs</summary>\n\n" + wp_table(sec) + "\n\n</details>\n")
@@ -278,7 +283,7 @@ def render(data, page: str = "") -> str:
         out.append(f"| second run with that `NUMBA_CACHE_DIR`, everything but the time loop | "
                    f"{s['run_cache_dir_second']:.3f} |\n")
         out.extend(_hand(page, "startup"))
-        out.append("\nPhases inside one warm process (`mbs run` does the same plus typer and the summary):\n")
+        out.append("\nPhases inside one warm process (`mbs run` does the same plus reading its command line and the summary):\n")
         out.append("| phase | seconds |\n| --- | ---: |")
         for k, v in s["phases"].items():
             out.append(f"| {k} | {v:.3f} |")
@@ -369,7 +374,8 @@ signal (80 MB for 10^7 rows) to find out.  It now answers from the names
 PROCESS_TEXT = """Users feel the whole process, not the time loop. Each row is a ratio of two times measured in the
 same run of `benchmarks/process.py` (separate processes, interleaved round by round, medians), because the
 machine is shared and only ratios taken together mean something.  Exudyn (`pip install -e '.[bench]'`) runs the
-same ideal slider-crank as `benchmarks/exudyn_slider_crank.py`; the scipy baseline runs as a script of its own
+same ideal slider-crank as `benchmarks/exudyn_slider_crank.py` (its row is in the table only when Exudyn was
+installed for the run); the scipy baseline runs as a script of its own
 (`benchmarks/scipy_baseline.py`, numpy and scipy only).  The table below is written from that run's numbers in
 `docs/benchmarks_data.json` ("process"); "before" is the same script's run stored before this work ("process_before").
 
@@ -477,22 +483,26 @@ def process_notes(pr) -> list[str]:
                    "the sweep ends 0.04 s after its last case.  Found on the way: each worker used to map and zero "
                    "its cases' memory afresh (glibc returned the freed arrays to the kernel after every case: "
                    "9,000–10,000 page faults and 15 ms in each 0.15-s case, 31,000–38,000 in each 0.6-s case of "
-                   "120 revolutions); the workers now keep it (`sweep_worker.keep_freed_memory`): 10 interleaved "
-                   "pairs of `-j 2` on the 8 short cases, 1.29 s against 1.33 s with glibc's defaults.")
+                   "120 revolutions); the workers now keep it (`planar_mbs.sweep.worker.keep_freed_memory`): 10 interleaved "
+                   "pairs of `-j 2` on the 8 short cases, 1.29 s against 1.33 s with glibc's defaults.  These sweep "
+                   "rows were measured when every case stored all its signals; cases are now stored small by default "
+                   "(section, verdict, summary; `--keep all` stores every signal), which was not measured here.")
     return out + [""]
 
 
 TEXT_HEAD = """# Benchmarks: speed against accuracy, start-up, scale, stress
 
-Everything on this page is regenerated by one command (10–15 minutes):
+Everything on this page but three sections is regenerated by one command (10–15 minutes); the
+sections on the order of the model text, on scans at scale and on expression loads, and the blocks
+written by hand, come from the scripts they name and are kept as they are:
 
     .venv/bin/python benchmarks/run.py                  # all sections
     .venv/bin/python benchmarks/run.py --only rhs,startup   # some; the others keep their last numbers
 
-Numbers are in `docs/benchmarks_data.json`, figures in `docs/images/bench_*.png`.
+Its numbers are in `docs/benchmarks_data.json`, figures in `docs/images/bench_*.png`.
 Machine: {cpu}, {cores} cores, {system}; Python {python}, numpy {numpy}, numba {numba}, scipy {scipy}; {date}.
 All times are wall-clock seconds of the **time loop** (`simulate`'s `wall_time`: the compiled `advance` calls, including
-the outputs it writes), best of three for runs under a second.  Tolerances: `atol = 1e-3 rtol`.
+the outputs it writes), best of three for runs under a second (RK4 with steps below 1 µs: one run).  Tolerances: `atol = 1e-3 rtol`.
 """
 
 RHS_TEXT = """The yardstick `benchmarks/slider_crank_equations.py::rhs_hand` hard-codes the slider-crank with the
@@ -540,7 +550,7 @@ missed re-contacts after short bounces).
 **Targets.** *≥100× faster than scipy at equal or better error: {scipy_verdict}* — measured
 {scipy_min:.0f}× to {scipy_max:.0f}× (median {scipy_median:.0f}×). The ratio is the cost of one rhs (numpy and
 Python against compiled code: {cost_lo:.0f}–{cost_hi:.0f}× in the rhs table above) times the ratio of rhs counts at
-equal error, here {count_lo:.1f}× to {count_hi:.1f}× more for scipy (its `max_step` and its restart at every event), less
+equal error, here {count_lo:.2g}× to {count_hi:.2g}× as many for scipy (its `max_step` and its restart at every event), less
 what our loop spends beside the rhs.  In this chaotic regime a run's error is decided by how well it resolves every
 impact, so both codes need many evaluations for any error.
 Errors here are also noisy (one impact more or less resolved changes a run's error by 10×, so "equal error"
@@ -563,8 +573,8 @@ STARTUP_TEXT = """
 line bypasses it: typer's argument handling imports pydantic) nor numba (assembly runs the constraint kernels'
 source as plain Python, `planar_mbs.pykernel`) nor pint (units come from our own table, checked against pint
 entry by entry; pint is imported only for a unit outside it).  The warm `mbs run` overhead is now mostly numba:
-importing it, and on the first compiled call numba's target context loads its registries (which imports
-`scipy.linalg`, numba's BLAS check) and then the two entry points from its cache; no option skips that.
+importing it, and on the first compiled call loading the kernels from its cache, without numba's target-context
+refresh (so no `scipy.linalg`: `kernel/jit.py`).
 """
 
 SKIP_TEXT = """* **No clearance joint → no contact code**: `accelerations` skips the contact loop when `nclearance = 0`, the
@@ -616,7 +626,7 @@ MISSED_TEXT = """## Targets: met and missed
 * one rhs ≤2× the hand-specialised rhs: **{rhs_verdict}** ({rhs_min:.1f}–{rhs_max:.1f}×, rhs table) — generic code vs
   straight-line code.
 * `mbs --help` < 0.3 s: **{help_verdict}** ({help:.3f} s). Warm `mbs run` overhead < 1 s: **{warm_verdict}** ({warm:.3f} s,
-  start-up table); numba's one-time target initialisation (which imports scipy.linalg) is most of it.
+  start-up table); numba's import, the kernel modules and their cache load are about half of it (phases table).
 * Whole-process ratios (check, --help, warm run, sweeps, output rows, time loop vs scipy): see the first section's
   table, with its verdicts, measured in one run.
 * Scale: per-rhs cost linear in N with the envelope factorisation (dense: cubic) — **met**.
