@@ -349,3 +349,49 @@ def test_an_actuator_expression_equals_the_same_force_as_an_expression_load():
     sim = mbs.Simulation(mbs.compile_text(b))
     with pytest.raises(ModelError, match="actuator of `s` is an expression"):
         sim.set_load("s", 1.0)
+
+
+KINKED_CART = """
+body cart {{ mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.1, 0) }}
+body bob  {{ mass = 0.5 kg  inertia = 0.001 kg*m^2  position = (0.1, -0.3) }}
+joint rail = translational(ground, cart, axis = (1, 0))
+joint pin  = revolute(cart (0, 0), bob (0, 0.3))
+driver g = translation(cart, axis = (1, 0), motion = 0.1 m + {motion})
+simulate {{ t_end = 0.05 s  output_step = 1 ms {extra} }}
+"""
+
+
+@pytest.mark.parametrize("projection", ["", "projection = on"])
+def test_a_kink_in_a_motion_is_an_impulse(projection):
+    """A cart at rest, then driven at 0.1 m/s from t = 10 ms (a kink: an infinite acceleration), with a
+    pendulum hanging from it (no gravity).  At the kink the cart's velocity jumps; the pin's impulse P on
+    the bob gives m dv = P, I dw = r x P with the pin's velocity the cart's: dv_bob = 0.1 m/s /
+    (1 + m r^2 / I), w0 = -r m dv_bob / I (r = 0.3 m).  Then, in the cart's frame (inertial again), the
+    bob turns about the pin at w0 with no torque: its vx is 0.1 m/s + r w0 cos(w0 (t - 10 ms)).  By
+    default the run follows the motion exactly and says where it jumped; it used to step over the kink
+    and lag 1.7 mm behind the motion until the drift check."""
+    res = mbs.simulate(mbs.compile_text(KINKED_CART.format(motion="0.1 m/s * max(t - 10 ms, 0 s)",
+                                                           extra=projection)))
+    t = res.time
+    assert np.abs(res["cart.x"] - (0.1 + 0.1 * np.maximum(t - 0.01, 0.0))).max() < 1e-9
+    m, inertia, r = 0.5, 0.001, 0.3
+    w0 = -r * m * (0.1 / (1 + m * r * r / inertia)) / inertia
+    after = t > 0.01
+    assert np.allclose(res["bob.omega"][after], w0, rtol=1e-6)
+    assert np.allclose(res["bob.vx"][after], 0.1 + r * w0 * np.cos(w0 * (t[after] - 0.01)), rtol=1e-6, atol=1e-9)
+    assert np.all(res["bob.vx"][t <= 0.01] == 0.0)
+    jumped = [w for w in res.attrs["warnings"] if "motion jumps" in w]
+    if projection:
+        assert jumped == []  # projected after every step anyway
+    else:
+        assert len(jumped) == 1 and "t = 0.01 s" in jumped[0] and "driver `g`" in jumped[0]
+
+
+def test_a_smooth_switch_of_a_motion_projects_nothing():
+    """A motion whose second derivative jumps (0.5 a t^2 from 10 ms) is followed without projection: the
+    state is on the new motion at the switch, and the run says nothing of a jump."""
+    res = mbs.simulate(mbs.compile_text(KINKED_CART.format(motion="0.5 m/s^2 * max(t - 10 ms, 0 s)^2",
+                                                           extra="rtol = 1e-10  atol = 1e-13")))
+    t = res.time
+    assert np.abs(res["cart.x"] - (0.1 + 0.5 * np.maximum(t - 0.01, 0.0) ** 2)).max() < 1e-9
+    assert not any("jumps" in w or "projected" in w for w in res.attrs["warnings"]), res.attrs["warnings"]

@@ -34,12 +34,15 @@ from .workspace import (
     DN_ERR_OLD,
     DN_FINAL_SAMPLE,
     DN_H,
+    DN_JUMP_AT,
     DN_PROJECT_FROM,
     DN_SPEED,
     DN_TA,
     DN_T_END,
     FL_DENSE_METHOD,
     FL_DENSE_READY,
+    FL_JUMP_ROW,
+    FL_JUMPS,
     FL_PASSAGE,
     FL_PENDING_OUTPUTS,
     FL_PROJECTING,
@@ -399,6 +402,10 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
         flip_switch(km, ws.flags[FL_SWITCH_EXPR], t, y)
         ws.flags[FL_SWITCH_EXPR] = -1
         restart = True
+        if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
+            st = motion_jump(km, cfg, t, y, ws, stats)
+            if st != 0:
+                return st, True, hcap
     k = ws.flags[FL_SWITCH_JOINT]
     if k >= 0:
         switch_mode(km, k, y, contact, stats)
@@ -416,6 +423,25 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
             return st, True, hcap
         restart = True
     return 0, restart, hcap
+
+
+@kernel(inline=True)
+def motion_jump(km, cfg, t, y, ws, stats):
+    """`projection = auto`, at a located switch of an expression: where a driver's motion jumped there
+    (in value or first derivative: a kink asks for an infinite acceleration, which the integrator
+    cannot see), the state is beyond the constraint check's bound (`lost_check`) and is projected
+    onto the new motion at once, the mass-weighted (perfectly plastic) impulsive change; counted and
+    timed for the run's warning.  A switch of a load leaves the state where it is."""
+    n = y.shape[0] // 2
+    body_trig(y[:n], ws.cs)
+    st = constraint_rows_eval(km, y[:n], y[n:], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
+    if st != 0 or lost_check(cfg, ws, y[n:], stats) == 0:
+        return st
+    if ws.flags[FL_JUMPS] == 0:
+        ws.dense[DN_JUMP_AT] = t
+        ws.flags[FL_JUMP_ROW] = stats[ST_INFO]
+    ws.flags[FL_JUMPS] += 1
+    return project(km, t, y, ws, stats)
 
 
 @kernel

@@ -27,7 +27,9 @@ FL_PROJECTING = 6  # `projection = auto` has turned the projection on: 1 at a re
 FL_STEP_REG = 7  # 1: a factor of the current step was regularised (a singular position or redundant rows)
 FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its successor lands on the next output)
 FL_SWITCH_EXPR = 9  # comparison of an expression that switches at the end of the last step (-1: none)
-N_FLAGS = 10
+FL_JUMPS = 10  # switches at which a driver's motion jumped and the state was projected (`loop.motion_jump`)
+FL_JUMP_ROW = 11  # the constraint row of the first such jump
+N_FLAGS = 12
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
 DN_H = 1  # its size
@@ -36,6 +38,7 @@ DN_FINAL_SAMPLE = 3  # time of the last off-grid final sample (NaN: none)
 DN_ERR_OLD = 4  # error of the last accepted step (PI controller)
 DN_PROJECT_FROM = 5  # time at which `projection = auto` turned the projection on (NaN: never)
 DN_SPEED = 6  # largest speed |v| + L |omega| of a body seen by the constraint check (`loop.lost_check`)
+DN_JUMP_AT = 7  # time of the first switch at which a driver's motion jumped (NaN: none; `loop.motion_jump`)
 N_DENSE = 8
 
 
@@ -158,6 +161,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     dense = np.zeros(N_DENSE)
     dense[DN_FINAL_SAMPLE] = np.nan
     dense[DN_PROJECT_FROM] = np.nan
+    dense[DN_JUMP_AT] = np.nan
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),

@@ -368,10 +368,28 @@ def _absurd_state(model: Model, y: np.ndarray, t: float) -> str:
             f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units")
 
 
-def _projection_note(settings: Settings, ws) -> list[str]:
-    """`projection = auto` turned the projection on: say when (a singular position or redundant joints)."""
+def _projection_note(model: Model, settings: Settings, ws) -> list[str]:
+    """`projection = auto` projected the state: say when and why (a singular position or redundant
+    joints, a drift past the bound, a driver's motion that jumped)."""
+    if settings.projection != "auto":
+        return []
+    return _jump_note(model, ws) + _projecting_note(ws)
+
+
+def _jump_note(model: Model, ws) -> list[str]:
+    jumps, t = int(ws.flags[workspace.FL_JUMPS]), float(ws.dense[workspace.DN_JUMP_AT])
+    if not jumps:
+        return []
+    more = f" (and {jumps - 1} later time{'s' if jumps > 2 else ''})" if jumps > 1 else ""
+    return [f"a driver's motion jumps in value or first derivative at t = {t:.9g} s{more}"
+            f"{_row_owner(model, int(ws.flags[workspace.FL_JUMP_ROW]))}: the mechanism cannot follow it "
+            "smoothly, so the positions and velocities were projected onto the new motion there, an "
+            "impulsive change (projection = auto; smooth the motion with `step` or a cubic table to avoid it)"]
+
+
+def _projecting_note(ws) -> list[str]:
     t = float(ws.dense[workspace.DN_PROJECT_FROM])
-    if settings.projection != "auto" or np.isnan(t):
+    if np.isnan(t):
         return []
     if ws.flags[workspace.FL_PROJECTING] == 2:
         return [f"the constraint residuals drifted past their bound at t = {t:.9g} s: the positions and "
@@ -648,7 +666,7 @@ class _Run:
         self.message = self._message()
         run_attrs = self._statistics()
         unphysical = _physics_warnings(self.model, self.track)
-        run_attrs["warnings"] = (unphysical + _projection_note(self.settings, self.ws)
+        run_attrs["warnings"] = (unphysical + _projection_note(self.model, self.settings, self.ws)
                                  + _energy_warning(self.model, self.settings, self.track))
         run_attrs["assembly_changes"] = self.changes
         if self.absurd and not self.interrupted and not self.disk_full:
