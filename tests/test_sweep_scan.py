@@ -12,6 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from planar_mbs import read_results
+from planar_mbs.results.hdf5 import ResultsFileError
 from planar_mbs.results.analysis import classify
 from planar_mbs.results.section import poincare_section
 from planar_mbs.sweep.scan import (SweepError, case_summary, merge_sweeps, parse_param, read_case_table, replay_case,
@@ -79,6 +80,11 @@ def test_a_replayed_case_equals_the_stored_section_and_summary_to_the_bit(tmp_pa
     r = CliRunner().invoke(app, ["analyze", f"{out}:/cases/1"])
     assert r.exit_code == 0 and "keeps no signals" in r.output, r.output
     assert stored[1][1].label() in r.output and "11 points of slider.vx, slider.ax" in r.output, r.output
+    # `mbs plot` and `read_results` of such a case say what it is and how to get its signals
+    r = CliRunner().invoke(app, ["plot", f"{out}:/cases/1", "-o", str(tmp_path / "plots")])
+    assert r.exit_code == 2 and "kept no signals" in r.output and f"mbs sweep replay {out} 1 -o" in r.output, r.output
+    with pytest.raises(ResultsFileError, match="kept no signals"):
+        read_results(f"{out}:/cases/1")
 
 
 def test_mbs_sweep_replay_and_merge_are_subcommands(tmp_path, monkeypatch):
@@ -95,6 +101,11 @@ def test_mbs_sweep_replay_and_merge_are_subcommands(tmp_path, monkeypatch):
     argv = ["mbs", "sweep", "replay", "-P", "speed=1rpm", "-o", "x.h5"]
     route(argv)
     assert argv[1:3] == ["sweep", "replay"]
+    from planar_mbs.cli.app import app
+
+    for name in ("replay", "merge"):  # their usage names them as typed, not by the hidden command
+        r = CliRunner().invoke(app, [f"sweep-{name}", "--help"], prog_name="mbs")
+        assert r.exit_code == 0 and f"Usage: mbs sweep {name} " in r.output, r.output
 
 
 def test_keep_all_stores_every_signal(tmp_path):

@@ -26,7 +26,7 @@ from planar_mbs.version import __version__
 from planar_mbs.lazy import lazy
 
 from .common import internal_error
-from .help_text import ReadableCommand, ReadableGroup, use_one_error_style
+from .help_text import ReadableCommand, ReadableGroup, TwoWordCommand, use_one_error_style
 from .run_options import RUN_OPTIONS, SET_HELP, Opt, merged
 
 # lark, numpy, the kernels: loaded when a command runs, never by `mbs --help`
@@ -138,8 +138,8 @@ from .sweep_commands import analyze, route, sweep, sweep_merge, sweep_replay  # 
 
 for _command in (plot, view, sweep, analyze):
     app.command(cls=ReadableCommand)(_command)
-app.command("sweep-replay", hidden=True, cls=ReadableCommand)(sweep_replay)
-app.command("sweep-merge", hidden=True, cls=ReadableCommand)(sweep_merge)
+app.command("sweep-replay", hidden=True, cls=TwoWordCommand)(sweep_replay)
+app.command("sweep-merge", hidden=True, cls=TwoWordCommand)(sweep_merge)
 
 
 def main() -> None:

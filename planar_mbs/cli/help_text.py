@@ -79,6 +79,14 @@ class ReadableCommand(typer.core.TyperCommand):
         return params
 
 
+class TwoWordCommand(ReadableCommand):
+    """A command typed as two words (``mbs sweep replay``, routed to the hidden ``sweep-replay``):
+    its usage line and its errors name it as typed."""
+
+    def make_context(self, info_name, args, parent=None, **extra):
+        return super().make_context((info_name or self.name).replace("-", " ", 1), args, parent=parent, **extra)
+
+
 class ReadableGroup(typer.core.TyperGroup):
     def get_params(self, ctx):
         params = super().get_params(ctx)

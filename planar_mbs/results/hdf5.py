@@ -870,6 +870,13 @@ def check_run_layout(g, where: str, budget: int | None = None) -> int:
             raise bad(f"`{what}` is not a {'dataset' if kinds is h5py.Dataset else 'group'}")
         return obj
 
+    if SIGNALS not in g and "sweep_status" in g.attrs:  # a scan's case, small by default
+        file, _, group = where.partition(":")
+        raise ResultsFileError(
+            f"{where} is a case of a scan that kept no signals (a scan stores each case's Poincaré section, "
+            "verdict and summary statistics, and the signals named with --keep)",
+            hint=f"`mbs sweep replay {file} {group.rstrip('/').rsplit('/', 1)[-1]} -o case.h5` runs it again with "
+                 f"every signal; `mbs analyze {where}` reads its stored section")
     datasets = [(TIME, member(g, TIME, h5py.Dataset, TIME), None)]
     signals = member(g, SIGNALS, h5py.Group, SIGNALS)
     count = 0
