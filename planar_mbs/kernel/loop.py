@@ -399,11 +399,13 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     restart = False
     hcap = math.inf
     if ws.flags[FL_SWITCH_EXPR] >= 0:
+        auto = cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0
+        held = auto and _within_bound(km, cfg, t, y, ws, stats)
         flip_switch(km, ws.flags[FL_SWITCH_EXPR], t, y)
         ws.flags[FL_SWITCH_EXPR] = -1
         restart = True
-        if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
-            st = motion_jump(km, cfg, t, y, ws, stats)
+        if held and not _within_bound(km, cfg, t, y, ws, stats):
+            st = motion_jump(km, t, y, ws, stats)
             if st != 0:
                 return st, True, hcap
     k = ws.flags[FL_SWITCH_JOINT]
@@ -426,17 +428,24 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
 
 
 @kernel(inline=True)
-def motion_jump(km, cfg, t, y, ws, stats):
-    """`projection = auto`, at a located switch of an expression: where a driver's motion jumped there
-    (in value or first derivative: a kink asks for an infinite acceleration, which the integrator
-    cannot see), the state is beyond the constraint check's bound (`lost_check`) and is projected
-    onto the new motion at once, the mass-weighted (perfectly plastic) impulsive change; counted and
-    timed for the run's warning.  A switch of a load leaves the state where it is."""
+def _within_bound(km, cfg, t, y, ws, stats):
+    """The state at t meets the constraint check's bounds (`lost_check`), the expressions' branches
+    as they are now; stats[ST_INFO] names the first row beyond them."""
     n = y.shape[0] // 2
     body_trig(y[:n], ws.cs)
-    st = constraint_rows_eval(km, y[:n], y[n:], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
-    if st != 0 or lost_check(cfg, ws, y[n:], stats) == 0:
-        return st
+    if constraint_rows_eval(km, y[:n], y[n:], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam) != 0:
+        return True  # left to the step's own checks
+    return lost_check(cfg, ws, y[n:], stats) == 0
+
+
+@kernel(inline=True)
+def motion_jump(km, t, y, ws, stats):
+    """`projection = auto`, at a located switch of an expression that put a state within the constraint
+    check's bounds beyond them: a driver's motion jumped there (in value or first derivative: a kink
+    asks for an infinite acceleration, which the integrator cannot see).  The state is projected onto
+    the new motion at once, the mass-weighted (perfectly plastic) impulsive change; counted and timed
+    for the run's warning.  A switch of a load changes no constraint and never comes here; nor does
+    a state already beyond the bounds (drift of a too long fixed step: the drift check stops it)."""
     if ws.flags[FL_JUMPS] == 0:
         ws.dense[DN_JUMP_AT] = t
         ws.flags[FL_JUMP_ROW] = stats[ST_INFO]
