@@ -24,7 +24,7 @@ N = 2
 RESTORE_OFF = "1e-8,2,0,1e-3,0"  # [REG, REFINE, REFINE_TOL, TAU, RESTORE] (kernel/workspace.py)
 
 
-def run(integrator: str, restore: bool):
+def run(integrator: str, restore: bool, rtol: float = 1e-12):
     """(time, crank-tip error, total energy - its start) of one 20 s run."""
     import chains
     from planar_mbs import simulate
@@ -34,7 +34,7 @@ def run(integrator: str, restore: bool):
         os.environ.pop("PLANAR_MBS_SOLVER", None)
     else:
         os.environ["PLANAR_MBS_SOLVER"] = RESTORE_OFF
-    text = chains.parallelogram_chain(N, integrator=integrator, rtol=1e-12, atol=1e-14, t_end=20.0,
+    text = chains.parallelogram_chain(N, integrator=integrator, rtol=rtol, atol=rtol / 100, t_end=20.0,
                                       extra="projection = on ")
     res = simulate(compile_text(text, f"parallelogram_{N}.mbs"))
     t = res.time
