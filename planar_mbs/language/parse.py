@@ -477,8 +477,9 @@ def _statement_rules(site: _Site, tok: Token, expected: set[str], prev: str, sho
                 did_you_mean(str(tok), KEYWORDS) or "statements start with: " + ", ".join(KEYWORDS))
     if tok.type.lower() in KEYWORDS and "NAME" in expected:
         return f"`{tok}` is a keyword and cannot be used as a name here", "choose another name"
-    if tok.type == "QUANTITY" and "NAME" in expected and re.match(r"\d+[A-Za-z_]", str(tok)):
-        return f"`{tok}` is not a name", "names start with a letter or `_` (letters, digits and `_` follow)"
+    word = re.match(r"\d+[A-Za-z_]\w*", site.text[tok.start_pos:]) if tok.type == "QUANTITY" else None
+    if word and "NAME" in expected:  # `2crank` (one token) or `1a` (a number, then a name)
+        return f"`{word.group(0)}` is not a name", "names start with a letter or `_` (letters, digits and `_` follow)"
     if tok.type == "QUANTITY" and expected == {"EQUAL"}:
         return (f"unexpected `{tok}`: a `=` is missing",
                 "write `param NAME = value`" if re.search(r"(?:^|\W)param\s+\w+$", prev)
