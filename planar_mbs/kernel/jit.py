@@ -63,6 +63,10 @@
   process's first compilation where the fast path below is used: the first compilation of the time loop
   in one process 84.8 s and 81.8 s of CPU against 103.3 s and 97.9 s with numba's own inliner (two pairs
   run side by side, 2 cores), front end (typing and lowering) about a third shorter, LLVM unchanged.
+* `loop.advance`'s own library (the step control; the steps' arithmetic is in the kernels it calls)
+  is optimised by LLVM at O1, every other kernel at O3 (`loop_opt_level`, applied as `inline_copy`
+  is): it is the last part of the first compilation, which no second process can share; 1-4 s of
+  CPU less in three pairs side by side, the time loop as fast, results bit-identical.
 * A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`):
   the refresh imports and registers every implementation numba has, among them its array functions,
   whose import-time BLAS check imports scipy.linalg; about 0.25 s of a warm `mbs run` whose kernels
@@ -389,12 +393,13 @@ _CACHE_CLASS = None if _PLAIN else _choose_cache()
 
 
 class _SharedScopeInlining(numba_event.Listener):
-    """Applies `inline_copy` when this process starts its first compilation (numba's compile event
-    fires only for code not loaded from a cache), not at import: its numba module costs a warm run
-    25 ms for nothing."""
+    """Applies `inline_copy` and `loop_opt_level` when this process starts its first compilation
+    (numba's compile event fires only for code not loaded from a cache), not at import: their numba
+    modules cost a warm run 25 ms for nothing."""
 
     def on_start(self, event):
         importlib.import_module(".inline_copy", __package__).apply()
+        importlib.import_module(".loop_opt_level", __package__).apply()
 
     def on_end(self, event):
         pass

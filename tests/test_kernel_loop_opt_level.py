@@ -1,0 +1,31 @@
+"""`kernel.loop_opt_level`: LLVM's O1 for `loop.advance`'s own library, numba's O3 for every other.
+What it saves and that results are bit-identical are measured (docs/benchmarks.md, "Start-up"); here,
+that it picks that one library and leaves every other to numba."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from planar_mbs.kernel import loop, loop_opt_level as L
+
+
+def _module(*names):
+    return SimpleNamespace(functions=[SimpleNamespace(name=n) for n in names])
+
+
+def test_only_the_time_loops_own_library_is_light():
+    advance = "_ZN10planar_mbs6kernel4loop7advanceB2v1B46c8tJTIeFIjx"
+    assert L.is_light(SimpleNamespace(name="advance"), _module("cfunc." + advance, advance))
+    assert not L.is_light(SimpleNamespace(name="_emit"), _module("_ZN10planar_mbs6kernel4loop5_emitB3v28"))
+    # a user's function of the same name, elsewhere, is numba's
+    assert not L.is_light(SimpleNamespace(name="advance"), _module("_ZN8__main__7advanceB2v1"))
+
+
+def test_the_loop_is_compiled_with_it_where_numba_is_as_checked():
+    """Applied at this process's first compilation (the suite compiles or loads the loop); numba's own
+    optimisation back by `undo`, and applied again."""
+    assert L.applicable()
+    assert L.apply() and L.is_applied()
+    L.undo()
+    assert not L.is_applied()
+    assert L.apply() and L.is_applied()
+    assert loop.advance.py_func.__name__ == "advance" and L.ADVANCE.endswith("7advance")
