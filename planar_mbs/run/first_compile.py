@@ -24,7 +24,7 @@ import threading
 import time
 
 from ..lazy import lazy
-from .children import die_with_parent
+from .children import die_with_parent, package_env
 
 # the helper's imports: numba and the compiler load only in the helper process, never before the
 # "compiling" line (`announce_if_cold` runs before the model is read)
@@ -189,13 +189,10 @@ def _start_helper():
     """The helper process (None on one core or where it cannot start)."""
     if (os.cpu_count() or 1) < 2:
         return None
-    # this very package first on the helper's path (not another copy installed elsewhere, nor one in
-    # the current folder: -P, else `-m` puts the current folder first)
-    here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")])))
-    try:
-        return subprocess.Popen([sys.executable, "-P", "-m", "planar_mbs.run.first_compile"], stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    try:  # this very package, not another copy in the current folder or installed elsewhere
+        return subprocess.Popen([sys.executable, "-m", "planar_mbs.run.first_compile"], stdin=subprocess.DEVNULL,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                env=dict(os.environ, **package_env()))
     except OSError:
         return None
 

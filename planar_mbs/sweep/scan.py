@@ -413,8 +413,9 @@ def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
     res = Results(time=np.zeros(0), signals={}, attrs={"complete": False, "status": "failed", "message": message,
                                                        "case": spec.index, "case_key": spec.key,
                                                        "case_values": spec.values})
-    return CaseOutcome(spec.index, spec.key, dict(spec.values), FAILED, message, res, None, None,
-                       time.perf_counter() - start)
+    wall = time.perf_counter() - start
+    return CaseOutcome(spec.index, spec.key, dict(spec.values), FAILED, message, res, None, None, wall,
+                       started=time.time() - wall, worker=os.getpid())
 
 
 def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None, config: str = "{}") -> CaseOutcome:

@@ -25,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 from ..lazy import lazy
-from ..run.children import die_with_parent
+from ..run.children import PACKAGE_ENV, die_with_parent, package_env
 
 # multiprocessing only where a server starts (a sweep on several cores)
 mp = lazy("multiprocessing")
@@ -35,7 +35,6 @@ resource_tracker = lazy("multiprocessing.resource_tracker")
 
 _STARTED: list[bool] = []
 SERVER_ENV = "PLANAR_MBS_SWEEP_SERVER"  # set for the server only: the pid of the sweep that started it
-SERVER_PATH_ENV = ("PYTHONSAFEPATH", "PYTHONPATH")  # set for the server only: `server_path_env`
 
 
 def start() -> bool:
@@ -45,8 +44,9 @@ def start() -> bool:
         return True
     if "forkserver" not in mp.get_all_start_methods():
         return False
-    saved = {k: os.environ.get(k) for k in (SERVER_ENV, *SERVER_PATH_ENV)}
-    os.environ.update({SERVER_ENV: str(os.getpid()), **server_path_env()})
+    # the server imports this very package (`children.package_env`): the workers are its forks
+    saved = {k: os.environ.get(k) for k in (SERVER_ENV, *PACKAGE_ENV)}
+    os.environ.update({SERVER_ENV: str(os.getpid()), **package_env()})
     try:
         own_temp_folder()
         mp.get_context("forkserver").set_forkserver_preload(["planar_mbs.sweep.worker"])
@@ -64,17 +64,6 @@ def start() -> bool:
                 os.environ[k] = v
     _STARTED.append(True)
     return True
-
-
-def server_path_env() -> dict[str, str]:
-    """The server imports this very package: multiprocessing starts it as ``python -c``, which puts the
-    current folder first on its path, and does not apply the sweep's own path before the preload
-    (CPython 3.11-3.13), so from a folder holding another ``planar_mbs`` (a source checkout beside an
-    installed release) the workers ran that copy's code, compiled for it first (35 s measured).  The
-    folder holding this package goes first instead, and the current folder not at all."""
-    here = str(Path(__file__).resolve().parents[2])
-    return {"PYTHONSAFEPATH": "1",
-            "PYTHONPATH": os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))}
 
 
 TEMP_PREFIX = "mbs-sweep-"  # the fork server's socket folder: mbs-sweep-<pid>-XXXX in the temp folder
