@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from planar_mbs.kernel.jit import native
 from planar_mbs.run import first_compile as F
 
 
@@ -90,7 +91,7 @@ def test_the_helper_compiles_the_signatures_the_time_loop_uses():
     km = compile_text(F._TINY).kernel
     ws = make_workspace(km)
     for module, name in F.HELPER_KERNELS:
-        dispatcher = getattr(importlib.import_module(f"planar_mbs.kernel.{module}"), name)
+        dispatcher = native(getattr(importlib.import_module(f"planar_mbs.kernel.{module}"), name))  # as `advance` calls it
         keys = [key[0] for key in dispatcher._cache._cache_file._load_index()]
         assert F._signature(dispatcher, km, ws) in keys, name
 
@@ -112,8 +113,8 @@ def test_a_cold_mbs_run_says_so_first_and_the_helper_does_part_of_the_work(tmp_p
     assert res.returncode == 0, res.stderr
     lines = res.stderr.splitlines()
     assert lines[0] == F.HEAD and lines[-1].startswith("compiled the solver in "), res.stderr
-    written = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
-    for module, name in F.HELPER_KERNELS:
+    written = {p.name.split("-native-")[0] for p in (tmp_path / "cache").rglob("*-native-*.nbi")}
+    for module, name in F.HELPER_KERNELS:  # the versions `advance` calls
         assert f"{module}.{name}" in written
 
 

@@ -49,12 +49,16 @@ mbs.simulate(m, t_end=2e-3, output={str(tmp_path / 'a.h5')!r}, signals=["A"])
 with mbs.Simulation(m, t_end=2e-3) as sim:
     sim.step("1 ms")
     sim.run()
-print(len(loop.advance.overloads), len(loop._emit.overloads), len(loop.observe.overloads))
+from planar_mbs.kernel.jit import native
+print(len(loop.advance.overloads), len(native(loop._emit).overloads), len(loop._emit.overloads),
+      len(loop.observe.overloads))
 """
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=1800, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
-    assert out.stdout.split() == ["1", "1", "0"]  # the public `observe`: compiled only when Python calls it
+    # `_emit` once, the version kernels call; the versions Python calls (wrappers) of `_emit` and the
+    # public `observe` are compiled only when Python calls them
+    assert out.stdout.split() == ["1", "1", "0", "0"]
 
 
 CACHED_LOAD = """
@@ -102,3 +106,58 @@ def test_a_cached_kernel_loads_without_parsing_its_bitcode_and_still_links(tmp_p
     value, parsed_after = runs[1].stdout.split("\n")[1].split()
     assert float(value) == 2 * expected and int(parsed_after) >= 1  # linking parsed the bitcode
     assert runs[1].stdout.split("\n")[2] == "True"
+
+
+TWINS = """
+from planar_mbs.kernel.jit import kernel
+
+
+@kernel
+def inner(a, x):
+    return a[0] * x
+
+
+@kernel
+def outer(a):
+    return inner(a, 2.0) + 1.0
+"""
+TWIN_RUN = """
+import sys
+import numpy as np
+import twins
+from planar_mbs.kernel.jit import native
+a = np.array([3.0])
+value = twins.outer(a) if sys.argv[1] == "outer" else twins.inner(a, 2.0)
+def kinds(dispatcher):  # the functions of twins.py a compiled version defines: itself and wrappers
+    names = {f.name for o in dispatcher.overloads.values() for f in o.library._final_module.functions
+             if not f.is_declaration and "5twins" in f.name}
+    return "+".join(sorted({"cfunc" if n.startswith("cfunc.") else "cpython" if "7cpython" in n else "native"
+                            for n in names})) or "none"
+print(value, kinds(twins.inner), kinds(native(twins.inner)), kinds(twins.outer))
+"""
+
+
+def test_a_kernel_called_only_by_kernels_is_compiled_without_wrappers_and_cached_apart(tmp_path):
+    """`jit.native`: a kernel that another kernel calls is compiled there without numba's CPython and
+    C wrappers; Python calling it later (another process, the same cache) gets its own version with
+    them, not the cached one without, which would crash the interpreter (numba's cache index is
+    keyed by the signature alone).  Values against the kernels' arithmetic, 3 * 2 (+ 1)."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "twins.py").write_text(TWINS)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(tmp_path))
+    outs = [subprocess.run([sys.executable, "-c", TWIN_RUN, which], capture_output=True, text=True, timeout=600,
+                           env=env, cwd=tmp_path) for which in ("outer", "inner", "inner")]
+    for out in outs:
+        assert out.returncode == 0, out.stderr[-2000:]
+    first, second, third = (out.stdout.split() for out in outs)
+    # first process: `outer` with its wrappers, `inner` only without (called by `outer`)
+    assert float(first[0]) == 7.0 and first[1:] == ["none", "native", "cfunc+cpython+native"]
+    # a later process calls `inner` from Python: compiled with its wrappers, the native one not touched
+    assert float(second[0]) == 6.0 and second[1:] == ["cfunc+cpython+native", "none", "none"]
+    assert float(third[0]) == 6.0  # and loaded from the cache
+    index = sorted(p.name.split("-")[0] + ("-native" if "-native-" in p.name else "")
+                   for p in (tmp_path / "cache").rglob("*.nbi"))
+    assert index == ["twins.inner", "twins.inner-native", "twins.outer"]

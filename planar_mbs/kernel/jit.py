@@ -67,6 +67,15 @@
   is optimised by LLVM at O1, every other kernel at O3 (`loop_opt_level`, applied as `inline_copy`
   is): it is the last part of the first compilation, which no second process can share; 1-4 s of
   CPU less in three pairs side by side, the time loop as fast, results bit-identical.
+* Each kernel that is not inlined has two versions: the one Python calls, with numba's CPython and C
+  wrappers (argument unboxing: for the ~25 arrays of `KernelModel` and ~30 of the workspace, a big
+  function of its own that LLVM optimises and emits), and the `native` one that other kernels
+  call, compiled without them (numba's ``no_cpython_wrapper``/``no_cfunc_wrapper`` options) and
+  cached in files of its own.  A run calls only `advance` from Python, so every other kernel is
+  compiled once, without wrappers; a kernel that Python calls as well (a test, `Stepper`'s
+  `project`) is compiled a second time, with them, the first time Python calls it.  One process's
+  first compilation of the time loop: 59.2 s of CPU against 75.3 s (a pair side by side, 2 cores),
+  results bit-identical on every shipped model with DOPRI5, RK4 and DOP853.
 * A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`):
   the refresh imports and registers every implementation numba has, among them its array functions,
   whose import-time BLAS check imports scipy.linalg; about 0.25 s of a warm `mbs run` whose kernels
@@ -98,6 +107,7 @@ from pathlib import Path
 import llvmlite.binding as ll  # loaded by numba itself
 import numba
 from numba import njit
+from numba.core.registry import CPUDispatcher
 from numba.core import event as numba_event  # loaded by numba itself
 
 try:  # numba's private caching module, which the fast loading builds on (`fast_path_problem` checks it)
@@ -333,6 +343,17 @@ def _fast_cache_class():
     return _FunctionCache
 
 
+def _native_cache_class(function_cache):
+    """`function_cache` in files of its own (``module.kernel-native-...``), for `native` versions:
+    numba's index key holds the signature, not the wrapper options, so a shared file would hand
+    Python a version without its wrapper."""
+    class _NativeImpl(function_cache._impl_class):
+        def get_filename_base(self, fullname, abiflags):
+            return super().get_filename_base(f"{fullname}-native", abiflags)
+
+    return type("_NativeFunctionCache", (function_cache,), {"_impl_class": _NativeImpl})
+
+
 _WRITABLE: set[str] = set()  # cache folders found writable in this process
 
 
@@ -390,6 +411,7 @@ def _choose_cache():
 
 _PLAIN = bool(getattr(numba.config, "DISABLE_JIT", False))  # NUMBA_DISABLE_JIT=1: the Python functions
 _CACHE_CLASS = None if _PLAIN else _choose_cache()
+_NATIVE_CACHE_CLASS = None if _CACHE_CLASS is None else _native_cache_class(_CACHE_CLASS)
 
 
 class _SharedScopeInlining(numba_event.Listener):
@@ -407,8 +429,40 @@ class _SharedScopeInlining(numba_event.Listener):
 
 if _CACHE_CLASS is not None:  # numba's internals as checked (`fast_path_problem`)
     numba_event.register("numba:compile", _SharedScopeInlining())
-_njit = njit(error_model="numpy", _nrt=False)  # cache=True would make numba's own cache, replaced at once
-_njit_inline = njit(error_model="numpy", _nrt=False, inline="always")  # the same, inlined into callers by numba
+_OPTIONS = dict(error_model="numpy", _nrt=False)
+_njit = njit(**_OPTIONS)  # cache=True would make numba's own cache, replaced at once
+_njit_inline = njit(**_OPTIONS, inline="always")  # the same, inlined into callers by numba
+_njit_native = njit(**_OPTIONS, no_cpython_wrapper=True, no_cfunc_wrapper=True)  # callable by kernels only
+_TARGET_OPTIONS = _njit(lambda: None).targetoptions  # what `_njit` gives its dispatchers, for `_Kernel`
+
+
+class _Kernel(CPUDispatcher):
+    """A kernel as Python calls it (with numba's CPython wrapper); other kernels call its `native`
+    twin instead, which numba types in their place (``_numba_type_``, numba's own protocol)."""
+
+    @property
+    def _numba_type_(self):
+        return numba.types.Dispatcher(native(self))
+
+
+def native(dispatcher):
+    """The version of `dispatcher` that other kernels call: compiled without numba's CPython and C
+    wrappers (a kernel called only from other kernels never needs them), cached in files of its
+    own; made at the first compilation that calls it.  `dispatcher` itself where it has none."""
+    if not isinstance(dispatcher, _Kernel):
+        return dispatcher
+    twin = dispatcher.__dict__.get("_native")
+    if twin is None:
+        twin = dispatcher._native = _njit_native(dispatcher.py_func)
+        _cache(twin, _NATIVE_CACHE_CLASS)
+    return twin
+
+
+def _cache(dispatcher, cache_class) -> None:
+    try:
+        dispatcher._cache = cache_class(dispatcher.py_func)
+    except RuntimeError:  # numba's "cannot cache function": no folder at all can be written
+        _note(_UNCACHED)
 
 
 def kernel(func=None, *, inline=False):
@@ -420,9 +474,6 @@ def kernel(func=None, *, inline=False):
         return func
     if _CACHE_CLASS is None:
         return _public_kernel(func, inline)
-    dispatcher = (_njit_inline if inline else _njit)(func)
-    try:
-        dispatcher._cache = _CACHE_CLASS(func)
-    except RuntimeError:  # numba's "cannot cache function": no folder at all can be written
-        _note(_UNCACHED)
+    dispatcher = _njit_inline(func) if inline else _Kernel(func, targetoptions=_TARGET_OPTIONS)
+    _cache(dispatcher, _CACHE_CLASS)
     return dispatcher

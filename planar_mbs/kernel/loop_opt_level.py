@@ -23,13 +23,15 @@ from __future__ import annotations
 
 from numba.core import codegen
 
-LEVEL = 1  # LLVM's optimisation level for `loop.advance`'s own library
-ADVANCE = "planar_mbs6kernel4loop7advance"  # in the mangled names of `loop.advance` and its wrappers
+LEVEL = 1  # LLVM's optimisation level for the libraries of `LIGHT`
+# library name -> what the mangled names of that kernel and its wrappers hold
+LIGHT = {"advance": "planar_mbs6kernel4loop7advance", "_emit": "planar_mbs6kernel4loop5_emit"}
 
 
 def is_light(library, module) -> bool:
-    """Whether `library` (with its LLVM `module`) is `loop.advance`'s own."""
-    return library.name == "advance" and any(ADVANCE in f.name for f in module.functions)
+    """Whether `library` (with its LLVM `module`) is the own library of a kernel of `LIGHT`."""
+    mangled = LIGHT.get(library.name)
+    return mangled is not None and any(mangled in f.name for f in module.functions)
 
 
 def _light_functions(optimize_functions):

@@ -31,6 +31,7 @@ from .children import die_with_parent, package_env
 np = lazy("numpy")
 numba = lazy("numba")
 kernel = lazy("..kernel", __package__)
+jit = lazy("..kernel.jit", __package__)
 compiler = lazy("..mechanism.compile", __package__)
 
 LOG_EVERY = 15.0  # seconds between two "still compiling" lines in a plain log
@@ -180,7 +181,8 @@ def helper_main() -> None:
     km = compiler.compile_text(_TINY).kernel
     ws = kernel.make_workspace(km)
     for module, name in HELPER_KERNELS:
-        dispatcher = getattr(importlib.import_module(f"planar_mbs.kernel.{module}"), name)
+        # the version `advance` calls (`kernel.jit.native`), not the one Python calls
+        dispatcher = jit.native(getattr(importlib.import_module(f"planar_mbs.kernel.{module}"), name))
         if cache_is_cold(dispatcher):
             dispatcher.compile(_signature(dispatcher, km, ws))
 
