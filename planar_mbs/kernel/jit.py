@@ -64,9 +64,10 @@
   in one process 84.8 s and 81.8 s of CPU against 103.3 s and 97.9 s with numba's own inliner (two pairs
   run side by side, 2 cores), front end (typing and lowering) about a third shorter, LLVM unchanged.
 * `loop.advance`'s own library (the step control; the steps' arithmetic is in the kernels it calls)
-  is optimised by LLVM at O1, every other kernel at O3 (`loop_opt_level`, applied as `inline_copy`
-  is): it is the last part of the first compilation, which no second process can share; 1-4 s of
-  CPU less in three pairs side by side, the time loop as fast, results bit-identical.
+  is optimised by LLVM at O1, and so is `loop._emit`'s (the output row), every other kernel at O3
+  (`loop_opt_level`, applied as `inline_copy` is): `advance`'s is the last part of the first
+  compilation, which no second process can share; 1-4 s of CPU less in three pairs side by side,
+  `_emit`'s 3.5 s in one; the time loop as fast, results bit-identical.
 * Each kernel that is not inlined has two versions: the one Python calls, with numba's CPython and C
   wrappers (argument unboxing: for the ~25 arrays of `KernelModel` and ~30 of the workspace, a big
   function of its own that LLVM optimises and emits), and the `native` one that other kernels

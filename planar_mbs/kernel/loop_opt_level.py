@@ -1,4 +1,5 @@
-"""The time loop's own library optimised by LLVM at O1; every other kernel keeps numba's O3.
+"""The own libraries of the time loop and of its output row optimised by LLVM at O1; every other
+kernel keeps numba's O3.
 
 `loop.advance` is the kernel Python calls.  Its own code is the step control (trial steps, checks,
 events, outputs, each once per step); the arithmetic of a step is in the kernels it calls
@@ -10,9 +11,11 @@ all it links 5.5 s, machine code 2.8 s; numba's pass timings, one process).  At 
 module passes take 2.3 s and 1.9 s.  One process's first compilation, pairs side by side (one per
 core) on a machine whose speed varied: 73.0 s of CPU against 76.8 s, 79.6 against 81.6, 92.9 against
 93.8; the README's first command was not measurably shorter within that variation (three alternating
-pairs, 45.7-50.8 s either way).  The time loop is as fast (the README's run 0.432-0.442 s against
-0.429-0.441 s, three rounds each) and results are bit-identical on every shipped model with DOPRI5,
-RK4 and DOP853 (docs/benchmarks.md, "Start-up").
+pairs, 45.7-50.8 s either way).  `loop._emit` (the output row: the signals of `observe`, inlined,
+around calls of the dense output) is the same kind of code on the command's own path: at O1, one
+process's first compilation 71.0 s of CPU against 74.5 s (a pair side by side).  The time loop is as
+fast (the README's run 0.432-0.442 s against 0.429-0.441 s, three rounds each) and results are
+bit-identical on every shipped model with DOPRI5, RK4 and DOP853 (docs/benchmarks.md, "Start-up").
 
 It replaces two private methods of numba's ``CPUCodeLibrary`` and calls its codegen's pass-manager
 factories with an ``opt`` level, so `kernel.jit` applies it only where its other reliance on numba's

@@ -1,15 +1,15 @@
 """The one-time compilation of the time loop, said out loud.
 
-numba compiles the kernels the first time a model runs on a machine (about 85 s of CPU, about
-a minute on 2 cores, longer on a busy machine) and keeps the machine code in its cache; later runs load it in a fraction
-of a second.  Without a word, that first minute looks like a hang.  `first_call` makes the
-first call of `kernel.advance` in a process and, when numba's cache holds nothing for it, says
-at once on stderr that the solver is being compiled, once, then how long it has taken: a line
-rewritten every second on a terminal, a line every `LOG_EVERY` seconds in a plain log, and a
-last line with the total.  Meanwhile a helper process compiles the kernels the time loop's typing
-reaches last (`HELPER_KERNELS`), so that this process loads them from the cache: measured on the
-README's first command 55 s of wall time and 90 s of CPU in the two processes, against 82-85 s of
-wall time in one process (2 idle cores: docs/benchmarks.md, "Start-up").
+numba compiles the kernels the first time a model runs on a machine (about 55 s of CPU, about
+35 s on 2 idle cores, longer on a busy machine) and keeps the machine code in its cache; later runs
+load it in a fraction of a second.  Without a word, that first half-minute looks like a hang.
+`first_call` makes the first call of `kernel.advance` in a process and, when numba's cache holds
+nothing for it, says at once on stderr that the solver is being compiled, once, then how long it has
+taken: a line rewritten every second on a terminal, a line every `LOG_EVERY` seconds in a plain log,
+and a last line with the total.  Meanwhile a helper process compiles the kernels the time loop's
+typing reaches last (`HELPER_KERNELS`, the `kernel.jit.native` versions that `advance` calls), so
+that this process loads them from the cache: measured on the README's first command 32-38 s of wall
+time and 51-60 s of CPU in the two processes (2 idle cores: docs/benchmarks.md, "Start-up").
 """
 from __future__ import annotations
 
