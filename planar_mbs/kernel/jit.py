@@ -14,12 +14,12 @@
   loop reports as a non-finite state, instead of raising inside compiled code.
 * ``_nrt=False``: no numba runtime reference counting.  The kernels never
   allocate (workspaces are made once in Python), and with the runtime on,
-  every call between kernels increfs and decrefs each array of the ~25-array
-  `KernelModel` and the workspace with atomic operations: measured 5.4 µs per
+  every call between kernels increfs and decrefs each array of `KernelModel` (36 arrays today)
+  and the workspace (30) with atomic operations: measured 5.4 µs per
   right-hand side of Muvengei et al.'s slider-crank with it, 0.9 µs without.
 * ``@kernel(inline=True)``: numba inlines the function into its callers.  A call that is
-  not inlined passes every array of a tuple argument as separate values (the ~25 arrays of
-  `KernelModel`, ~30 of the workspace: a few hundred words per call).  Inlining the applied
+  not inlined passes every array of a tuple argument as separate values (the 36 arrays of
+  `KernelModel`, 30 of the workspace: a few hundred words per call).  Inlining the applied
   forces, the constraint rows, the Schur factorisation and the multiplier solve into
   `accelerations` took one right-hand side of the clearance slider-crank from 4.1x to 2.9x
   the hand-specialised yardstick (`benchmarks/run.py --only rhs`), and `accelerations` into
@@ -69,7 +69,7 @@
   compilation, which no second process can share; 1-4 s of CPU less in three pairs side by side,
   `_emit`'s 3.5 s in one; the time loop as fast, results bit-identical.
 * Each kernel that is not inlined has two versions: the one Python calls, with numba's CPython and C
-  wrappers (argument unboxing: for the ~25 arrays of `KernelModel` and ~30 of the workspace, a big
+  wrappers (argument unboxing: for the 36 arrays of `KernelModel` and 30 of the workspace, a big
   function of its own that LLVM optimises and emits), and the `native` one that other kernels
   call, compiled without them (numba's ``no_cpython_wrapper``/``no_cfunc_wrapper`` options) and
   cached in files of its own.  A run calls only `advance` from Python, so every other kernel is
@@ -434,7 +434,8 @@ _OPTIONS = dict(error_model="numpy", _nrt=False)
 _njit = njit(**_OPTIONS)  # cache=True would make numba's own cache, replaced at once
 _njit_inline = njit(**_OPTIONS, inline="always")  # the same, inlined into callers by numba
 _njit_native = njit(**_OPTIONS, no_cpython_wrapper=True, no_cfunc_wrapper=True)  # callable by kernels only
-_TARGET_OPTIONS = _njit(lambda: None).targetoptions  # what `_njit` gives its dispatchers, for `_Kernel`
+# what `_njit` gives its dispatchers, for `_Kernel` (NUMBA_DISABLE_JIT=1: no dispatchers at all)
+_TARGET_OPTIONS = None if _PLAIN else _njit(lambda: None).targetoptions
 
 
 class _Kernel(CPUDispatcher):
