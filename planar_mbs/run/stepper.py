@@ -22,16 +22,19 @@ from ..mechanism.kinematics import assemble
 from ..mechanism.model import N_STATS, ST_INFO, ST_OUTPUTS, Model, Status, observation_size
 from ..results.signals import signal_table
 from .first_compile import first_call
-from .simulation import _failure_message, run_settings
+from .simulation import _deepest, _failure_message, _physics_warnings, run_settings
 
 ROWS = 256  # observation rows fetched per kernel call
 
 
 class Stepper:
-    """One trajectory of ``model`` (settings as in `simulate`), advanced by `run_to`."""
+    """One trajectory of ``model`` (settings as in `simulate`), advanced by `run_to`.
+    ``allow_unphysical=True`` goes on where a journal has sunk deeper than its clearance (a numerical
+    study of a contact too soft for its joint); by default `run_to` raises there, as `simulate` does."""
 
-    def __init__(self, model: Model, **settings_changes):
+    def __init__(self, model: Model, allow_unphysical: bool = False, **settings_changes):
         self.model = model
+        self.allow_unphysical = allow_unphysical
         self.settings = run_settings(model, **settings_changes)
         self.cfg = self.settings.cfg(model.size)
         q, qd = assemble(model)
@@ -43,12 +46,14 @@ class Stepper:
         nobs = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
         self._out_t, self._out = np.zeros(ROWS), np.zeros((ROWS, nobs))
         self.table = signal_table(model)
+        self.deepest: dict[str, float] = {}  # deepest penetration per clearance joint so far
 
     @classmethod
-    def restore(cls, model: Model, y, contact, t: float, **settings_changes) -> "Stepper":
+    def restore(cls, model: Model, y, contact, t: float, allow_unphysical: bool = False,
+                **settings_changes) -> "Stepper":
         """A trajectory from a saved kernel state (``y``, ``contact`` of a run at time ``t``),
         its output grid ``k * output_step`` continued from ``t``."""
-        st = cls(model, **settings_changes)
+        st = cls(model, allow_unphysical, **settings_changes)
         st.y[:] = y
         st.contact[:] = contact
         st.clock[:] = (t, 0.0, 0.0)
@@ -67,7 +72,7 @@ class Stepper:
         `projection` setting changed where given ("on", "off", "auto")."""
         new = object.__new__(Stepper)
         new.__dict__.update(self.__dict__)
-        for name in ("y", "clock", "contact", "stats", "cfg"):
+        for name in ("y", "clock", "contact", "stats", "cfg", "deepest"):
             setattr(new, name, getattr(self, name).copy())
         if projection is not None:
             new.settings = replace(self.settings, projection=projection)
@@ -104,7 +109,18 @@ class Stepper:
                                                        self.settings, self.contact), time=self.t)
         if not times:
             return np.zeros(0), np.zeros((0, self._out.shape[1]))
-        return np.concatenate(times), np.concatenate(rows)
+        times, rows = np.concatenate(times), np.concatenate(rows)
+        self._check_physical(rows)
+        return times, rows
+
+    def _check_physical(self, rows: np.ndarray) -> None:
+        """Raise where a journal has sunk deeper than its clearance so far, as `simulate` marks such
+        results not physical: a study of them (a Lyapunov exponent, a settling revolution) would be
+        one of a contact too soft for the joint."""
+        _deepest(self.table, rows, self.deepest)
+        unphysical = _physics_warnings(self.model, self.deepest)
+        if unphysical and not self.allow_unphysical:
+            raise SimulationError("the results are not physical: " + unphysical[0], time=self.t)
 
     def signals(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         """Named signals of observation rows returned by `run_to`."""
