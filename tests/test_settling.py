@@ -202,3 +202,20 @@ def test_a_short_classified_part_is_a_doubt():
     v = classify(np.column_stack([n / 30.0 + 0.01 * np.sin(n * 2.4), np.cos(n * 1.7)]))
     assert v.n_points == 15 < MIN_POINTS
     assert "few points: 15 classified" in v.doubts() and "few points: 15 classified" in v.headline()
+
+
+def test_mbs_run_until_settled_on_a_contact_too_soft_fails_and_says_nothing_was_written(tmp_path):
+    """The printed 207 MPa at 800 rpm sinks the journal deeper than its clearance: `--until-settled` stops
+    with the reason (exit 3), as `mbs run` without it does, and says that no file was written (its file is
+    written at the end), instead of pointing at a file that does not exist."""
+    from pathlib import Path
+
+    from planar_mbs.cli.app import app
+
+    model = Path(__file__).resolve().parents[1] / "models" / "slider_crank_clearance_a.mbs"
+    out = tmp_path / "long.h5"
+    run = CliRunner().invoke(app, ["run", str(model), "--until-settled", "--max-revolutions", "20", "-q",
+                                   "--set", "youngs_modulus=207MPa", "--set", "speed=800rpm", "-o", str(out)])
+    assert run.exit_code == 3, run.output
+    assert "not physical: clearance joint `A`" in run.output and "no results were written" in run.output
+    assert not out.exists() and list(tmp_path.iterdir()) == []

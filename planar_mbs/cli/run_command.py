@@ -152,10 +152,12 @@ def _failed(o: SimpleNamespace, err) -> int:
     if err.results is not None and err.results.attrs.get("status") == "not_physical":
         _console(stderr=True).print(f"error: {err.message}\nthe results to t = {err.time:.6g} s are kept in "
                                     f"{o.out}, marked incomplete (status not_physical)", markup=False)
-    else:
+    elif err.results is not None:
         _console(stderr=True).print(f"simulation failed: {err.message}\n"
                                     f"results up to t = {err.time:.6g} s kept in {o.out} (marked incomplete)",
                                     markup=False)
+    else:  # failed before anything was written (`--until-settled` writes its file at the end)
+        _console(stderr=True).print(f"simulation failed: {err.message}\nno results were written", markup=False)
     return int(ExitCode.SIMULATION_FAILED)
 
 
