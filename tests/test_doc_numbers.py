@@ -278,6 +278,31 @@ def test_the_singular_passage_numbers_of_numerics_are_the_programs(monkeypatch):
     assert f"| {pair(err, True)} | {pair(tighter, True)} | {pair(energy, True).replace(' /', ' J /')} J of 35.8 J |" in text
 
 
+
+def test_the_chain_table_of_numerics_is_the_programs(monkeypatch):
+    """docs/numerics.md, the table of parallelogram chains N = 1, 3, 5, 10 (N = 2: the test above), run as
+    docs/scripts/singular_passages.py runs N = 2 (20 s, projection on, atol = rtol / 100, the kinetic energy
+    given back): every cell the page fills, DOPRI5 / DOP853, against the exact motion of `tests/chains.py`."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "scripts"))
+    import singular_passages as S
+
+    monkeypatch.delenv("PLANAR_MBS_SOLVER", raising=False)
+    columns = (1e-10, 1e-11, 1e-12, 1e-13)
+    filled = {1: (1e-12,), 3: (1e-10, 1e-11, 1e-13), 5: (1e-10, 1e-11, 1e-13), 10: (1e-12,)}
+    text = (ROOT / "docs" / "numerics.md").read_text(encoding="utf-8")
+    for n, rtols in filled.items():
+        monkeypatch.setattr(S, "N", n)
+        cells, energy = [""] * len(columns), ""
+        for rtol in rtols:
+            runs = [S.run(integrator, True, rtol=rtol) for integrator in ("dopri5", "dop853")]
+            cells[columns.index(rtol)] = " / ".join(_short(r[1].max()) for r in runs)
+            if n == 10:
+                energy = " / ".join(_short(abs(r[2][-1])) + " J" for r in runs) + " of 158.9 J"
+        row = "| N = " + str(n) + " | " + " | ".join(cells) + " | " + energy + " |"
+        assert row.replace("|  |", "| |").replace("|  |", "| |") in text, row
+
 def test_the_longest_shipped_model_of_the_language_page():
     """docs/language.md §12 names the longest shipped model and its size in names, numbers and symbols
     (with its included files, as the parser counts them against its limit): the largest, to within 10 %."""
