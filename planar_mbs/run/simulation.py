@@ -350,6 +350,11 @@ def _physics_warnings(model: Model, deepest: dict[str, float]) -> list[str]:
     return warnings
 
 
+def not_physical(warnings: list[str]) -> str:
+    """The failure message of results with `_physics_warnings` (`simulate`, `Simulation`, `Stepper`)."""
+    return "the results are not physical: " + warnings[0]
+
+
 ABSURD = 1e9  # m, m/s, rad/s: beyond it no planar mechanism is being simulated (light: 3e8 m/s)
 
 
@@ -674,7 +679,7 @@ class _Run:
             run_attrs.update(complete=False, status="absurd_state", message=self.message)
         elif self.complete and unphysical:  # finished, but not physical: not a result to use
             self.complete = False
-            self.message = "the results are not physical: " + unphysical[0]
+            self.message = not_physical(unphysical)
             run_attrs.update(complete=False, status="not_physical", message=self.message)
         self.run_attrs = run_attrs
         if self.writer:
@@ -873,7 +878,7 @@ class Simulation:
         status = "done" if done else ("failed" if self._failure else "running")
         message = self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s")
         if done and warnings:
-            done, status, message = False, "not_physical", "the results are not physical: " + warnings[0]
+            done, status, message = False, "not_physical", not_physical(warnings)
         attrs = {
             **self._attrs, "complete": done, "status": status, "message": message, "warnings": warnings,
             "t_reached": self.t, "wall_time": self._wall, "n_steps": int(self._stats[ST_STEPS]),

@@ -22,7 +22,7 @@ from ..mechanism.kinematics import assemble
 from ..mechanism.model import N_STATS, ST_INFO, ST_OUTPUTS, Model, Status, observation_size
 from ..results.signals import signal_table
 from .first_compile import first_call
-from .simulation import _deepest, _failure_message, _physics_warnings, run_settings
+from .simulation import _deepest, _failure_message, _physics_warnings, not_physical, run_settings
 
 ROWS = 256  # observation rows fetched per kernel call
 
@@ -120,7 +120,7 @@ class Stepper:
         _deepest(self.table, rows, self.deepest)
         unphysical = _physics_warnings(self.model, self.deepest)
         if unphysical and not self.allow_unphysical:
-            raise SimulationError("the results are not physical: " + unphysical[0], time=self.t)
+            raise SimulationError(not_physical(unphysical), time=self.t)
 
     def signals(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         """Named signals of observation rows returned by `run_to`."""
