@@ -1,4 +1,4 @@
-"""One description per contact law, joint type and integrator.
+"""One description per contact law, joint type, integrator, force element and driver.
 
 Everything else is derived from these three tables: the integer enums of
 `model` (`ContactLaw`, `JointType`, `Integrator`) and their groups, the
@@ -425,6 +425,145 @@ INTEGRATORS: tuple[IntegratorSpec, ...] = (
         error_order=2),
 )
 
+# ------------------------------------------------------------------ force elements
+
+
+@dataclass(frozen=True, kw_only=True)
+class ForceSpec:
+    """A force element: its description, read by the compiler, the run's checks and `set_load`.
+
+    ``fill``: how the compiler reads it: "load" (one value on one body: `constant`, `torque`),
+    "spring" (stiffness, damping, free value from the pose, an actuator that may be an expression),
+    "expression" (one program per component) or "settings" (its `settings` alone, in order, one
+    ``force_param`` column each: a new kind needs nothing else from the compiler).  ``bodies``: 1 or 2
+    body references; ``points``: they take points.  ``columns``: what each ``force_param`` column holds
+    (a ``<name>_program`` column holds 1 + the result row of an expression giving ``<name>``).
+    ``potential``: ``kernel/forces.py``'s `force_potential` counts its energy; ``dissipative``: the
+    columns that make it do work without a potential unless zero (a workless mechanism's energy check
+    reads both).  ``settable``: the columns `Simulation.set_load` sets, in order."""
+
+    code: int  # ForceType value, the kernel's force code
+    enum: str
+    name: str  # as written in a .mbs file
+    formula: str
+    fill: str
+    bodies: int = 1
+    points: bool = True
+    settings: tuple[JointSetting, ...] = ()
+    columns: tuple[str, ...] = ()
+    potential: bool = False
+    dissipative: tuple[str, ...] = ()
+    settable: tuple[str, ...] = ()
+    example: str = ""
+
+    @property
+    def fields(self) -> dict[str, str]:
+        """The settings it takes, name -> meaning (the compiler's field table, the docs)."""
+        return {x.name: x.meaning for x in self.settings}
+
+    @property
+    def param_columns(self) -> tuple[str, ...]:
+        """The ``force_param`` columns, by name: `columns`, or one per setting."""
+        return self.columns or tuple(x.name for x in self.settings)
+
+    def column(self, name: str) -> int:
+        return self.param_columns.index(name)
+
+    def program_column(self, name: str) -> int | None:
+        """The column of the expression that may give column `name`, or None."""
+        cols = self.param_columns
+        return cols.index(name + "_program") if name + "_program" in cols else None
+
+
+FORCE_FILLS = ("load", "spring", "expression", "settings")
+
+
+def _spring(code: int, enum: str, name: str, angle: bool) -> ForceSpec:
+    """A translational or rotational spring-damper with an actuator (Nikravesh, "Computer-Aided
+    Analysis of Mechanical Systems", sec. 4.9)."""
+    free, unit = ("angle", "angle") if angle else ("length", "length")
+    what = "torque" if angle else "force"
+    return ForceSpec(
+        code=code, enum=enum, name=name, fill="spring", bodies=2, points=not angle,
+        formula=("T = k (a - a0) + c a' + t_act on a = phi_j - phi_i" if angle else
+                 "tension f = k (l - l0) + c l' + f_act between P_i and P_j"),
+        settings=(JointSetting(name="stiffness", meaning="N*m/rad" if angle else "N/m",
+                               unit="rot_stiffness" if angle else "stiffness", default=0.0),
+                  JointSetting(name="damping", meaning="N*m*s/rad" if angle else "N*s/m",
+                               unit="rot_damping" if angle else "damping", default=0.0),
+                  JointSetting(name=free, meaning=f"free {free} (default: initial)", unit=unit, default="pose"),
+                  JointSetting(name="actuator", meaning=f"actuator {what}" + (" (tension positive)" if not angle
+                               else "") + ": a constant or an expression", unit=what, default=0.0)),
+        columns=("stiffness", "damping", free, "actuator", "actuator_program"), potential=True,
+        dissipative=("damping", "actuator", "actuator_program"), settable=("actuator",),
+        example=f"{name}(a (p), b (p))" if not angle else f"{name}(a, b)")
+
+
+FORCES: tuple[ForceSpec, ...] = (
+    ForceSpec(code=0, enum="CONSTANT_FORCE", name="constant", fill="load", formula="F = (fx, fy), global, at P",
+              settings=(JointSetting(name="force", meaning="(fx, fy) in the global frame", unit="force"),),
+              columns=("fx", "fy"), potential=True, settable=("fx", "fy"), example="constant(a (p), force = (fx, fy))"),
+    ForceSpec(code=1, enum="CONSTANT_TORQUE", name="torque", fill="load", formula="T on the body", points=False,
+              settings=(JointSetting(name="torque", meaning="e.g. 2 N*m", unit="torque"),),
+              columns=("torque",), potential=True, settable=("torque",), example="torque(a, torque = T)"),
+    _spring(2, "SPRING_DAMPER", "spring_damper", angle=False),
+    _spring(3, "ROTATIONAL_SPRING_DAMPER", "rotational_spring_damper", angle=True),
+    ForceSpec(code=4, enum="EXPRESSION", name="expression", fill="expression",
+              formula="(fx, fy) global at P and a torque, expressions of t, params and signals",
+              settings=(JointSetting(name="fx", meaning="force along global x: an expression of t, params and "
+                                     "signals", unit="force"),
+                        JointSetting(name="fy", meaning="force along global y (the same)", unit="force"),
+                        JointSetting(name="torque", meaning="torque on the body (the same)", unit="torque")),
+              columns=("fx_program", "fy_program", "torque_program"), example="expression(a (p), fx = ...)"),
+)
+N_FORCE_PARAM = max(len(s.param_columns) for s in FORCES)  # force_param columns
+
+
+def force_kind(code: int) -> ForceSpec:
+    """The force element with kernel code `code`; an unknown code is an error, never a default."""
+    if isinstance(code, bool) or not 0 <= int(code) < len(FORCES) or FORCES[int(code)].code != int(code):
+        raise ValueError(f"unknown force kind {code!r}: the catalog has {choices(FORCES)}")
+    return FORCES[int(code)]
+
+
+# ------------------------------------------------------------------ drivers
+
+
+@dataclass(frozen=True, kw_only=True)
+class DriverSpec:
+    """A driver: one constraint row g(q) - f(t) = 0 on a coordinate of the driven body."""
+
+    code: int  # DriverType value
+    enum: str
+    name: str  # as written in a .mbs file
+    equation: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class MotionSpec:
+    """A prescribed motion f(t) of a driver, its parameters in ``driver_motion_param``."""
+
+    code: int  # MotionType value
+    enum: str
+    name: str  # as written in a .mbs file ("" for the motion written as `speed = ...`)
+    formula: str
+
+
+DRIVERS: tuple[DriverSpec, ...] = (
+    DriverSpec(code=0, enum="ANGLE", name="rotation", equation="g = phi_j - phi_i (i = ground: phi_j)"),
+    DriverSpec(code=1, enum="POSITION", name="translation", equation="g = u_i . (P_j - P_i)"),
+)
+MOTIONS: tuple[MotionSpec, ...] = (
+    MotionSpec(code=0, enum="CONSTANT_SPEED", name="speed", formula="f = p0 + p1 t"),
+    MotionSpec(code=1, enum="RAMP", name="ramp",
+               formula="speed 0 -> p1 over p2 s: f = p0 + p1 t^2/(2 p2), then p0 + p1 (t - p2/2)"),
+    MotionSpec(code=2, enum="HARMONIC", name="harmonic", formula="f = p0 + p1 sin(2 pi p2 t + p3)"),
+    MotionSpec(code=3, enum="POLYNOMIAL", name="polynomial", formula="f = sum_k p_k t^k, k = 0..7"),
+    MotionSpec(code=4, enum="EXPRESSION", name="expression",
+               formula="f = program p0 of t (exact f', f'' by dual numbers)"),
+)
+N_MOTION_PARAM = 8  # driver_motion_param columns: the polynomial's coefficients, the most any motion takes
+
 # ------------------------------------------------------------------ lookups
 
 
@@ -472,6 +611,14 @@ def _check_tableau(s: IntegratorSpec) -> None:
     assert s.dense == "rows" or s.stages == max(len(s.b), s.end_stage + 1), f"{s.name}: stages nothing reads"
 
 
+def _check_force(s: ForceSpec) -> None:
+    """A force kind is one the compiler can read and the checks can classify."""
+    assert s.fill in FORCE_FILLS and s.bodies in (1, 2), s.name
+    cols = s.param_columns
+    assert len(set(cols)) == len(cols) and set(s.dissipative) | set(s.settable) <= set(cols), s.name
+    assert s.fill != "settings" or not s.columns, f"{s.name}: a settings force stores its settings, in order"
+
+
 def _check_joint(s: JointSpec) -> None:
     """A joint type's settings are ones the compiler can read and store."""
     assert s.rows >= 1 and s.draw in ("pin", "link", "slide"), s.name
@@ -492,12 +639,14 @@ def _check_joint(s: JointSpec) -> None:
 
 def check() -> None:
     """The tables are consistent: codes 0..n-1 in order, names unique."""
-    for table in (LAWS, JOINTS, INTEGRATORS, PAIRS):
+    for table in (LAWS, JOINTS, INTEGRATORS, PAIRS, FORCES, DRIVERS, MOTIONS):
         assert [s.code for s in table] == list(range(len(table))), "codes must be 0..n-1 in order"
         assert len(set(names(table))) == len(table), "names must be unique"
         assert len({s.enum for s in table}) == len(table), "enum names must be unique"
     for s in JOINTS:
         _check_joint(s)
+    for s in FORCES:
+        _check_force(s)
     for s in INTEGRATORS:
         _check_tableau(s)
     assert ELEMENTS[0].name == CLEARANCE_JOINT and {e.pair for e in ELEMENTS} <= set(names(PAIRS))
@@ -527,6 +676,10 @@ def docs_lists() -> dict[str, str]:
             f"{_code(g.takes)}" + (f", needs {_code(g.needs)}" if g.needs else "") for g in LAW_GROUPS),
         "integrators": "| integrator | order | stages | step |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.name}` | {s.order} | {s.stages} | {s.summary} |" for s in INTEGRATORS),
+        "forces": "| force | formula | settings | potential energy |\n| --- | --- | --- | --- |\n" + "\n".join(
+            f"| `{s.example or s.name}` | {s.formula} | " + ("; ".join(f"`{k}`: {v}" for k, v in s.fields.items())
+                                                          or "—") + f" | {'yes' if s.potential else 'no'} |"
+            for s in FORCES),
     }
 
 

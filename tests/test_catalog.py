@@ -26,7 +26,7 @@ from planar_mbs.mechanism.compile import compile_text, JOINT_FIELDS, JOINT_TYPES
 from planar_mbs.kernel import contact, integrators, workspace
 from planar_mbs.kernel.constraints import _JOINT_ROWS
 from planar_mbs.mechanism.model import (
-    CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, JOINT_ROWS, N_JOINT_PARAM, ContactLaw, Integrator, JointType,
+    CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, JOINT_ROWS, N_JOINT_PARAM, ContactLaw, Integrator, JointType, frozen,
 )
 from planar_mbs.results.signals import MOMENT_JOINTS
 
@@ -72,7 +72,9 @@ def test_every_joint_type_has_its_rows_in_the_kernel():
         C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, 6))
         assert constraint_eval(km, q, qd, 0.0, C, Cq, Ct, g) == 0 and m == spec.rows, spec.name
         assert np.all(np.abs(Cq).sum(axis=1) > 0) and np.all(np.isfinite(g)), spec.name
-    km.joint_type[0] = len(catalog.JOINTS)
+    jt = km.joint_type.copy()
+    jt[0] = len(catalog.JOINTS)
+    km = frozen(km._replace(joint_type=jt))
     assert constraint_eval(km, q, qd, 0.0, C, Cq, Ct, g) == 7  # Status.BAD_INPUT
 
 
@@ -181,6 +183,15 @@ DUMMY_INTEGRATOR = ('    IntegratorSpec(code=NEW, enum="HEUN_EULER_DUMMY", name=
                     '        b=(0.5, 0.5), end_stage=2, error=((-0.5, 0.5),), error_rule="rms", error_order=1),\n'
                     '    IntegratorSpec(code=NEW + 1, enum="EULER_DUMMY", name="euler_dummy", order=1, summary="no dense output",\n'
                     '        reference="test", c=(0.0, 1.0), a=((), (1.0,)), b=(1.0,), end_stage=1, dense="none"),\n')
+# linear drag on a body's centre, F = -c v: a force kind read from its settings alone (no potential)
+DUMMY_FORCE = ('    ForceSpec(code=NEW, enum="DRAG_DUMMY", name="drag_dummy", fill="settings", points=False,\n'
+               '              formula="F = -c v at the centre of mass",\n'
+               '              settings=(JointSetting(name="coefficient", meaning="c", unit="damping"),)),\n')
+DUMMY_FORCE_CODE = ("DRAG_DUMMY = int(ForceType.DRAG_DUMMY)\n",
+                    "        elif typ == DRAG_DUMMY:\n"
+                    "            if bi >= 0:\n"
+                    "                Qe[3 * bi] -= p[0] * qd[3 * bi]\n"
+                    "                Qe[3 * bi + 1] -= p[0] * qd[3 * bi + 1]\n")
 
 MODEL = """
 material steel { E = 207 GPa  nu = 0.3 }
@@ -225,6 +236,13 @@ joint floor = contact(ground (0, 0), disc) {{
 }}
 simulate {{ t_end = 20 ms  rtol = 1e-10  atol = 1e-13  output_step = 1 ms }}
 """
+# a puck (no gravity) thrown along x into linear drag: x = v0 m / c (1 - exp(-c t / m))
+M_PUCK, V_PUCK, C_DRAG = 2.0, 3.0, 0.5
+DRAG = f"""
+body puck {{ mass = {M_PUCK} kg  inertia = 1e-3 kg*m^2  position = (0, 0)  velocity = ({V_PUCK} m/s, 0) }}
+force air = drag_dummy(puck, coefficient = {C_DRAG} N*s/m)
+simulate {{ t_end = 2 s  rtol = 1e-10  atol = 1e-12  output_step = 0.1 s }}
+"""
 TOUCHED: dict[str, set[str]] = {}  # each addition: the files of the package it edited
 
 
@@ -255,9 +273,15 @@ def extended(tmp_path_factory):
     _insert(pkg, "joint", "catalog.py", ")\n\n\ndef joint_param_columns", DUMMY_JOINT.replace("NEW", str(len(catalog.JOINTS))))
     _insert(pkg, "joint", "kernel/constraints.py", 'LENGTH = JP["length"]\n', DUMMY_JOINT_CODE[0], after=True)
     _insert(pkg, "joint", "kernel/constraints.py", "    else:  # a type code without rows here", DUMMY_JOINT_CODE[1])
-    _insert(pkg, "integrator", "catalog.py", ")\n\n# ------------------------------------------------------------------ lookups",
+    _insert(pkg, "force", "catalog.py", ")\nN_FORCE_PARAM = ", DUMMY_FORCE.replace("NEW", str(len(catalog.FORCES))))
+    _insert(pkg, "force", "kernel/forces.py", "EXPRESSION = int(ForceType.EXPRESSION)\n", DUMMY_FORCE_CODE[0],
+            after=True)
+    _insert(pkg, "force", "kernel/forces.py", "        else:\n            return BAD_INPUT\n    return 0\n",
+            DUMMY_FORCE_CODE[1])
+    _insert(pkg, "integrator", "catalog.py", ")\n\n# ------------------------------------------------------------------ force elements",
             DUMMY_INTEGRATOR.replace("NEW", str(len(catalog.INTEGRATORS))))
-    for name, text in (("dummy", MODEL), ("oscillator", OSCILLATOR), ("gears", GEARS), ("impact", IMPACT)):
+    for name, text in (("dummy", MODEL), ("oscillator", OSCILLATOR), ("gears", GEARS), ("impact", IMPACT),
+                       ("drag", DRAG)):
         (tmp / f"{name}.mbs").write_text(text, encoding="utf-8")
     return tmp
 
@@ -267,7 +291,8 @@ def test_each_addition_touches_its_description_and_its_formula_only(extended):
     joint type with its own setting catalog.py + kernel/constraints.py, an integrator catalog.py alone;
     and no other file of the copy differs from the package."""
     assert TOUCHED == {"law": {"catalog.py", "kernel/contact.py"},
-                       "joint": {"catalog.py", "kernel/constraints.py"}, "integrator": {"catalog.py"}}
+                       "joint": {"catalog.py", "kernel/constraints.py"}, "integrator": {"catalog.py"},
+                       "force": {"catalog.py", "kernel/forces.py"}}
     ours = ROOT / "planar_mbs"
     files = {p.relative_to(ours).as_posix() for p in ours.rglob("*") if p.is_file() and "__pycache__" not in p.parts
              and p.suffix not in (".pyc", ".nbi", ".nbc")}
@@ -275,7 +300,7 @@ def test_each_addition_touches_its_description_and_its_formula_only(extended):
               if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".pyc", ".nbi", ".nbc")}
     assert copied == files
     differ = {f for f in files if (ours / f).read_bytes() != (extended / "planar_mbs" / f).read_bytes()}
-    assert differ == {"catalog.py", "kernel/contact.py", "kernel/constraints.py"}
+    assert differ == {"catalog.py", "kernel/contact.py", "kernel/constraints.py", "kernel/forces.py"}
 
 
 def _mbs(tmp: Path, *args: str) -> subprocess.CompletedProcess:
@@ -337,7 +362,8 @@ def test_an_added_law_joint_and_integrator_appear_in_the_generated_docs(extended
     # and nothing else of the page changed
     before = (ROOT / "docs" / "language.md").read_text(encoding="utf-8").splitlines()
     added = [line for line in text.splitlines() if line not in before]
-    assert len(added) == 5 and all("dummy" in line for line in added), added  # 4 rows + the group line
+    assert "| `drag_dummy` | F = -c v at the centre of mass | `coefficient`: c | no |" in text
+    assert len(added) == 6 and all("dummy" in line for line in added), added  # 5 rows + the group line
     assert np.all([line in text.splitlines() for line in before if "dissipative (`" not in line])
 
 
@@ -400,3 +426,43 @@ def test_contact_md_describes_every_law():
     text = (ROOT / "docs" / "contact.md").read_text(encoding="utf-8")
     rows = {line.split("|")[1].strip().strip("`") for line in text.splitlines() if line.startswith("| `")}
     assert set(catalog.names(catalog.LAWS)) <= rows
+
+
+@pytest.mark.slow  # the copy's time loop (compiled once for the runs of the copy)
+def test_an_added_force_kind_runs_end_to_end(extended):
+    """`mbs run` with the added force kind, read by the compiler from its catalog settings alone: a puck
+    thrown into linear drag follows x = v0 m / c (1 - exp(-c t / m)); no energy warning (the kind has no
+    potential, so the energy check does not count its mechanism as workless), and `mbs check` takes it."""
+    res = _run(extended, "drag.mbs")
+    t = res.time
+    x = V_PUCK * M_PUCK / C_DRAG * (1 - np.exp(-C_DRAG * t / M_PUCK))
+    assert t[-1] == pytest.approx(2.0) and x[-1] > 2.0
+    np.testing.assert_allclose(res["puck.x"], x, atol=1e-8)
+    assert not res.attrs["warnings"]
+    r = _mbs(extended, "check", "drag.mbs")
+    assert r.returncode == 0 and "3 degrees of freedom" in r.stdout, r.stderr + r.stdout
+
+
+def test_an_unknown_force_kind_is_refused_never_defaulted():
+    """A force code the catalog does not describe is refused before a run (a hand-built model), and a
+    hand-built catalog entry with a way of reading it the compiler does not know fails the catalog's check;
+    the run's checks read the catalog, so nothing falls into a default."""
+    import dataclasses
+
+    import planar_mbs as mbs
+    from planar_mbs.mechanism.model import frozen
+
+    with pytest.raises(ValueError, match="unknown force kind 99"):
+        catalog.force_kind(99)
+    model = compile_text("""body disc { mass = 1 kg  inertia = 1 kg*m^2  position = (0, 0) }
+joint O = revolute(ground (0, 0), disc)
+force T = torque(disc, torque = 1 N*m)
+simulate { t_end = 1 ms }
+""")
+    km = model.kernel._replace(force_type=np.array([99], dtype=np.int64))
+    bad = dataclasses.replace(model, kernel=frozen(km))
+    with pytest.raises(ModelError, match="force `T`: unknown force kind 99"):
+        mbs.simulate(bad)
+    spec = dataclasses.replace(catalog.FORCES[1], fill="bogus")
+    with pytest.raises(AssertionError):
+        catalog._check_force(spec)

@@ -157,7 +157,7 @@ def test_the_long_run_tables_of_the_replication_page_are_its_data(monkeypatch):
     """docs/replication.md: the verdicts, the claims and the bifurcation table are what
     docs/scripts/replicate.py renders from docs/replication_data.json (the runs' numbers), so no number of
     those tables was typed or left behind by an edit; every Benettin exponent of a periodic case is
-    negative and within a factor 2 of its Floquet exponent (the two methods of results/lyapunov.py)."""
+    negative and within a factor 2 of its Floquet exponent (the two methods of run/lyapunov.py)."""
     import json
     import sys
 

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 
 import kernel_models as K
 from planar_mbs import catalog
-from planar_mbs.mechanism.model import ContactLaw, Integrator, Status
+from planar_mbs.mechanism.model import ContactLaw, Integrator, Status, frozen
 
 # every adaptive integrator of the catalog (no hand list): each locates contact events on its dense output
 ADAPTIVE = [Integrator(s.code) for s in catalog.INTEGRATORS if s.adaptive]
@@ -75,7 +75,7 @@ def grazing_journal(apex, x0=1.5e-4, g=9.81):
     reaches a penetration `apex` at its top (|e| = c + apex there): (km, q0, qd0, apex time)."""
     km, q0, qd0 = K.free_journal(m=M, I=1e-3, clearance=C, K=KC, n=N, law=L.HERTZ, v0=(0.0, 0.0),
                                  offset=(x0, 0.0))
-    km = km._replace(gravity=np.array([0.0, -g]))
+    km = frozen(km._replace(gravity=np.array([0.0, -g])))
     y_top = math.sqrt((C + apex) ** 2 - x0 ** 2)
     vy = math.sqrt(2 * g * y_top)
     qd0 = np.array([0.0, vy, 0.0])

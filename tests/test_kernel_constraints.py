@@ -16,7 +16,7 @@ import pytest
 from kernel_models import build
 from planar_mbs import catalog
 from planar_mbs.kernel import constraint_eval, constraint_rows
-from planar_mbs.mechanism.model import DriverType, JointType, MotionType
+from planar_mbs.mechanism.model import DriverType, JointType, MotionType, frozen
 
 rng = np.random.default_rng(1234)
 
@@ -61,7 +61,7 @@ def all_types_model():
         dict(type=D.ANGLE, bodies=(3, 0), motion=M.EXPRESSION, params=(0.0,)),
     ]
     bodies = [(1.0 + k, 0.1 + 0.05 * k) for k in range(4)]
-    return build(bodies, joints=joints, drivers=drivers)._replace(**_motion_program())
+    return frozen(build(bodies, joints=joints, drivers=drivers)._replace(**_motion_program()))
 
 
 def _motion_program():
@@ -127,7 +127,8 @@ def test_every_type_is_covered():
 
 
 def test_unknown_joint_type_is_bad_input():
-    km = KM._replace(joint_type=KM.joint_type.copy())
-    km.joint_type[0] = 99
+    jt = KM.joint_type.copy()
+    jt[0] = 99
+    km = frozen(KM._replace(joint_type=jt))
     C, Ct, g = np.zeros(M), np.zeros(M), np.zeros(M)
     assert constraint_eval(km, np.zeros(N), np.zeros(N), 0.0, C, np.zeros((M, N)), Ct, g) == 7

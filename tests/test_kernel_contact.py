@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 import kernel_models as K
 from planar_mbs.mechanism.model import (
-    CS_FN, CS_FX, CS_FY, CS_IMPACT_VELOCITY, CS_IN_CONTACT, CS_PENETRATION, ContactLaw, Status,
+    CS_FN, CS_FX, CS_FY, CS_IMPACT_VELOCITY, CS_IN_CONTACT, CS_PENETRATION, ContactLaw, Status, frozen,
 )
 
 M, KSTIFF, NEXP, C, V0 = 1.0, 1e10, 1.5, 1e-4, 0.5
@@ -112,7 +112,7 @@ def test_rk4_fixed_step_impact():
 
 def test_unknown_law_code_is_bad_input():
     km, q0, qd0 = K.free_journal(law=ContactLaw.HERTZ)
-    km.clearance_law[0] = 99
+    km = frozen(km._replace(clearance_law=np.array([99], dtype=np.int64)))
     st, t, rows, y, stats, contact = K.run(km, q0, qd0, K.cfg(), 1e-3)
     assert st == Status.BAD_INPUT and stats[5] == 0 and len(t) == 0
 

@@ -8,7 +8,7 @@ import pytest
 
 import kernel_models as K
 from planar_mbs.kernel import accelerations, make_workspace, nobs, observe
-from planar_mbs.mechanism.model import N_STATS, ForceType, JointType, Status
+from planar_mbs.mechanism.model import N_STATS, ForceType, JointType, Status, frozen
 
 STATS = np.zeros(N_STATS, np.int64)
 
@@ -32,7 +32,7 @@ def test_pendulum_acceleration_and_reaction_closed_form():
     np.testing.assert_allclose(row[9:11], F, rtol=1e-12)  # reaction on the second body
     assert abs(row[11]) < 1e-12  # a revolute carries no moment about its point
     # swapped joint order: the second body is ground -> minus the reaction on the bob
-    km2 = km._replace(joint_body=np.array([[0, -1]]), joint_point=km.joint_point[:, ::-1].copy())
+    km2 = frozen(km._replace(joint_body=np.array([[0, -1]]), joint_point=km.joint_point[:, ::-1].copy()))
     ws = make_workspace(km2)  # the workspace holds the row structure of its model
     assert observe(km2, c, 0.0, np.concatenate([q0, qd0]), np.zeros((0, 3)), ws, row) == 0
     np.testing.assert_allclose(row[9:11], -F, rtol=1e-12)
@@ -92,14 +92,17 @@ def test_conservative_force_elements_conserve_energy():
     E = rows[:, -4] + rows[:, -3]
     # the actuators are constant tension/torque without a potential: remove their work
     # by comparing against a run with the same model and actuators set to zero
-    km0 = km._replace(force_param=km.force_param.copy())
-    km0.force_param[[0, 3], 3] = 0.0
+    param = km.force_param.copy()
+    param[[0, 3], 3] = 0.0
+    km0 = frozen(km._replace(force_param=param))
     st, t0, rows0, *_ = K.run(km0, q0, qd0, c, 3.0)
     E0 = rows0[:, -4] + rows0[:, -3]
     assert np.abs(E0 - E0[0]).max() < 1e-8 * np.abs(rows0[:, -3:-1]).max()
     assert np.abs(E - E[0]).max() > 1e-3  # the actuators do work
     kmd, q0, qd0 = model(0.5)
-    kmd.force_param[[0, 3], 3] = 0.0
+    param = kmd.force_param.copy()
+    param[[0, 3], 3] = 0.0
+    kmd = frozen(kmd._replace(force_param=param))
     st, t, rows, *_ = K.run(kmd, q0, qd0, c, 3.0)
     Ed = rows[:, -4] + rows[:, -3]
     assert np.all(np.diff(Ed) < 1e-9) and Ed[-1] < Ed[0] - 1e-2

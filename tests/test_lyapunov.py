@@ -1,4 +1,4 @@
-"""Benettin's method (planar_mbs.results.lyapunov.benettin) against known largest Lyapunov exponents:
+"""Benettin's method (planar_mbs.run.lyapunov.benettin) against known largest Lyapunov exponents:
 the Hénon map (a = 1.4, b = 0.3): 0.419 per iteration; the Lorenz system (σ = 10, ρ = 28,
 β = 8/3): 0.906 per unit time (Sprott, "Chaos and Time-Series Analysis", 2003, table A.1)."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planar_mbs.results.lyapunov import benettin
+from planar_mbs.run.lyapunov import benettin
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -82,7 +82,7 @@ def test_mechanism_exponent_of_a_damped_oscillator(tmp_path):
     companion is pulled back 16 times per period and both trajectories resume from where they stopped,
     so this also checks that a resumed trajectory continues from the state it was given."""
     from planar_mbs import load_model
-    from planar_mbs.results.lyapunov import mechanism_exponent
+    from planar_mbs.run.lyapunov import mechanism_exponent
     from planar_mbs.run.stepper import Stepper
 
     path = tmp_path / "oscillator.mbs"
@@ -114,7 +114,7 @@ def test_floquet_and_benettin_of_a_damped_pendulum(tmp_path, periods):
     and Benettin's renormalised companion must both give -c T / 2I per period (here about -0.99 over
     half the damped period), from any period, the rest position being periodic with every period."""
     from planar_mbs import load_model
-    from planar_mbs.results.lyapunov import floquet_exponent, mechanism_exponent
+    from planar_mbs.run.lyapunov import floquet_exponent, mechanism_exponent
     from planar_mbs.run.stepper import Stepper
 
     path = tmp_path / "pendulum.mbs"
@@ -144,7 +144,7 @@ def test_benettin_and_floquet_agree_on_a_settled_journal(speed, law, settings):
     not physical (the journal sinks millimetres into a 0.3 mm clearance): allowed here, as a check of the two
     methods on a settled orbit."""
     from planar_mbs import load_model
-    from planar_mbs.results.lyapunov import floquet_exponent, mechanism_exponent
+    from planar_mbs.run.lyapunov import floquet_exponent, mechanism_exponent
     from planar_mbs.run.stepper import Stepper
 
     model = load_model(ROOT / "models" / "slider_crank_clearance_a.mbs", speed=speed, youngs_modulus="207MPa", law=law)
@@ -166,7 +166,7 @@ def test_benettin_after_a_long_transient_neither_stops_nor_drifts():
     bound, and a pull-back by s put (1 - s) times it into the companion: "the constraints gave way" for one
     perturbed direction in five.  Every direction must now run and agree with Floquet's estimate."""
     from planar_mbs import load_model
-    from planar_mbs.results.lyapunov import floquet_exponent, mechanism_exponent
+    from planar_mbs.run.lyapunov import floquet_exponent, mechanism_exponent
     from planar_mbs.run.stepper import Stepper
     from planar_mbs.run.study import long_run
 
@@ -188,7 +188,7 @@ def test_benettin_after_a_long_transient_neither_stops_nor_drifts():
 def test_a_mechanism_without_freedom_is_refused_in_words(tmp_path):
     """A crank turned by its driver has no motion of its own: no exponent and no multipliers, said in words."""
     from planar_mbs import load_model
-    from planar_mbs.results.lyapunov import floquet_exponent, mechanism_exponent
+    from planar_mbs.run.lyapunov import floquet_exponent, mechanism_exponent
     from planar_mbs.run.stepper import Stepper
 
     path = tmp_path / "crank.mbs"

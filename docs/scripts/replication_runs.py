@@ -110,7 +110,7 @@ def run_lyapunov(work: Path, joint: str, modulus: str, speed: str, law: str = "l
     """Benettin exponents from the final state of the long run: LYAP_SEEDS perturbed companions
     (d0 = LYAP_D0), one more at d0/100 to show whether the estimate depends on d0."""
     from planar_mbs.errors import SimulationError
-    from planar_mbs.results.lyapunov import mechanism_exponent
+    from planar_mbs.run.lyapunov import mechanism_exponent
     from planar_mbs.run.stepper import Stepper
 
     start = _from_long_run(work, "lyap", joint, modulus, speed, law)
@@ -139,12 +139,12 @@ FLOQUET_PERIODS, FLOQUET_EPS, FLOQUET_SETTLE = (1, 2, 3, 4), (1e-6, 1e-5), 10
 
 
 def run_floquet(work: Path, joint: str, modulus: str, speed: str, law: str = "lankarani_nikravesh") -> str:
-    """Floquet exponents (`planar_mbs.results.lyapunov.floquet_exponent`) of the orbit the long run ended
+    """Floquet exponents (`planar_mbs.run.lyapunov.floquet_exponent`) of the orbit the long run ended
     on, after FLOQUET_SETTLE more periods at the Lyapunov settings, over each of FLOQUET_PERIODS periods
     and with each difference step of FLOQUET_EPS: replicate.py shows the one of the verdict's period
     (a chaotic case's closure shows that it has none)."""
     from planar_mbs.errors import SimulationError
-    from planar_mbs.results.lyapunov import floquet_exponent
+    from planar_mbs.run.lyapunov import floquet_exponent
     from planar_mbs.run.stepper import Stepper
 
     start = _from_long_run(work, "floquet", joint, modulus, speed, law)

@@ -26,7 +26,7 @@ import numpy as np
 from .jit import kernel
 
 from ..mechanism.model import JOINT_ROWS, JP, DriverType, JointType, MotionType, Status
-from .expressions import expr_dual
+from .expressions import expr_dual, expression_scratch
 
 REVOLUTE = int(JointType.REVOLUTE)
 TRANSLATIONAL = int(JointType.TRANSLATIONAL)
@@ -138,17 +138,17 @@ def motion(mtype, p, t):
 
 
 @kernel(inline=True)
-def driver_motion(km, d, t):
+def driver_motion(km, reg, modes, d, t):
     """f(t), f'(t), f''(t) of driver d: its motion law, or its expression program by dual numbers.
     Inlined: a call that is not passes every array of the KernelModel (kernel/jit.py)."""
     mtype = km.driver_motion[d]
     if mtype == EXPRESSION:
-        return expr_dual(km, int(km.driver_motion_param[d, 0]), t)
+        return expr_dual(km, reg, modes, int(km.driver_motion_param[d, 0]), t)
     return motion(mtype, km.driver_motion_param[d], t)
 
 
 @kernel(inline=True)
-def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
+def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma, reg, modes):
     """Fill C (m), the row-sparse Jacobian J (m, 2, 3), Ct (m) and gamma (m) of every
     joint and driver row; cs holds the bodies' cos/sin (`body_trig`).
 
@@ -171,7 +171,7 @@ def constraint_rows_eval(km, q, qd, t, cs, C, J, Ct, gamma):
             return BAD_INPUT
     nd = km.driver_type.shape[0]
     for d in range(nd):
-        if driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma) != 0:
+        if driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma, reg, modes) != 0:
             return BAD_INPUT
     return 0
 
@@ -227,12 +227,12 @@ def joint_rows_eval(km, jt, q, qd, cs, C, J, gamma):
 
 
 @kernel(inline=True)
-def driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma):
+def driver_rows_eval(km, d, q, qd, t, cs, C, J, Ct, gamma, reg, modes):
     """C, J, Ct and gamma of the row of driver d at time t.  Returns 0 or Status.BAD_INPUT."""
     r = km.driver_row[d]
     bi = km.driver_body[d, 0]
     bj = km.driver_body[d, 1]
-    f, fd, fdd = driver_motion(km, d, t)
+    f, fd, fdd = driver_motion(km, reg, modes, d, t)
     typ = km.driver_type[d]
     if typ == ANGLE:
         _, _, phi_i, _, _, _ = body_state(q, qd, bi)
@@ -335,7 +335,8 @@ def constraint_eval(km, q, qd, t, C, Cq, Ct, gamma) -> int:
     cs[:, 1] = np.sin(q[2::3])
     m = C.shape[0]
     J = np.zeros((m, 2, 3))
-    st = constraint_rows_eval(km, q, qd, float(t), cs, C, J, Ct, gamma)
+    reg, modes, _ = expression_scratch(km)  # this call's own: the model stays read-only
+    st = constraint_rows_eval(km, q, qd, float(t), cs, C, J, Ct, gamma, reg, modes)
     if st == 0:
         Cq[...] = dense_jacobian(J, row_bodies(km), len(q))
     return int(st)

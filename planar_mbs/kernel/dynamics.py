@@ -224,7 +224,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
 
     Returns a Status code: 0, SINGULAR (stats[ST_INFO] = row), BAD_INPUT."""
     body_trig(q, ws.cs)
-    st = applied_forces(km, t, q, qd, ws.cs, ws.Qe)
+    st = applied_forces(km, ws, t, q, qd)
     if st != 0:
         return st
     if km.clearance_body.shape[0] > 0:
@@ -238,7 +238,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
         for k in range(n):
             ws.qdd[k] = minv[k] * ws.Qe[k]
         return 0
-    st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
+    st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
         return st
     alpha = cfg[CFG_ALPHA]
@@ -324,7 +324,7 @@ def project(km, t, y, ws, stats):
     minv = km.minv
     for it in range(4):
         body_trig(q, ws.cs)
-        st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
+        st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
         if st != 0:
             return st
         err = 0.0
@@ -340,7 +340,7 @@ def project(km, t, y, ws, stats):
         for r in range(m):
             jac_t_sub(ws, r, ws.dl[r], minv, 1.0, q)
     body_trig(q, ws.cs)
-    st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
+    st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
         return st
     for r in range(m):

@@ -293,8 +293,8 @@ def locate_switch(km, ws, best):
     tol = ROOT_RTOL * max(abs(ta), h) / h
     sbest = -1
     for s in range(ns):
-        frozen = km.expr_mode[km.expr_switch[s, 0]]
-        if live_switch(km, s, ta + h, ws.yb[:n], ws.yb[n:]) == frozen:
+        frozen = ws.xmode[km.expr_switch[s, 0]]
+        if live_switch(km, ws.xreg, ws.xmode, s, ta + h, ws.yb[:n], ws.yb[n:]) == frozen:
             continue
         lo = 0.0
         hi = 1.0
@@ -303,7 +303,7 @@ def locate_switch(km, ws, best):
                 break
             mid = 0.5 * (lo + hi)
             dense_eval(ws, mid, ws.yt)
-            if live_switch(km, s, ta + mid * h, ws.yt[:n], ws.yt[n:]) == frozen:
+            if live_switch(km, ws.xreg, ws.xmode, s, ta + mid * h, ws.yt[:n], ws.yt[n:]) == frozen:
                 lo = mid
             else:
                 hi = mid

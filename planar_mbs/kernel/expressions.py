@@ -2,7 +2,7 @@
 parameters and the state (`planar_mbs.mechanism.expressions` compiles them, docs/language.md).
 
 A program is a run of rows of ``km.expr_code`` (``model.ExprOp``, three operands); row ``i``
-writes register ``km.expr_reg[i]``, so a program is evaluated in one pass in order, with no stack
+writes register ``reg[i]`` (the run's `Workspace.xreg`: per run, never in the model), so a program is evaluated in one pass in order, with no stack
 and no allocation.  Every model shares these kernels: a model's expressions are data, compiled
 once with the kernels, never per model.
 
@@ -13,7 +13,7 @@ once with the kernels, never per model.
 * `table_eval`: a table's piecewise cubic and its first two derivatives at x.
 
 Comparisons are switches (as a clearance joint's contact mode): during a step each holds the value
-frozen in ``km.expr_mode``, so both sides of ``if`` stay smooth inside a step; the time loop locates
+frozen in ``modes`` (the run's `Workspace.xmode`), so both sides of ``if`` stay smooth inside a step; the time loop locates
 where a comparison changes on the step's dense output (`events.locate_switch`), ends the step
 there and flips it (`flip_switch`).  A table's piece is a switch of the same kind: within a step
 the piece's cubic is continued, and the knot is located as an event.  A discontinuous load costs
@@ -22,6 +22,8 @@ no rejected steps.
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from .jit import kernel
 
@@ -48,7 +50,7 @@ IF = int(ExprOp.IF)
 TABLE = int(ExprOp.TABLE)
 LOG = int(ExprOp.LOG)
 TAN = int(ExprOp.TAN)
-LIVE = -1.0e18  # km.expr_mode of a switch computed afresh (not frozen)
+LIVE = -1.0e18  # modes[row] of a switch computed afresh (not frozen)
 
 
 @kernel
@@ -120,10 +122,10 @@ def body_quantity(q, qd, b, which):
 
 
 @kernel(inline=True)
-def expr_value(km, prog, t, q, qd):
+def expr_value(km, reg, modes, prog, t, q, qd):
     """The value of program ``prog`` at (t, q, q').  Inlined: the call below passes eight arrays,
     not the whole KernelModel (numba passes every array of a tuple at a call that is not inlined)."""
-    return run_rows(km.expr_code, km.expr_const, km.expr_reg, km.expr_mode, km.table_info,
+    return run_rows(km.expr_code, km.expr_const, reg, modes, km.table_info,
                     km.table_period, km.table_seg, km.expr_prog[prog, 0], km.expr_prog[prog, 1], t, q, qd)
 
 
@@ -172,29 +174,29 @@ def _compare(op, x, y):
 
 
 @kernel
-def live_switch(km, s, t, q, qd):
+def live_switch(km, reg, modes, s, t, q, qd):
     """The value switch s would have at (t, q, q') if it were not frozen: a comparison's 0 or 1, a
     table's piece (`table_piece`)."""
     row = km.expr_switch[s, 0]
-    frozen = km.expr_mode[row]
-    km.expr_mode[row] = LIVE
-    expr_value(km, km.expr_switch[s, 1], t, q, qd)
-    km.expr_mode[row] = frozen
+    frozen = modes[row]
+    modes[row] = LIVE
+    expr_value(km, reg, modes, km.expr_switch[s, 1], t, q, qd)
+    modes[row] = frozen
     if km.expr_code[row, 0] == TABLE:
         return table_piece(km.table_info, km.table_period, km.table_seg, km.expr_code[row, 2],
-                           km.expr_reg[km.expr_code[row, 1], 0])
-    return km.expr_reg[row, 0]
+                           reg[km.expr_code[row, 1], 0])
+    return reg[row, 0]
 
 
 @kernel
-def init_switches(km, t, y):
+def init_switches(km, reg, modes, fault, t, y):
     """At the start of a run: every comparison frozen at its value in (t, y); no fault recorded."""
     n = y.shape[0] // 2
-    km.expr_fault[0] = -1.0
+    fault[0] = -1.0
     for s in range(km.expr_switch.shape[0]):
-        km.expr_mode[km.expr_switch[s, 0]] = LIVE
+        modes[km.expr_switch[s, 0]] = LIVE
     for s in range(km.expr_switch.shape[0]):
-        km.expr_mode[km.expr_switch[s, 0]] = live_switch(km, s, t, y[:n], y[n:])
+        modes[km.expr_switch[s, 0]] = live_switch(km, reg, modes, s, t, y[:n], y[n:])
 
 
 @kernel
@@ -236,9 +238,9 @@ def _pow(x, p):
 
 
 @kernel(inline=True)
-def expr_dual(km, prog, t):
+def expr_dual(km, reg, modes, prog, t):
     """(f, f', f'') of program ``prog`` (a function of t only) by truncated Taylor arithmetic."""
-    return run_dual(km.expr_code, km.expr_const, km.expr_prog, km.expr_reg, km.expr_mode, km.table_info,
+    return run_dual(km.expr_code, km.expr_const, km.expr_prog, reg, modes, km.table_info,
                     km.table_period, km.table_seg, prog, t)
 
 
@@ -346,7 +348,14 @@ def _atan2_dual(y, y1, y2, x, x1, x2):
 
 
 @kernel(inline=True)
-def flip_switch(km, s, t, y):
+def flip_switch(km, reg, modes, s, t, y):
     """Switch s takes its value at (t, y), on its new side (at an event)."""
     n = y.shape[0] // 2
-    km.expr_mode[km.expr_switch[s, 0]] = live_switch(km, s, t, y[:n], y[n:])
+    modes[km.expr_switch[s, 0]] = live_switch(km, reg, modes, s, t, y[:n], y[n:])
+
+
+def expression_scratch(km):
+    """Fresh per-run registers, switch modes (all live) and fault record of `km`'s programs
+    (`Workspace.xreg`, `xmode`, `xfault`; the Python callers' own copies)."""
+    n = km.expr_code.shape[0]
+    return np.zeros((max(n, 1), 3)), np.full(n, LIVE), np.full(2, -1.0)

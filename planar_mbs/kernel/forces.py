@@ -1,7 +1,9 @@
 """Applied generalized forces Qe and their potential energy.
 
-Force elements (model.ForceType; ``force_body (nforce, 2)``, ``force_point
-(nforce, 2, 2)``, ``force_param (nforce, 4)``):
+Force elements (described in `catalog.FORCES`, whose ``param_columns`` name the columns of
+``force_param (nforce, N_FORCE_PARAM)``; ``force_body (nforce, 2)``, ``force_point (nforce, 2, 2)``).
+A new kind is its catalog entry plus its formula here: a branch of `applied_forces` (and of
+`force_potential` when it has a potential).  An unknown code returns Status.BAD_INPUT:
 
 * gravity: ``m g`` on every body's centre of mass, energy ``-m g.r``;
 * CONSTANT_FORCE ``F = (p0, p1)`` (global) at point 0 of body 0: ``Q_r = F``,
@@ -16,7 +18,7 @@ Force elements (model.ForceType; ``force_body (nforce, 2)``, ``force_point
   energy ``k (a - a0)^2 / 2``;
 * EXPRESSION: result rows ``p = (fx, fy, torque)`` (-1: none) of programs (`kernel.expressions`) of (t, q, q'):
   the global force (fx, fy) at point 0 of body 0 and a torque on it; no potential.  A value that is
-  not finite is recorded in ``km.expr_fault`` (element, t), so a failing run names its expression.
+  not finite is recorded in the run's ``ws.xfault`` (element, t), so a failing run names its expression.
 """
 from __future__ import annotations
 
@@ -49,9 +51,11 @@ def add_point_force(Qe, b, ax, ay, fx, fy):
 
 
 @kernel(inline=True)
-def applied_forces(km, t, q, qd, cs, Qe):
-    """Qe = gravity + force elements at time t (overwrites Qe); cs: bodies' cos/sin (`body_trig`).
+def applied_forces(km, ws, t, q, qd):
+    """ws.Qe = gravity + force elements at time t (overwrites it); ws.cs: bodies' cos/sin (`body_trig`).
     Returns 0 or 7 (bad code)."""
+    cs = ws.cs
+    Qe = ws.Qe
     nb = km.body_mass.shape[0]
     gx = km.gravity[0]
     gy = km.gravity[1]
@@ -60,7 +64,7 @@ def applied_forces(km, t, q, qd, cs, Qe):
         Qe[3 * b + 1] = km.body_mass[b] * gy
         Qe[3 * b + 2] = 0.0
     if km.expr_loads[1] > km.expr_loads[0]:  # every expression load's rows, in one call
-        run_rows(km.expr_code, km.expr_const, km.expr_reg, km.expr_mode, km.table_info, km.table_period,
+        run_rows(km.expr_code, km.expr_const, ws.xreg, ws.xmode, km.table_info, km.table_period,
                  km.table_seg, km.expr_loads[0], km.expr_loads[1], t, q, qd)
     nf = km.force_type.shape[0]
     for e in range(nf):
@@ -85,46 +89,46 @@ def applied_forces(km, t, q, qd, cs, Qe):
             ux = dx / l
             uy = dy / l
             ld = ux * (vjx - vix) + uy * (vjy - viy)
-            f = p[0] * (l - p[2]) + p[1] * ld + p[3] + _load_value(km, e, int(p[4]) - 1, t)
+            f = p[0] * (l - p[2]) + p[1] * ld + p[3] + _load_value(km, ws, e, int(p[4]) - 1, t)
             add_point_force(Qe, bi, aix, aiy, f * ux, f * uy)
             add_point_force(Qe, bj, ajx, ajy, -f * ux, -f * uy)
         elif typ == ROTATIONAL_SPRING_DAMPER:
             _, _, phi_i, _, _, w_i = body_state(q, qd, bi)
             _, _, phi_j, _, _, w_j = body_state(q, qd, bj)
-            T = p[0] * (phi_j - phi_i - p[2]) + p[1] * (w_j - w_i) + p[3] + _load_value(km, e, int(p[4]) - 1, t)
+            T = p[0] * (phi_j - phi_i - p[2]) + p[1] * (w_j - w_i) + p[3] + _load_value(km, ws, e, int(p[4]) - 1, t)
             if bj >= 0:
                 Qe[3 * bj + 2] -= T
             if bi >= 0:
                 Qe[3 * bi + 2] += T
         elif typ == EXPRESSION:
-            expression_load(km, e, t, q, qd, cs, Qe)
+            expression_load(km, ws, e, t, q, qd, cs, Qe)
         else:
             return BAD_INPUT
     return 0
 
 
 @kernel(inline=True)
-def _load_value(km, e, k, t):
+def _load_value(km, ws, e, k, t):
     """The value of result row k of force element e (0 for none; `applied_forces` has run the rows);
     a non-finite value is recorded."""
     if k < 0:
         return 0.0
-    v = km.expr_reg[k, 0]
+    v = ws.xreg[k, 0]
     if not math.isfinite(v):
-        km.expr_fault[0] = e
-        km.expr_fault[1] = t
+        ws.xfault[0] = e
+        ws.xfault[1] = t
     return v
 
 
 @kernel(inline=True)
-def expression_load(km, e, t, q, qd, cs, Qe):
+def expression_load(km, ws, e, t, q, qd, cs, Qe):
     """Qe += the force (fx, fy) and torque of expression element e: its result rows, which
     `applied_forces` has just evaluated."""
     bi = km.force_body[e, 0]
     p = km.force_param[e]
-    fx = _load_value(km, e, int(p[0]), t)
-    fy = _load_value(km, e, int(p[1]), t)
-    tq = _load_value(km, e, int(p[2]), t)
+    fx = _load_value(km, ws, e, int(p[0]), t)
+    fy = _load_value(km, ws, e, int(p[1]), t)
+    tq = _load_value(km, ws, e, int(p[2]), t)
     Px, Py, ax, ay, vx, vy, w = point_cs(q, qd, cs, bi, km.force_point[e, 0, 0], km.force_point[e, 0, 1])
     add_point_force(Qe, bi, ax, ay, fx, fy)
     if bi >= 0:

@@ -209,7 +209,7 @@ def observe(km, cfg, t, y, contact, ws, row):
     else:
         body_trig(q, ws.cs)
         if errors and m > 0:
-            st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam)
+            st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
             if st != 0:
                 return st
     nj = km.joint_type.shape[0]
@@ -325,7 +325,7 @@ def _observe_dynamics(km, t, q, qd, ws, row, cqdd, cjoint, ceffort, cpower):
         r = km.driver_row[d]
         bi = km.driver_body[d, 0]
         bj = km.driver_body[d, 1]
-        f, fd, fdd = driver_motion(km, d, t)
+        f, fd, fdd = driver_motion(km, ws.xreg, ws.xmode, d, t)
         eff = 0.0
         if bj >= 0:
             if km.driver_type[d] == ANGLE:
@@ -401,7 +401,7 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
     if ws.flags[FL_SWITCH_EXPR] >= 0:
         auto = cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0
         held = auto and _within_bound(km, cfg, t, y, ws, stats)
-        flip_switch(km, ws.flags[FL_SWITCH_EXPR], t, y)
+        flip_switch(km, ws.xreg, ws.xmode, ws.flags[FL_SWITCH_EXPR], t, y)
         ws.flags[FL_SWITCH_EXPR] = -1
         restart = True
         if held and not _within_bound(km, cfg, t, y, ws, stats):
@@ -433,7 +433,7 @@ def _within_bound(km, cfg, t, y, ws, stats):
     as they are now; stats[ST_INFO] names the first row beyond them."""
     n = y.shape[0] // 2
     body_trig(y[:n], ws.cs)
-    if constraint_rows_eval(km, y[:n], y[n:], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam) != 0:
+    if constraint_rows_eval(km, y[:n], y[n:], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode) != 0:
         return True  # left to the step's own checks
     return lost_check(cfg, ws, y[n:], stats) == 0
 
@@ -586,7 +586,7 @@ def _resume(km, cfg, t0, t, y, clock, contact, stats, ws, out_t, out, nw):
         clock[1] = min(clock[1], hcap)
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
-        init_switches(km, t, y)
+        init_switches(km, ws.xreg, ws.xmode, ws.xfault, t, y)
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
             return st, 0

@@ -7,8 +7,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import catalog
-from ..mechanism.model import JOINT_ROWS, N_STATS, KernelModel, observation_size
+from ..mechanism.model import JOINT_ROWS, N_STATS, KernelModel, frozen, observation_size
 from .constraints import row_bodies
+from .expressions import expression_scratch
 
 
 # stage and dense-output buffer rows: the most any integrator uses (catalog.INTEGRATORS)
@@ -73,10 +74,13 @@ class Workspace(NamedTuple):
     dl: np.ndarray  # (m,) projection corrections
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
     solver: np.ndarray  # (6,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] (`solver_settings`)
+    xreg: np.ndarray  # (max(ninstr, 1), 3) expression registers: value, d/dt, d2/dt2 (`kernel.expressions`)
+    xmode: np.ndarray  # (ninstr,) frozen 0/1 of a comparison row, or a table's piece (LIVE: computed afresh)
+    xfault: np.ndarray  # (2,) [force element, t] of the first non-finite expression value (-1: none)
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
-    """The same model with every field as a contiguous float64 / int64 array
+    """The same model with every field as a contiguous, read-only float64 / int64 array
     (one numba signature for every model)."""
     fields = {}
     for name, value in km._asdict().items():
@@ -89,7 +93,7 @@ def kernel_model(km: KernelModel) -> KernelModel:
             fields[name] = np.ascontiguousarray(arr, dtype=np.int64)
         else:
             fields[name] = np.ascontiguousarray(arr, dtype=np.float64)
-    return KernelModel(**fields)
+    return frozen(KernelModel(**fields))
 
 
 def sizes(km: KernelModel) -> tuple[int, int, int, int, int]:
@@ -155,6 +159,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     rowbody = row_bodies(km)
     first, lastrow = envelope(rowbody)
     ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
+    xreg, xmode, xfault = expression_scratch(km)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
     flags[FL_SWITCH_JOINT] = -1
     flags[FL_SWITCH_EXPR] = -1
@@ -169,7 +174,7 @@ def make_workspace(km: KernelModel) -> Workspace:
         Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
-        res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(),
+        res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
     )
 
 

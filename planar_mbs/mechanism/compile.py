@@ -65,10 +65,10 @@ from .model import (
     ContactLaw,
     INTEGRATOR_NAMES,
     DriverType,
-    ForceType,
     Integrator,
     JointType,
     KernelModel,
+    frozen,
     Model,
     MotionType,
     Settings,
@@ -157,24 +157,14 @@ CONTACT_ELEMENTS = tuple(e.name for e in catalog.ELEMENTS)
 JOINT_TYPES = {spec.name: JointType(spec.code) for spec in catalog.JOINTS}
 LAWS = {name: law for law, name in CONTACT_LAW_NAMES.items()}
 LAW_SETTINGS = frozenset(key for g in catalog.LAW_GROUPS for key in g.takes)  # a law's call arguments
-DRIVER_KINDS = ("rotation", "translation")
+DRIVER_KINDS = tuple(catalog.names(catalog.DRIVERS))
 DRIVER_FIELDS = {"speed": "constant speed",
                  "motion": "ramp(...) | harmonic(...) | polynomial(...) | an expression of t",
                  "relative_to": "reference body (default ground)", "axis": "axis (ux, uy) (translation)",
                  "initial": "value of the coordinate at t = 0 (default: from the initial pose)"}
-MOTIONS = ("ramp", "harmonic", "polynomial")
-FORCE_KINDS = ("constant", "torque", "spring_damper", "rotational_spring_damper", "expression")
-FORCE_FIELDS = {
-    "constant": {"force": "(fx, fy) in the global frame"},
-    "torque": {"torque": "e.g. 2 N*m"},
-    "spring_damper": {"stiffness": "N/m", "damping": "N*s/m", "length": "free length (default: initial)",
-                      "actuator": "actuator force (tension positive): a constant or an expression"},
-    "rotational_spring_damper": {"stiffness": "N*m/rad", "damping": "N*m*s/rad",
-                                 "angle": "free angle (default: initial)",
-                                 "actuator": "actuator torque: a constant or an expression"},
-    "expression": {"fx": "force along global x: an expression of t, params and signals",
-                   "fy": "force along global y (the same)", "torque": "torque on the body (the same)"},
-}
+MOTIONS = ("ramp", "harmonic", "polynomial")  # the motion calls (catalog.MOTIONS; speed and expressions are fields)
+FORCE_KINDS = tuple(catalog.names(catalog.FORCES))
+FORCE_FIELDS = {s.name: s.fields for s in catalog.FORCES}
 SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalog.INTEGRATORS)), "rtol": "relative tolerance",
               "atol": "absolute tolerance", "step": "RK4 step / first trial step", "h_min": "smallest step",
               "h_max": "largest step", "output_step": "time between outputs",
@@ -973,29 +963,38 @@ class _ForcePass:
     """Applied forces: constant forces and torques, translational and rotational spring-dampers."""
 
     def _fill_force(self, k: int, st: Statement):
+        """A force element, read as its catalog entry says (`catalog.ForceSpec.fill`)."""
         c: Call = st.value
         label = f"force `{st.name}` ({c.name})"
         f = self._fields(st, label, FORCE_FIELDS[c.name], c)
+        spec = catalog.FORCES[FORCE_KINDS.index(c.name)]
+        self.a["force_type"][k] = spec.code
+        fill = {"load": self._fill_load, "spring": self._fill_spring, "expression": self._fill_expression_force,
+                "settings": self._fill_settings_force}[spec.fill]
+        fill(k, st, c, f, label, spec)
+
+    def _fill_load(self, k: int, st: Statement, c: Call, f: Fields, label: str, spec) -> None:
+        """`constant(body (p), force = (fx, fy))` or `torque(body, torque = T)`."""
         a = self.a
-        if c.name in ("constant", "torque"):
-            key, dim = ("force", U.FORCE) if c.name == "constant" else ("torque", U.TORQUE)
-            if not 1 <= len(c.args) <= 2 or (len(c.args) == 2 and f.has(key)):
-                raise c.pos.error(f"`{c.name}(body, {key} = ...)` acts on one body")
-            b, p = self._ref(c.args[0], label, point=c.name == "constant")
-            if b < 0:
-                raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
-            e = c.args[1] if len(c.args) == 2 else f.expr(key)
-            if e is None:
-                raise f.missing(key)
-            value = vector_si(self.ev, e, dim, key) if c.name == "constant" else (scalar_si(self.ev, e, dim, key),)
-            a["force_type"][k] = int(ForceType.CONSTANT_FORCE if c.name == "constant" else ForceType.CONSTANT_TORQUE)
-            a["force_body"][k] = (b, -1)
-            a["force_point"][k, 0] = p
-            a["force_param"][k, :len(value)] = value
-            return
-        if c.name == "expression":
-            return self._fill_expression_force(k, st, c, f, label)
-        rotational = c.name == "rotational_spring_damper"
+        key = spec.settings[0].name
+        dim = getattr(U, spec.settings[0].unit.upper())
+        if not 1 <= len(c.args) <= 2 or (len(c.args) == 2 and f.has(key)):
+            raise c.pos.error(f"`{c.name}(body, {key} = ...)` acts on one body")
+        b, p = self._ref(c.args[0], label, point=spec.points)
+        if b < 0:
+            raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
+        e = c.args[1] if len(c.args) == 2 else f.expr(key)
+        if e is None:
+            raise f.missing(key)
+        value = vector_si(self.ev, e, dim, key) if len(spec.param_columns) == 2 else (scalar_si(self.ev, e, dim, key),)
+        a["force_body"][k] = (b, -1)
+        a["force_point"][k, 0] = p
+        a["force_param"][k, :len(value)] = value
+
+    def _fill_spring(self, k: int, st: Statement, c: Call, f: Fields, label: str, spec) -> None:
+        """A translational or rotational spring-damper: (k, c, free value, actuator, its program)."""
+        a = self.a
+        rotational = not spec.points
         bi, pi, bj, pj = self._two_refs(st, label, point=not rotational)
         if rotational:
             free0 = self._angle0(bj) - self._angle0(bi)
@@ -1007,7 +1006,6 @@ class _ForcePass:
             params = (f.scalar("stiffness", U.STIFFNESS, 0.0, nonneg=True),
                       f.scalar("damping", U.DAMPING, 0.0, nonneg=True),
                       f.scalar("length", U.LENGTH, free0, nonneg=True), *self._actuator(f, U.FORCE, label))
-        a["force_type"][k] = int(ForceType.ROTATIONAL_SPRING_DAMPER if rotational else ForceType.SPRING_DAMPER)
         a["force_body"][k] = (bi, bj)
         a["force_point"][k] = (pi, pj)
         a["force_param"][k] = params
@@ -1021,7 +1019,22 @@ class _ForcePass:
         value, prog = self.programs.constant_or_program(e, dim, f"{label}'s `actuator`")
         return (value, 0.0) if prog is None else (0.0, float(self.programs.result_row(prog) + 1))
 
-    def _fill_expression_force(self, k: int, st: Statement, c: Call, f: Fields, label: str):
+    def _fill_settings_force(self, k: int, st: Statement, c: Call, f: Fields, label: str, spec) -> None:
+        """A force kind read from its catalog settings alone, one ``force_param`` column each, in order."""
+        if spec.bodies == 2:
+            bi, pi, bj, pj = self._two_refs(st, label, point=spec.points)
+        else:
+            if len(c.args) != 1:
+                raise c.pos.error(f"`{c.name}(body, ...)` acts on one body")
+            (bi, pi), (bj, pj) = self._ref(c.args[0], label, point=spec.points), (-1, (0.0, 0.0))
+            if bi < 0:
+                raise c.args[0].pos.error("a force on the ground has no effect", hint="apply it to a body")
+        self.a["force_body"][k] = (bi, bj)
+        self.a["force_point"][k] = (pi, pj)
+        for i, setting in enumerate(spec.settings):
+            self.a["force_param"][k, i] = self._joint_setting(f, st, label, setting, bi, pi, bj, pj)
+
+    def _fill_expression_force(self, k: int, st: Statement, c: Call, f: Fields, label: str, spec) -> None:
         """`expression(body (p), fx = ..., fy = ..., torque = ...)`: a program per component given."""
         if len(c.args) != 1:
             raise c.pos.error(f"`expression(body, fx = ..., fy = ..., torque = ...)` acts on one body",
@@ -1036,7 +1049,6 @@ class _ForcePass:
         progs = [self.programs.result_row(self.programs.program(f.expr(key), dim, f"{label}'s `{key}`"))
                  if f.has(key) else -1 for key, dim in dims.items()]
         a = self.a
-        a["force_type"][k] = int(ForceType.EXPRESSION)
         a["force_body"][k] = (b, -1)
         a["force_point"][k, 0] = p
         a["force_param"][k, :3] = progs
@@ -1089,7 +1101,7 @@ class _CheckPass:
             if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
                 raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
         self.a.update(self.programs.arrays())
-        kernel = reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()}))
+        kernel = frozen(reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()})))
 
         def refs(sts):
             return [SourceRef(s.pos.file, s.pos.line, s.pos.column) for s in sts]

@@ -138,10 +138,7 @@ class Programs:
             expr_code=np.array(self.code, dtype=np.int64).reshape(-1, 4),
             expr_const=np.array(self.consts, dtype=np.float64),
             expr_prog=np.array(self.progs, dtype=np.int64).reshape(-1, 2),
-            expr_reg=np.zeros((max(1, len(self.code)), 3)),
-            expr_fault=np.full(2, -1.0),
             expr_loads=np.array(self.loads, dtype=np.int64),
-            expr_mode=np.full(len(self.code), -1.0e18),  # kernel.expressions.LIVE
             expr_switch=np.array(switches, dtype=np.int64).reshape(-1, 2),
             table_info=np.array(info, dtype=np.int64).reshape(-1, 2),
             table_period=np.array([p for _, p in self.tables], dtype=np.float64),

@@ -256,7 +256,6 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
 
 def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Consistent (q, q') at time t from the user's pose ``model.q0`` and velocities ``model.qd0``."""
-    model.kernel.expr_mode[:] = -1.0e18  # expressions' switches live (a run froze them: kernel.expressions)
     isolated = _isolated_bodies(model)
     if isolated:
         names = ", ".join(f"`{n}`" for n in isolated)

@@ -49,24 +49,11 @@ JP_LENGTH = JP["length"]  # link length L of a revolute-revolute joint
 N_JOINT_PARAM = len(JP)
 
 
-class DriverType(IntEnum):
-    """Drivers add one row ``g(q) - f(t) = 0``."""
-
-    ANGLE = 0  # g = phi_j - phi_i   (i = -1: absolute angle of body j)
-    POSITION = 1  # g = u_i . (P_j - P_i)  (u_i unit axis in body i's frame)
-
-
-class MotionType(IntEnum):
-    """Prescribed motion ``f(t)`` of a driver; parameters in ``driver_motion_param``."""
-
-    CONSTANT_SPEED = 0  # f = p0 + p1 t
-    RAMP = 1  # speed grows linearly 0 -> p1 over p2 s, then stays: f = p0 + p1 t^2/(2 p2) | p0 + p1 (t - p2/2)
-    HARMONIC = 2  # f = p0 + p1 sin(2 pi p2 t + p3)
-    POLYNOMIAL = 3  # f = sum_k p_k t^k, k = 0..7
-    EXPRESSION = 4  # f = expression program p0 of t (kernel.expressions, exact f' and f'' by dual numbers)
-
-
-N_MOTION_PARAM = 8
+DriverType = IntEnum("DriverType", {s.enum: s.code for s in catalog.DRIVERS}, module=__name__)
+DriverType.__doc__ = "Drivers add one row g(q) - f(t) = 0 (catalog.DRIVERS)."
+MotionType = IntEnum("MotionType", {s.enum: s.code for s in catalog.MOTIONS}, module=__name__)
+MotionType.__doc__ = "Prescribed motions f(t) of a driver, parameters in driver_motion_param (catalog.MOTIONS)."
+N_MOTION_PARAM = catalog.N_MOTION_PARAM
 
 
 ContactLaw = IntEnum("ContactLaw", {s.enum: s.code for s in catalog.LAWS}, module=__name__)
@@ -101,18 +88,14 @@ DISSIPATIVE_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.dissi
 CYLINDRICAL_LAWS = frozenset(ContactLaw(s.code) for s in catalog.LAWS if s.cylindrical)
 
 
-class ForceType(IntEnum):
-    CONSTANT_FORCE = 0  # (p0, p1) global force at point 0 of body 0
-    CONSTANT_TORQUE = 1  # p0 on body 0
-    SPRING_DAMPER = 2  # between P_i and P_j: tension k (l - l0) + c l' + f_act; p = (k, c, l0, f_act, expr row + 1)
-    ROTATIONAL_SPRING_DAMPER = 3  # on phi_j - phi_i: torque k (a - a0) + c a' + t_act; p = (k, c, a0, t_act, row + 1)
-    EXPRESSION = 4  # (fx, fy) global at point 0 of body 0 and a torque: result rows p = (fx, fy, torque), -1 = none
+ForceType = IntEnum("ForceType", {s.enum: s.code for s in catalog.FORCES}, module=__name__)
+ForceType.__doc__ = "Force elements (catalog.FORCES: force_param columns by name, `ForceSpec.param_columns`)."
 
 
 class ExprOp(IntEnum):
     """Opcodes of the expression programs (`kernel.expressions`): one instruction per row of
-    ``expr_code (ninstr, 4) = (op, a, b, c)``; its result is register ``expr_reg[row]`` (one register
-    per instruction, written in order: no stack).  a, b, c are earlier rows unless noted."""
+    ``expr_code (ninstr, 4) = (op, a, b, c)``; its result is register ``reg[row]`` of the run's
+    workspace (`Workspace.xreg`: one register per instruction, written in order: no stack).  a, b, c are earlier rows unless noted."""
 
     CONST = 0  # expr_const[a]
     TIME = 1  # t
@@ -140,7 +123,7 @@ class ExprOp(IntEnum):
 BQ_X, BQ_Y, BQ_PHI, BQ_VX, BQ_VY, BQ_OMEGA = range(6)  # ExprOp.BODY quantities
 
 
-N_FORCE_PARAM = 5  # spring-dampers: p4 = 1 + the result row of an expression actuator (0: none), added to p3
+N_FORCE_PARAM = catalog.N_FORCE_PARAM
 
 
 Integrator = IntEnum("Integrator", {s.enum: s.code for s in catalog.INTEGRATORS}, module=__name__)
@@ -273,14 +256,24 @@ class KernelModel(NamedTuple):
     expr_code: np.ndarray = np.zeros((0, 4), dtype=np.int64)  # (ninstr, 4) int: (ExprOp, a, b, c), every program's instructions in turn
     expr_const: np.ndarray = np.zeros(0)  # (nconst,) constants of the programs (SI)
     expr_prog: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nprog, 2) int: first and end row of each program (result: row end - 1)
-    expr_reg: np.ndarray = np.zeros((1, 3))  # (max(ninstr, 1), 3) scratch registers: value, d/dt, d2/dt2 (written by the kernels)
-    expr_fault: np.ndarray = np.full(2, -1.0)  # (2,) scratch: [force element, t] of the first non-finite expression (-1: none)
     expr_loads: np.ndarray = np.zeros(2, dtype=np.int64)  # first and end row of the loads' programs (together)
-    expr_mode: np.ndarray = np.zeros(0)  # (ninstr,) scratch: frozen result 0/1 of a comparison row (-1: live)
     expr_switch: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (nswitch, 2) int: comparison row, its program
     table_info: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (ntable, 2) int: first row in table_seg and the number of knots
     table_period: np.ndarray = np.zeros(0)  # (ntable,) period of a periodic table (0: held at its end values outside)
     table_seg: np.ndarray = np.zeros((0, 5))  # (nknot, 5) knot x_k and y = c0 + c1 d + c2 d^2 + c3 d^3, d = x - x_k
+
+
+def read_only(arr: np.ndarray) -> np.ndarray:
+    """A view of `arr` that cannot be written (its owner still can)."""
+    view = arr.view()
+    view.flags.writeable = False
+    return view
+
+
+def frozen(km: KernelModel) -> KernelModel:
+    """`km` with every array read-only: a kernel that writes into the model fails to compile (numba
+    types such arrays as read-only), and Python writes raise.  Every model a run reads is frozen."""
+    return KernelModel(*(read_only(np.asarray(a)) for a in km))
 
 
 def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int) -> int:

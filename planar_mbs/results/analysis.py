@@ -24,7 +24,7 @@ thresholds and how they were validated on the forced Duffing oscillator):
                 Poincaré map estimated from data, Rosenstein-style; the median,
                 not the mean, so that a few far "neighbours" do not dominate):
                 about 0 on the invariant circle of quasi-periodic motion, clearly
-                positive for chaos.  `planar_mbs.results.lyapunov` computes the exponent
+                positive for chaos.  `planar_mbs.run.lyapunov` computes the exponent
                 from two nearby trajectories (Benettin's method) as a check.
 ``dimension``   the correlation dimension of the section (Grassberger–
                 Procaccia): about 1 for points on a closed curve

@@ -4,7 +4,7 @@
 revolutions at a time, so that it can report progress in revolutions, stop as
 soon as the Poincaré points have settled (`planar_mbs.results.section.settling`), and
 hand back the final kernel state (for a Lyapunov exponent from there, see
-`planar_mbs.results.lyapunov`).  `run_until_settled` is `mbs run --until-settled`: that, with
+`planar_mbs.run.lyapunov`).  `run_until_settled` is `mbs run --until-settled`: that, with
 the results written to a file.
 """
 from __future__ import annotations

@@ -85,10 +85,10 @@ def test_an_absurd_state_stops_the_run(sandbox):
 
 def test_an_absurd_state_during_the_run_stops_it(sandbox):
     """The time loop hands back a state beyond every bound: SimulationError, status absurd_state."""
-    from planar_mbs.run import simulation
+    from planar_mbs.run import driver
 
     model = mbs_api.load_model(sandbox / "mech.mbs")
-    real = simulation._absurd_state
+    real = driver.absurd_state
     calls = []
 
     def after_first_chunk(model_, y, t):
@@ -97,12 +97,12 @@ def test_an_absurd_state_during_the_run_stops_it(sandbox):
             y[model_.ncoord] = 1e30  # as if a step had produced it
         return real(model_, y, t)
 
-    simulation._absurd_state = after_first_chunk
+    driver.absurd_state = after_first_chunk
     try:
         with pytest.raises(SimulationError, match="physical bound") as err:
             mbs_api.simulate(model, t_end="5 ms", output_step="1 us")
     finally:
-        simulation._absurd_state = real
+        driver.absurd_state = real
     assert err.value.results.attrs["status"] == "absurd_state"
 
 
