@@ -72,6 +72,7 @@ from ..results.hdf5 import (
     reserve_space,
     write_results,
 )
+from ..results.output_lock import OutputBusy, OutputLock
 from ..results.section import AnalysisError, default_signals, driver_period, poincare_section
 from ..results.signals import signal_table
 from ..run.children import die_with_parent
@@ -82,15 +83,20 @@ from .store import (
     ROW_ATTR,
     DamagedTable,
     JournalLock,
+    UnsafeJournal,
     case_file_row,
     case_files,
     clean_leftovers,
     gather,
     journal_folder,
+    clean_stale_copies,
     publish,
+    read_key,
     read_plan,
     read_summary,
+    sign_case,
     signal_summary,
+    signed,
     table_rows,
     write_plan,
     write_summary,
@@ -418,17 +424,18 @@ def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
                        started=time.time() - wall, worker=os.getpid())
 
 
-def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None, config: str = "{}") -> CaseOutcome:
+def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None, config: str = "{}",
+                    key: bytes = b"") -> CaseOutcome:
     """The worker side of a local pool (and of ``-j 1``): `run_case`, then the case written whole into
     the sweep's journal (`store_outcome`); returns the outcome without its rows."""
-    return store_outcome(run_case(spec), folder, compression, config)
+    return store_outcome(run_case(spec), folder, compression, config, key)
 
 
 def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | None = None,
-                  config: str = "{}") -> CaseOutcome:
+                  config: str = "{}", key: bytes = b"") -> CaseOutcome:
     """Write a case, exactly as the sweep file will hold it, into ``folder/case-<k>.h5``: laid out under
     a temporary name, flushed, then renamed (`sweep_store.publish`), so a kill at any moment leaves the
-    whole case or none of it.  The disk space the case needs is reserved before HDF5 writes a byte
+    whole case or none of it, signed with the journal's ``key`` (`sweep_store.sign_case`).  The disk space the case needs is reserved before HDF5 writes a byte
     (a full disk is a clean `DiskFull`, never an HDF5 write failing halfway).  Returns the outcome
     without its rows, naming the file (``part``), or with ``store_error``."""
     final = Path(folder, f"case-{outcome.index}.h5")
@@ -444,6 +451,7 @@ def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | N
             _store_case(f, outcome, compression)
             f.attrs[ROW_ATTR] = json.dumps(_row(outcome), default=_plain)
             f.attrs["sweep_config"] = config  # the sweep's settings: a resume checks them
+            sign_case(f, key or read_key(Path(folder)))
         release_reserve(fd, end)
         os.close(fd)
         fd = -1
@@ -477,8 +485,10 @@ def read_case_table(path: str | Path) -> list[dict]:
     and those of whole cases a killed sweep left in its journal (`sweep_store`), not yet gathered."""
     with open_results(path) as f:
         rows = {r["index"]: r for r in _table_rows(f)}
-    for index, part in case_files(journal_folder(path)):
-        row = case_file_row(part)
+    folder = journal_folder(path)
+    key = read_key(folder)
+    for index, part in case_files(folder):
+        row = case_file_row(part) if signed(part, key) else None
         if row is not None:
             rows[index] = row
     return [rows[k] for k in sorted(rows)]
@@ -805,9 +815,8 @@ def _lock(output: Path):
     output.parent.mkdir(parents=True, exist_ok=True)
     try:
         lock = JournalLock(output)
-    except ResultsBusy:
-        raise SweepError(f"{output} is being written by another sweep; wait for it to end (or choose another -o)") \
-            from None
+    except OutputBusy as busy:
+        raise SweepError(f"{output} is being written by {busy}; wait for it to end (or choose another -o)") from None
     except OSError as exc:
         raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
     try:
@@ -855,11 +864,16 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
         _same_sweep(output, old, config, [n for n, _ in old_params], params)
         rows = {r["key"]: r for r in existing}
         merged = [[n, list(dict.fromkeys(list(vals) + list(a.values)))] for (n, vals), a in zip(old_params, axes)]
+    key = read_key(folder)
     for index, part in case_files(folder):  # whole cases a killed sweep left: done, unless of another sweep
-        row, their = case_file_row(part), _case_file_config(part)
+        row = case_file_row(part)
         if row is None:
             part.unlink(missing_ok=True)
             continue
+        if not signed(part, key):
+            raise UnsafeJournal(f"{part} was not written by a sweep of {output} (its signature does not match "
+                                f"what it holds): remove it to run case {index} again, or pass --overwrite")
+        their = _case_file_config(part)
         _same_sweep(output, their, config, list(row["values"]), params)
         rows[row["key"]] = row
 
@@ -972,11 +986,12 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
             fresh = dirty = False
         if progress:
             progress(done, total, None)
-        pool, results_iter = _start(pending, str(folder), jobs, executor, compression, config_text, worker_timeout)
+        pool, results_iter = _start(pending, str(folder), jobs, executor, compression, (config_text, lock.key),
+                                    worker_timeout)
         for fut in results_iter:
             outcome = _outcome(fut, executor, len(state.skipped) + len(ran), output)
             if outcome.part is None and not outcome.store_error:  # from a cluster: written here
-                outcome = store_outcome(outcome, folder, compression, config_text)
+                outcome = store_outcome(outcome, folder, compression, config_text, lock.key)
             if outcome.store_error:  # the case could not be written (a full disk)
                 raise SweepStopped(f"case {outcome.index} could not be written ({outcome.store_error}); the "
                                    f"{len(state.skipped) + len(ran)} case(s) stored so far are kept in {output}: "
@@ -1019,16 +1034,17 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
     return SweepSummary(output, total, ran, state.skipped, failed, time.perf_counter() - start, out_rows)
 
 
-def _start(pending, folder: str, jobs, executor, compression, config_text, worker_timeout):
+def _start(pending, folder: str, jobs, executor, compression, signing, worker_timeout):
     """(pool, the cases' futures as they finish): in this process (``-j 1``), a local pool whose workers
-    write their cases into the journal themselves, or a dask executor whose results come back here."""
+    write their cases into the journal themselves (``signing``: the config text and key they are
+    stored with), or a dask executor whose results come back here."""
     if executor is None and (jobs == 1 or len(pending) <= 1):
-        return None, [_InlineFuture(run_case_stored, s, folder, compression, config_text) for s in pending]
+        return None, [_InlineFuture(run_case_stored, s, folder, compression, *signing) for s in pending]
     if executor is None:
         if not started():  # the kernels loaded here once; the pool's workers are forks of this process
             worker.warm_up()
         pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
-        futures = [pool.submit(run_case_stored, s, folder, compression, config_text) for s in pending]
+        futures = [pool.submit(run_case_stored, s, folder, compression, *signing) for s in pending]
     else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
         pool = executor
         futures = [pool.submit(run_case, s) for s in pending]
@@ -1179,8 +1195,10 @@ def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bo
                 raise SweepError(f"case {r['key']} is in both {seen[r['key']]} and {p}: a merge takes each "
                                  "case once")
             seen[r["key"]] = p
+    lock = _merge_lock(output)
     tmp = output.with_name(f".{output.name}.tmp-{os.getpid()}")
     try:
+        clean_stale_copies(output)
         shutil.copyfile(first, tmp)
         with h5py.File(tmp, "r+", locking=False) as f:
             all_rows = list(heads[0][3])
@@ -1202,4 +1220,16 @@ def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bo
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    finally:
+        lock.release()
     return len(all_rows)
+
+
+def _merge_lock(output: Path) -> OutputLock:
+    """The merge's `OutputLock` on ``output``: refused while a sweep, a run or a merge writes it."""
+    try:
+        return OutputLock(output, "a merge")
+    except OutputBusy as busy:
+        raise SweepError(f"{output} is being written by {busy}; wait for it to end (or choose another -o)") from None
+    except OSError as exc:
+        raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
