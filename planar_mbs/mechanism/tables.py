@@ -16,7 +16,12 @@ knots must span at most one period; the last knot is closed onto the first).
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import dataclasses
 import math
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +29,7 @@ import numpy as np
 from ..language import units as U
 from ..errors import ModelError, did_you_mean
 from .model import ExprOp
-from ..language.spec import Call, Name, String, Vector
+from ..language.spec import Call, Expr, KwArg, Name, String, Vector
 from ..lazy import lazy
 
 interpolate = lazy("scipy.interpolate")  # scipy: only for a cubic or Akima table
@@ -98,28 +103,89 @@ def _unit(kw, key: str, e: Call):
     return u.scale, u.dimensionality
 
 
+_PROVIDED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("tables_provided", default=None)
+
+
+@contextlib.contextmanager
+def provided(files: dict[str, bytes]):
+    """Compile with the tables ``files`` ({`table_path` text: bytes}) instead of reading them."""
+    token = _PROVIDED.set(dict(files))
+    try:
+        yield
+    finally:
+        _PROVIDED.reset(token)
+
+
+def table_path(name: String) -> Path:
+    """Where the table file named by ``name`` is: relative to the folder of the model that names it."""
+    folder = Path(name.pos.file).parent if name.pos.file not in ("<string>", "--set") else Path.cwd()
+    return folder / name.value
+
+
+def read_table_file(path: Path) -> bytes:
+    """Up to MAX_TABLE_BYTES + 1 bytes of a regular file, opened without blocking (a FIFO or a
+    device is an `OSError`, never read)."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise OSError(0, "not a regular file")
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            return f.read(MAX_TABLE_BYTES + 1)
+    finally:
+        os.close(fd)
+
+
+def table_files(spec) -> dict[str, bytes]:
+    """{`table_path` text: bytes} of every table file a parsed model names that can be read."""
+    out: dict[str, bytes] = {}
+    for st in spec.statements:
+        for node in _calls([st.value, *(f.value for f in st.fields)]):
+            if node.name == "table" and node.args and isinstance(node.args[0], String):
+                path = table_path(node.args[0])
+                try:
+                    out.setdefault(str(path), read_table_file(path))
+                except OSError:
+                    pass  # the compile says so, at the place
+    return out
+
+
+def _calls(items):
+    """Every `Call` in the expressions ``items``, nested ones too."""
+    stack = list(items)
+    while stack:
+        x = stack.pop()
+        if isinstance(x, (list, tuple)):
+            stack.extend(x)
+        elif isinstance(x, KwArg):
+            stack.append(x.value)
+        elif dataclasses.is_dataclass(x) and isinstance(x, Expr):
+            if isinstance(x, Call):
+                yield x
+            stack.extend(getattr(x, f.name) for f in dataclasses.fields(x) if f.name != "pos")
+
+
 def _from_file(progs, e: Call, kw):
     name: String = e.args[0]
-    folder = Path(name.pos.file).parent if name.pos.file not in ("<string>", "--set") else Path.cwd()
-    path = folder / name.value
+    path = table_path(name)
+    given = _PROVIDED.get()
     try:
-        with open(path, "rb") as f:
-            data = f.read(MAX_TABLE_BYTES + 1)
+        data = given[str(path)] if given and str(path) in given else read_table_file(path)
     except OSError as err:
         raise name.pos.error(f"cannot read the table `{name.value}` ({err.strerror or err})",
-                             hint=f"the path is relative to the model's folder ({folder})") from None
+                             hint=f"the path is relative to the model's folder ({path.parent})") from None
     if len(data) > MAX_TABLE_BYTES:
         raise name.pos.error(f"the table `{name.value}` is larger than {MAX_TABLE_BYTES >> 20} MB")
     xscale, xdim = _unit(kw, "x_unit", e)
     yscale, ydim = _unit(kw, "y_unit", e)
-    xs, ys = read_csv(data.decode("utf-8", errors="replace"), str(path))
+    xs, ys = read_csv(data.decode("utf-8", errors="replace").removeprefix("\ufeff"), str(path))
     return xs * xscale, ys * yscale, xdim, ydim
 
 
 def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
     """Two columns of numbers, comma (or space, or semicolon) separated; `#` comments and one
-    header line of words allowed.  Errors name the file's line."""
+    header line of words (no cell a number) allowed first.  Errors name the file's line."""
     xs, ys, lines = [], [], text.splitlines()
+    first = True
     for i, raw in enumerate(lines, 1):
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -128,12 +194,15 @@ def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
 
         def fail(message, hint=""):
             return ModelError(message, path, i, 1, hint=hint, source_line=raw, width=max(1, len(raw)))
+        header, first = first and not any(map(_number, cells)), False
+        if header:
+            continue
         try:
             values = [float(c) for c in cells]
         except ValueError:
-            if not xs and i == next(j for j, r in enumerate(lines, 1) if r.split("#", 1)[0].strip()):
-                continue  # a header line
-            raise fail("a table line must hold two numbers (x, y)", "e.g. `90, 1250.5`") from None
+            bad = next(c for c in cells if not _number(c))
+            raise fail(f"a table line must hold two numbers (x, y); `{bad}` is not a number",
+                       "e.g. `90, 1250.5`; only the first line may be a header of words") from None
         if len(values) != 2:
             raise fail(f"a table line must hold two numbers (x, y), this one holds {len(values)}")
         if not all(math.isfinite(v) for v in values):
@@ -148,6 +217,14 @@ def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
         raise ModelError("a table needs at least two lines of numbers", path, 1, 1,
                          source_line=lines[0] if lines else "", hint="x, y on each line")
     return np.array(xs), np.array(ys)
+
+
+def _number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
 
 
 def _inline(progs, e: Call, kw):

@@ -25,7 +25,9 @@ def lock_path(output: Path) -> Path:
 
 def holder_name(kind: str) -> str:
     """``a sweep (mbs sweep, pid 123)``: what a refused writer is told."""
-    prog = " ".join([Path(sys.argv[0]).name, *sys.argv[1:2]]) if sys.argv and sys.argv[0] else "python"
+    prog = Path(sys.argv[0]).name if sys.argv and sys.argv[0] not in ("", "-c") else "python"
+    if prog == "mbs" and len(sys.argv) > 1:
+        prog = f"mbs {sys.argv[1]}"
     return f"{kind} ({prog[:60]}, pid {os.getpid()})"
 
 

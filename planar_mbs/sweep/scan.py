@@ -108,6 +108,7 @@ mp = lazy("multiprocessing")  # a local pool only
 process_pool = lazy("concurrent.futures.process")  # its ProcessPoolExecutor imports multiprocessing
 compiler = lazy("..mechanism.compile", __package__)  # the parser's lark: not for `mbs plot`/`analyze` of a sweep
 parsing = lazy("..language.parse", __package__)  # lark, as above
+table_reader = lazy("..mechanism.tables", __package__)
 worker = lazy(".worker", __package__)  # importing it loads numba and the kernels (the pool's preload)
 
 FINISHED, FAILED, PENDING = "finished", "failed", "pending"
@@ -256,6 +257,7 @@ class ModelSnapshot:
     key: str  # its absolute path, the base of the includes' keys
     text: str
     includes: tuple[tuple[str, str], ...]  # (absolute path, text) of every included file
+    tables: tuple[tuple[str, bytes], ...] = ()  # (path as the model names it, bytes) of every table file
 
     @classmethod
     def of(cls, path: str | Path) -> "ModelSnapshot":
@@ -272,31 +274,39 @@ class ModelSnapshot:
         except OSError as e:
             raise SweepError(f"cannot read the model file {path} ({getattr(e, 'strerror', None) or e})") from None
         spec = parsing.parse_model(text, path)  # the parser itself finds and reads every include
-        return cls(path, spec.key, text, tuple(sorted(spec.includes.items())))
+        tables = tuple(sorted(table_reader.table_files(spec).items()))
+        return cls(path, spec.key, text, tuple(sorted(spec.includes.items())), tables)
 
     def fingerprint(self) -> str:
-        """sha256 of the model's text and of every include's text with its path relative to the model."""
+        """sha256 of the model's text, of every include's text with its path relative to the model,
+        and of every table file's bytes with its path."""
         h = hashlib.sha256(self.text.encode() + b"\0")
         base = os.path.dirname(self.key)
         for key, text in self.includes:
             h.update(os.path.relpath(key, base).encode() + b"\0" + text.encode() + b"\0")
+        for path, data in self.tables:
+            h.update(b"table\0" + path.encode() + b"\0" + data + b"\0")
         return h.hexdigest()
 
     def compile(self, overrides: dict[str, str]):
         """The model of one case (errors worded for `--set`, as the sweep's values are given)."""
-        return compiler.compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
+        with table_reader.provided(dict(self.tables)):
+            return compiler.compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
 
     def attrs(self) -> dict:
         """Root attributes of a scan file (the layout of a run's file)."""
+        tables = {p: d.decode("utf-8", "surrogateescape") for p, d in self.tables}  # JSON escapes any byte
         return {"model_source": self.text, "model_path": self.path, "model_key": self.key,
-                "model_includes": json.dumps(dict(self.includes))}
+                "model_includes": json.dumps(dict(self.includes)), "model_tables": json.dumps(tables)}
 
     @classmethod
     def from_attrs(cls, attrs) -> "ModelSnapshot":
         includes = json.loads(attrs.get("model_includes", "{}") or "{}")
+        tables = json.loads(attrs.get("model_tables", "{}") or "{}")
         path = _text(attrs["model_path"])
         return cls(path, _text(attrs.get("model_key", os.path.abspath(path))), _text(attrs["model_source"]),
-                   tuple(sorted(includes.items())))
+                   tuple(sorted(includes.items())),
+                   tuple(sorted((p, t.encode("utf-8", "surrogateescape")) for p, t in tables.items())))
 
 
 def model_fingerprint(path: str | Path) -> str:
