@@ -64,11 +64,28 @@ def table_node(progs, e: Call):
                                            "at a matching signal")
     period = _period(progs, kw, xdim, xs, ys, e)
     method = _interpolation(progs.ev, kw)
-    rows = knots(xs, ys, method, period)
+    rows = _checked_knots(e, xs, ys, method, period)
     progs.tables.append((rows, period))
     k = len(progs.tables) - 1
-    value = evaluate(rows, period, x.value)
-    return progs.op(ExprOp.TABLE, [x], ydim, False, value, extra=k)
+    value, fault = progs.finite(e.pos, lambda: evaluate(rows, period, x.value), [x])
+    return progs.op(ExprOp.TABLE, [x], ydim, False, value, fault, extra=k)
+
+
+def _checked_knots(e: Call, xs, ys, method: str, period: float) -> np.ndarray:
+    """`knots`, refused at the call when its values (in SI units) or its interpolation leave the
+    range of a float (values near 1.8e308, knots 1e-320 apart): an error, never a numpy warning."""
+    rows = None
+    if np.isfinite(xs).all() and np.isfinite(ys).all():
+        try:
+            with np.errstate(over="raise", divide="raise", invalid="raise", under="ignore"):
+                rows = knots(xs, ys, method, period)
+        except (FloatingPointError, ValueError, ZeroDivisionError):
+            rows = None
+    if rows is None or not np.isfinite(rows).all():
+        raise e.pos.error("the table's values or the spacing of its x leave the range of a float (±1.8e308) "
+                          f"in SI units{'' if method == 'linear' else f' or in its {method} interpolation'}",
+                          hint="rescale the table or its units; keep neighbouring x apart")
+    return rows
 
 
 def _interpolation(ev, kw) -> str:
@@ -178,7 +195,8 @@ def _from_file(progs, e: Call, kw):
     xscale, xdim = _unit(kw, "x_unit", e)
     yscale, ydim = _unit(kw, "y_unit", e)
     xs, ys = read_csv(data.decode("utf-8", errors="replace").removeprefix("\ufeff"), str(path))
-    return xs * xscale, ys * yscale, xdim, ydim
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):  # `_checked_knots` refuses inf
+        return xs * xscale, ys * yscale, xdim, ydim
 
 
 def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
