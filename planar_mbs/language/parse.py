@@ -592,8 +592,8 @@ def _check_depth(tree, text: str, path: str) -> None:
             meta = node.meta
             line = getattr(meta, "line", 1)
             src = (text.splitlines() or [""])[line - 1] if 0 < line <= len(text.splitlines()) else ""
-            raise ModelError(f"this expression nests more than {MAX_DEPTH} levels deep (or sums or multiplies more than "
-                             f"{MAX_DEPTH * CHAIN_LINKS} terms)", path, line,
+            raise ModelError(f"this expression nests more than {MAX_DEPTH} levels deep (or sums or multiplies "
+                             f"more than {MAX_DEPTH * CHAIN_LINKS} terms)", path, line,
                              getattr(meta, "column", 1), source_line=src,
                              hint="split it into several `param`s")
         todo.extend((c, thirds + _weight(node, c, i)) for i, c in enumerate(node.children) if isinstance(c, Tree))

@@ -495,6 +495,9 @@ def _output_lock(shown: Path) -> OutputLock:
     except OutputBusy as busy:
         message = f"cannot write {shown}: it is being written by {busy}; wait for it to end or choose another output"
     except OSError as exc:
+        if exc.errno == errno.ENOSPC:
+            raise DiskFull(f"the disk holding {shown} is full (No space left on device); nothing was written: "
+                           "free some space and run it again") from None
         message = f"cannot write {shown}: {exc.strerror or exc}"
     err = MbsError(message)
     err.exit_code = 2

@@ -64,8 +64,11 @@ class OutputLock:
                 raise OutputBusy(_holder(self.path)) from None
             if self._still_there(fd):
                 self.fd = fd
-                os.ftruncate(fd, 0)
-                os.write(fd, holder_name(kind).encode())
+                try:
+                    os.ftruncate(fd, 0)
+                    os.write(fd, holder_name(kind).encode())
+                except OSError:
+                    pass  # a full disk: the lock holds without its holder's name
                 return
             os.close(fd)  # removed by its last holder meanwhile: take the new one
         raise OSError(0, f"its lock file {self.path} keeps disappearing")

@@ -445,8 +445,9 @@ def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | N
                   config: str = "{}", key: bytes = b"") -> CaseOutcome:
     """Write a case, exactly as the sweep file will hold it, into ``folder/case-<k>.h5``: laid out under
     a temporary name, flushed, then renamed (`sweep_store.publish`), so a kill at any moment leaves the
-    whole case or none of it, signed with the journal's ``key`` (`sweep_store.sign_case`).  The disk space the case needs is reserved before HDF5 writes a byte
-    (a full disk is a clean `DiskFull`, never an HDF5 write failing halfway).  Returns the outcome
+    whole case or none of it, signed with the journal's ``key`` (`sweep_store.sign_case`).  The disk
+    space the case needs is reserved before HDF5 writes a byte (a full disk is a clean `DiskFull`,
+    never an HDF5 write failing halfway).  Returns the outcome
     without its rows, naming the file (``part``), or with ``store_error``."""
     final = Path(folder, f"case-{outcome.index}.h5")
     part = Path(folder, f".case-{outcome.index}.{os.getpid()}.tmp")
