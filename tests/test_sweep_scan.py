@@ -17,7 +17,7 @@ from planar_mbs.results.analysis import classify
 from planar_mbs.results.section import poincare_section
 from planar_mbs.sweep.scan import (SweepError, case_summary, merge_sweeps, parse_param, read_case_table, replay_case,
                               run_sweep, sweep_sections)
-from planar_mbs.sweep.store import journal_folder, signal_summary
+from planar_mbs.sweep.store import journal_folder, journal_key, sign_case, signal_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 IDEAL = ROOT / "models" / "slider_crank.mbs"
@@ -235,6 +235,7 @@ def test_cases_a_killed_sweep_left_in_its_journal_are_read_and_gathered(tmp_path
         src.copy(src["cases/2"], part, "cases/2")
         part.attrs["sweep_row"] = json.dumps(row)
         part.attrs["sweep_config"] = config
+        sign_case(part, journal_key(folder))  # as the killed sweep signed it
     (folder / ".case-3.123.tmp").write_bytes(b"half a case")  # a case cut off while being written
     assert [r["values"]["speed"] for r in read_case_table(out)] == ["600rpm", "900rpm", "1200rpm"]
     s = run_sweep(IDEAL, [parse_param("speed=600rpm,900rpm,1200rpm")], out, **OPTS)
@@ -260,6 +261,7 @@ def test_a_sweep_killed_before_its_first_gather_keeps_its_numbering(tmp_path):
         src.copy(src["cases/2"], part, "cases/2")
         part.attrs["sweep_row"] = json.dumps(rows[2])
         part.attrs["sweep_config"] = src.attrs["config"]
+        sign_case(part, journal_key(folder))
     s = run_sweep(IDEAL, speeds, out, **OPTS)
     assert sorted(s.ran) == [0, 1] and s.skipped == [2]
     assert _by_key(out) == _by_key(whole)

@@ -67,6 +67,9 @@ class Evaluator:
 
     def __init__(self, params: dict[str, Statement], overrides: dict[str, Expr], names: dict[str, str],
                  call_names: set[str]):
+        if "t" in params:  # `t` is the time in every expression: a param would silently replace it
+            st = params["t"]
+            raise (st.name_pos or st.pos).error("the name `t` is reserved (the time)", hint="choose another name")
         self.params = params
         self.overrides = overrides
         self.names = names  # every element name -> its kind, for messages

@@ -571,19 +571,32 @@ def _open_brackets(code: str, end: int) -> list[tuple[str, int]]:
     return stack
 
 
+_CHAINS = ({"add", "sub"}, {"mul", "div"})  # `a + b - c ...`: a left-leaning chain of one rule
+CHAIN_LINKS = 3  # links of such a chain that count as one level of nesting
+
+
+def _weight(parent, child, i: int) -> int:
+    """Thirds of a level that ``child`` (child ``i`` of ``parent``) lies deeper: one for the next term
+    of a sum or product (a flat sum of 300 terms counts as 100 levels), three for anything else."""
+    chained = i == 0 and any(parent.data in c and child.data in c for c in _CHAINS)
+    return 1 if chained else CHAIN_LINKS
+
+
 def _check_depth(tree, text: str, path: str) -> None:
     """Reject expressions nested deeper than MAX_DEPTH (without recursing ourselves)."""
     todo = [(tree, 0)]
     while todo:
-        node, depth = todo.pop()
+        node, thirds = todo.pop()
+        depth = thirds / CHAIN_LINKS
         if depth > MAX_DEPTH:
             meta = node.meta
             line = getattr(meta, "line", 1)
             src = (text.splitlines() or [""])[line - 1] if 0 < line <= len(text.splitlines()) else ""
-            raise ModelError(f"this expression nests more than {MAX_DEPTH} levels deep", path, line,
+            raise ModelError(f"this expression nests more than {MAX_DEPTH} levels deep (or sums or multiplies "
+                             f"more than {MAX_DEPTH * CHAIN_LINKS} terms)", path, line,
                              getattr(meta, "column", 1), source_line=src,
                              hint="split it into several `param`s")
-        todo.extend((c, depth + 1) for c in node.children if isinstance(c, Tree))
+        todo.extend((c, thirds + _weight(node, c, i)) for i, c in enumerate(node.children) if isinstance(c, Tree))
 
 
 # ------------------------------------------------------------ entry points

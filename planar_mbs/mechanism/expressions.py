@@ -307,17 +307,34 @@ class Programs:
         plain = a.plain and b.plain
         if op in "+-":
             self._same_dim(pos, "add" if op == "+" else "subtract", a, b)
-            value = a.value + b.value if op == "+" else a.value - b.value
-            return self.op(ExprOp.ADD if op == "+" else ExprOp.SUB, [a, b], a.dim, plain, value)
+            value, fault = self.finite(pos, lambda: a.value + b.value if op == "+" else a.value - b.value, [a, b])
+            return self.op(ExprOp.ADD if op == "+" else ExprOp.SUB, [a, b], a.dim, plain, value, fault)
         if op == "*":
-            return self.op(ExprOp.MUL, [a, b], dim_mul(a.dim, b.dim), plain, a.value * b.value)
+            value, fault = self.finite(pos, lambda: a.value * b.value, [a, b])
+            return self.op(ExprOp.MUL, [a, b], dim_mul(a.dim, b.dim), plain, value, fault)
         fault = None
         if b.value == 0.0:
             if b.const:
                 raise pos.error(f"division by zero in `{pos.text}`", hint="check the divisor")
             fault = (pos, f"division by zero: `{pos.text}` divides by 0")
-        value = a.value / b.value if b.value != 0.0 else math.nan
+            value = math.nan
+        else:
+            value, fault = self.finite(pos, lambda: a.value / b.value, [a, b])
         return self.op(ExprOp.DIV, [a, b], dim_mul(a.dim, b.dim, -1.0), plain, value, fault)
+
+    def finite(self, pos: Pos, compute, args: list[Node]) -> tuple[float, tuple | None]:
+        """(value, fault) of ``compute()``: beyond the range of a float, an error at ``pos`` when
+        every argument is constant (folded), else a fault (raised if the initial value is used)."""
+        try:
+            value = compute()
+        except OverflowError:
+            value = math.inf
+        if math.isfinite(value) or not all(math.isfinite(a.value) for a in args):
+            return value, None
+        message = f"`{pos.text}` overflows: its value is beyond ±1.8e308"
+        if all(a.const for a in args):
+            raise pos.error(message, hint="check the magnitudes and the units of its numbers")
+        return value, (pos, message)
 
     def power(self, e: BinOp, a: Node, b: Node) -> Node:
         if not b.const or b.dim:
@@ -331,7 +348,7 @@ class Programs:
             fault = (e.pos, f"`{e.pos.text}` has no real value")
             value = math.nan
         else:
-            value = a.value ** p
+            value, fault = self.finite(e.pos, lambda: a.value ** p, [a])
         self.consts.append(p)
         return self.op(ExprOp.POW, [a], dim_pow(a.dim, p), a.plain, value, fault, extra=len(self.consts) - 1)
 
@@ -352,7 +369,10 @@ class Programs:
             if a.const:
                 raise pos.error(f"`{pos.text}` has no real value", hint="check the sign of the argument")
             fault = (pos, f"`{pos.text}` has no real value")
-        value = math.nan if bad else _PY[ExprOp(op)](a.value)
+        if bad:
+            value = math.nan
+        else:
+            value, fault = self.finite(pos, lambda: _PY[ExprOp(op)](a.value), [a])
         return self.op(op, [a], dim, a.plain, value, fault)
 
     def select(self, c: Node, a: Node, b: Node) -> Node:

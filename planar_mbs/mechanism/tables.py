@@ -16,7 +16,12 @@ knots must span at most one period; the last knot is closed onto the first).
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import dataclasses
 import math
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +29,7 @@ import numpy as np
 from ..language import units as U
 from ..errors import ModelError, did_you_mean
 from .model import ExprOp
-from ..language.spec import Call, Name, String, Vector
+from ..language.spec import Call, Expr, KwArg, Name, String, Vector
 from ..lazy import lazy
 
 interpolate = lazy("scipy.interpolate")  # scipy: only for a cubic or Akima table
@@ -59,11 +64,28 @@ def table_node(progs, e: Call):
                                            "at a matching signal")
     period = _period(progs, kw, xdim, xs, ys, e)
     method = _interpolation(progs.ev, kw)
-    rows = knots(xs, ys, method, period)
+    rows = _checked_knots(e, xs, ys, method, period)
     progs.tables.append((rows, period))
     k = len(progs.tables) - 1
-    value = evaluate(rows, period, x.value)
-    return progs.op(ExprOp.TABLE, [x], ydim, False, value, extra=k)
+    value, fault = progs.finite(e.pos, lambda: evaluate(rows, period, x.value), [x])
+    return progs.op(ExprOp.TABLE, [x], ydim, False, value, fault, extra=k)
+
+
+def _checked_knots(e: Call, xs, ys, method: str, period: float) -> np.ndarray:
+    """`knots`, refused at the call when its values (in SI units) or its interpolation leave the
+    range of a float (values near 1.8e308, knots 1e-320 apart): an error, never a numpy warning."""
+    rows = None
+    if np.isfinite(xs).all() and np.isfinite(ys).all():
+        try:
+            with np.errstate(over="raise", divide="raise", invalid="raise", under="ignore"):
+                rows = knots(xs, ys, method, period)
+        except (FloatingPointError, ValueError, ZeroDivisionError):
+            rows = None
+    if rows is None or not np.isfinite(rows).all():
+        raise e.pos.error("the table's values or the spacing of its x leave the range of a float (±1.8e308) "
+                          f"in SI units{'' if method == 'linear' else f' or in its {method} interpolation'}",
+                          hint="rescale the table or its units; keep neighbouring x apart")
+    return rows
 
 
 def _interpolation(ev, kw) -> str:
@@ -98,28 +120,90 @@ def _unit(kw, key: str, e: Call):
     return u.scale, u.dimensionality
 
 
+_PROVIDED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("tables_provided", default=None)
+
+
+@contextlib.contextmanager
+def provided(files: dict[str, bytes]):
+    """Compile with the tables ``files`` ({`table_path` text: bytes}) instead of reading them."""
+    token = _PROVIDED.set(dict(files))
+    try:
+        yield
+    finally:
+        _PROVIDED.reset(token)
+
+
+def table_path(name: String) -> Path:
+    """Where the table file named by ``name`` is: relative to the folder of the model that names it."""
+    folder = Path(name.pos.file).parent if name.pos.file not in ("<string>", "--set") else Path.cwd()
+    return folder / name.value
+
+
+def read_table_file(path: Path) -> bytes:
+    """Up to MAX_TABLE_BYTES + 1 bytes of a regular file, opened without blocking (a FIFO or a
+    device is an `OSError`, never read)."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise OSError(0, "not a regular file")
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            return f.read(MAX_TABLE_BYTES + 1)
+    finally:
+        os.close(fd)
+
+
+def table_files(spec) -> dict[str, bytes]:
+    """{`table_path` text: bytes} of every table file a parsed model names that can be read."""
+    out: dict[str, bytes] = {}
+    for st in spec.statements:
+        for node in _calls([st.value, *(f.value for f in st.fields)]):
+            if node.name == "table" and node.args and isinstance(node.args[0], String):
+                path = table_path(node.args[0])
+                try:
+                    out.setdefault(str(path), read_table_file(path))
+                except OSError:
+                    pass  # the compile says so, at the place
+    return out
+
+
+def _calls(items):
+    """Every `Call` in the expressions ``items``, nested ones too."""
+    stack = list(items)
+    while stack:
+        x = stack.pop()
+        if isinstance(x, (list, tuple)):
+            stack.extend(x)
+        elif isinstance(x, KwArg):
+            stack.append(x.value)
+        elif dataclasses.is_dataclass(x) and isinstance(x, Expr):
+            if isinstance(x, Call):
+                yield x
+            stack.extend(getattr(x, f.name) for f in dataclasses.fields(x) if f.name != "pos")
+
+
 def _from_file(progs, e: Call, kw):
     name: String = e.args[0]
-    folder = Path(name.pos.file).parent if name.pos.file not in ("<string>", "--set") else Path.cwd()
-    path = folder / name.value
+    path = table_path(name)
+    given = _PROVIDED.get()
     try:
-        with open(path, "rb") as f:
-            data = f.read(MAX_TABLE_BYTES + 1)
+        data = given[str(path)] if given and str(path) in given else read_table_file(path)
     except OSError as err:
         raise name.pos.error(f"cannot read the table `{name.value}` ({err.strerror or err})",
-                             hint=f"the path is relative to the model's folder ({folder})") from None
+                             hint=f"the path is relative to the model's folder ({path.parent})") from None
     if len(data) > MAX_TABLE_BYTES:
         raise name.pos.error(f"the table `{name.value}` is larger than {MAX_TABLE_BYTES >> 20} MB")
     xscale, xdim = _unit(kw, "x_unit", e)
     yscale, ydim = _unit(kw, "y_unit", e)
-    xs, ys = read_csv(data.decode("utf-8", errors="replace"), str(path))
-    return xs * xscale, ys * yscale, xdim, ydim
+    xs, ys = read_csv(data.decode("utf-8", errors="replace").removeprefix("\ufeff"), str(path))
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):  # `_checked_knots` refuses inf
+        return xs * xscale, ys * yscale, xdim, ydim
 
 
 def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
     """Two columns of numbers, comma (or space, or semicolon) separated; `#` comments and one
-    header line of words allowed.  Errors name the file's line."""
+    header line of words (no cell a number) allowed first.  Errors name the file's line."""
     xs, ys, lines = [], [], text.splitlines()
+    first = True
     for i, raw in enumerate(lines, 1):
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -128,12 +212,15 @@ def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
 
         def fail(message, hint=""):
             return ModelError(message, path, i, 1, hint=hint, source_line=raw, width=max(1, len(raw)))
+        header, first = first and not any(map(_number, cells)), False
+        if header:
+            continue
         try:
             values = [float(c) for c in cells]
         except ValueError:
-            if not xs and i == next(j for j, r in enumerate(lines, 1) if r.split("#", 1)[0].strip()):
-                continue  # a header line
-            raise fail("a table line must hold two numbers (x, y)", "e.g. `90, 1250.5`") from None
+            bad = next(c for c in cells if not _number(c))
+            raise fail(f"a table line must hold two numbers (x, y); `{bad}` is not a number",
+                       "e.g. `90, 1250.5`; only the first line may be a header of words") from None
         if len(values) != 2:
             raise fail(f"a table line must hold two numbers (x, y), this one holds {len(values)}")
         if not all(math.isfinite(v) for v in values):
@@ -148,6 +235,14 @@ def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
         raise ModelError("a table needs at least two lines of numbers", path, 1, 1,
                          source_line=lines[0] if lines else "", hint="x, y on each line")
     return np.array(xs), np.array(ys)
+
+
+def _number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
 
 
 def _inline(progs, e: Call, kw):

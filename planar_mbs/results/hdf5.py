@@ -45,6 +45,7 @@ import numpy as np
 
 from ..errors import MbsError, ModelError, did_you_mean
 from ..lazy import lazy
+from .output_lock import OutputBusy, OutputLock
 from .signals import Signal
 
 h5py = lazy("h5py")
@@ -436,10 +437,15 @@ class WriteLock:
             os.close(self.fd)
             raise ResultsBusy(f"{path} is being written by another process") from None
 
+    output_lock = None  # the `OutputLock` of the name written, taken by `open_for_writing`
+
     def release(self) -> None:
         if self.fd >= 0:
             os.close(self.fd)  # closing the descriptor drops the flock
             self.fd = -1
+        if self.output_lock is not None:
+            self.output_lock.release()
+            self.output_lock = None
 
 
 WRITE_CHUNK_CACHE = 1 << 17  # bytes of HDF5 chunk cache per dataset when writing (4 chunks of 4096 rows)
@@ -456,8 +462,10 @@ def open_for_writing(path: Path, mode: str, shown: Path | None = None):
     limit, or a file that cannot be opened is an `MbsError` (exit code 2) saying so (named as
     `shown`, the file the user named)."""
     shown = path if shown is None else shown
+    beside = _output_lock(shown)
     try:
         lock = WriteLock(path)
+        lock.output_lock, beside = beside, None
         try:
             if mode == "w":
                 os.ftruncate(lock.fd, 0)  # a part file left by a killed run: ours now
@@ -472,15 +480,38 @@ def open_for_writing(path: Path, mode: str, shown: Path | None = None):
         err.exit_code = 2
         raise err from None
     except OSError as exc:
-        err = MbsError(f"cannot write {shown}: {_os_reason(exc)}")
+        err = MbsError(f"cannot write {shown}: {_os_reason(exc, path, shown)}")
         err.exit_code = 2
         raise err from None
+    finally:
+        if beside is not None:
+            beside.release()
 
 
-def _os_reason(exc: OSError) -> str:
+def _output_lock(shown: Path) -> OutputLock:
+    """The `OutputLock` of ``shown``; held by another writer, or unusable: an `MbsError` (exit 2)."""
+    try:
+        return OutputLock(shown)
+    except OutputBusy as busy:
+        message = f"cannot write {shown}: it is being written by {busy}; wait for it to end or choose another output"
+    except OSError as exc:
+        if exc.errno == errno.ENOSPC:
+            raise DiskFull(f"the disk holding {shown} is full (No space left on device); nothing was written: "
+                           "free some space and run it again") from None
+        message = f"cannot write {shown}: {exc.strerror or exc}"
+    err = MbsError(message)
+    err.exit_code = 2
+    raise err
+
+
+def _os_reason(exc: OSError, path: Path | None = None, shown: Path | None = None) -> str:
+    """Why ``path`` (written for ``shown``) could not be opened; a part file is named."""
+    whose = "it is" if path is None or Path(path) == Path(shown) else f"its part file {path} is"
     if exc.errno == errno.ELOOP:
-        return "it is a symbolic link (results are never written through one)"
-    return exc.strerror or str(exc)
+        return f"{whose} a symbolic link (results are never written through one): remove it"
+    if exc.strerror == "not a regular file":
+        return f"{whose} not a regular file: remove it"
+    return f"{path}: {exc.strerror or exc}" if whose != "it is" else exc.strerror or str(exc)
 
 
 def results_kind(path: Path) -> str:

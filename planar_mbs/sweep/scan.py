@@ -72,6 +72,7 @@ from ..results.hdf5 import (
     reserve_space,
     write_results,
 )
+from ..results.output_lock import OutputBusy, OutputLock
 from ..results.section import AnalysisError, default_signals, driver_period, poincare_section
 from ..results.signals import signal_table
 from ..run.children import die_with_parent
@@ -82,15 +83,20 @@ from .store import (
     ROW_ATTR,
     DamagedTable,
     JournalLock,
+    UnsafeJournal,
     case_file_row,
     case_files,
     clean_leftovers,
     gather,
     journal_folder,
+    clean_stale_copies,
     publish,
+    read_key,
     read_plan,
     read_summary,
+    sign_case,
     signal_summary,
+    signed,
     table_rows,
     write_plan,
     write_summary,
@@ -102,6 +108,7 @@ mp = lazy("multiprocessing")  # a local pool only
 process_pool = lazy("concurrent.futures.process")  # its ProcessPoolExecutor imports multiprocessing
 compiler = lazy("..mechanism.compile", __package__)  # the parser's lark: not for `mbs plot`/`analyze` of a sweep
 parsing = lazy("..language.parse", __package__)  # lark, as above
+table_reader = lazy("..mechanism.tables", __package__)
 worker = lazy(".worker", __package__)  # importing it loads numba and the kernels (the pool's preload)
 
 FINISHED, FAILED, PENDING = "finished", "failed", "pending"
@@ -250,6 +257,7 @@ class ModelSnapshot:
     key: str  # its absolute path, the base of the includes' keys
     text: str
     includes: tuple[tuple[str, str], ...]  # (absolute path, text) of every included file
+    tables: tuple[tuple[str, bytes], ...] = ()  # (path as the model names it, bytes) of every table file
 
     @classmethod
     def of(cls, path: str | Path) -> "ModelSnapshot":
@@ -266,31 +274,39 @@ class ModelSnapshot:
         except OSError as e:
             raise SweepError(f"cannot read the model file {path} ({getattr(e, 'strerror', None) or e})") from None
         spec = parsing.parse_model(text, path)  # the parser itself finds and reads every include
-        return cls(path, spec.key, text, tuple(sorted(spec.includes.items())))
+        tables = tuple(sorted(table_reader.table_files(spec).items()))
+        return cls(path, spec.key, text, tuple(sorted(spec.includes.items())), tables)
 
     def fingerprint(self) -> str:
-        """sha256 of the model's text and of every include's text with its path relative to the model."""
+        """sha256 of the model's text, of every include's text with its path relative to the model,
+        and of every table file's bytes with its path."""
         h = hashlib.sha256(self.text.encode() + b"\0")
         base = os.path.dirname(self.key)
         for key, text in self.includes:
             h.update(os.path.relpath(key, base).encode() + b"\0" + text.encode() + b"\0")
+        for path, data in self.tables:
+            h.update(b"table\0" + path.encode() + b"\0" + data + b"\0")
         return h.hexdigest()
 
     def compile(self, overrides: dict[str, str]):
         """The model of one case (errors worded for `--set`, as the sweep's values are given)."""
-        return compiler.compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
+        with table_reader.provided(dict(self.tables)):
+            return compiler.compile_text(self.text, self.path, overrides, includes=dict(self.includes), key=self.key)
 
     def attrs(self) -> dict:
         """Root attributes of a scan file (the layout of a run's file)."""
+        tables = {p: d.decode("utf-8", "surrogateescape") for p, d in self.tables}  # JSON escapes any byte
         return {"model_source": self.text, "model_path": self.path, "model_key": self.key,
-                "model_includes": json.dumps(dict(self.includes))}
+                "model_includes": json.dumps(dict(self.includes)), "model_tables": json.dumps(tables)}
 
     @classmethod
     def from_attrs(cls, attrs) -> "ModelSnapshot":
         includes = json.loads(attrs.get("model_includes", "{}") or "{}")
+        tables = json.loads(attrs.get("model_tables", "{}") or "{}")
         path = _text(attrs["model_path"])
         return cls(path, _text(attrs.get("model_key", os.path.abspath(path))), _text(attrs["model_source"]),
-                   tuple(sorted(includes.items())))
+                   tuple(sorted(includes.items())),
+                   tuple(sorted((p, t.encode("utf-8", "surrogateescape")) for p, t in tables.items())))
 
 
 def model_fingerprint(path: str | Path) -> str:
@@ -418,18 +434,20 @@ def _failed_case(spec: CaseSpec, message: str, start: float) -> CaseOutcome:
                        started=time.time() - wall, worker=os.getpid())
 
 
-def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None, config: str = "{}") -> CaseOutcome:
+def run_case_stored(spec: CaseSpec, folder: str, compression: str | None = None, config: str = "{}",
+                    key: bytes = b"") -> CaseOutcome:
     """The worker side of a local pool (and of ``-j 1``): `run_case`, then the case written whole into
     the sweep's journal (`store_outcome`); returns the outcome without its rows."""
-    return store_outcome(run_case(spec), folder, compression, config)
+    return store_outcome(run_case(spec), folder, compression, config, key)
 
 
 def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | None = None,
-                  config: str = "{}") -> CaseOutcome:
+                  config: str = "{}", key: bytes = b"") -> CaseOutcome:
     """Write a case, exactly as the sweep file will hold it, into ``folder/case-<k>.h5``: laid out under
     a temporary name, flushed, then renamed (`sweep_store.publish`), so a kill at any moment leaves the
-    whole case or none of it.  The disk space the case needs is reserved before HDF5 writes a byte
-    (a full disk is a clean `DiskFull`, never an HDF5 write failing halfway).  Returns the outcome
+    whole case or none of it, signed with the journal's ``key`` (`sweep_store.sign_case`).  The disk
+    space the case needs is reserved before HDF5 writes a byte (a full disk is a clean `DiskFull`,
+    never an HDF5 write failing halfway).  Returns the outcome
     without its rows, naming the file (``part``), or with ``store_error``."""
     final = Path(folder, f"case-{outcome.index}.h5")
     part = Path(folder, f".case-{outcome.index}.{os.getpid()}.tmp")
@@ -444,6 +462,7 @@ def store_outcome(outcome: CaseOutcome, folder: str | Path, compression: str | N
             _store_case(f, outcome, compression)
             f.attrs[ROW_ATTR] = json.dumps(_row(outcome), default=_plain)
             f.attrs["sweep_config"] = config  # the sweep's settings: a resume checks them
+            sign_case(f, key or read_key(Path(folder)))
         release_reserve(fd, end)
         os.close(fd)
         fd = -1
@@ -477,8 +496,10 @@ def read_case_table(path: str | Path) -> list[dict]:
     and those of whole cases a killed sweep left in its journal (`sweep_store`), not yet gathered."""
     with open_results(path) as f:
         rows = {r["index"]: r for r in _table_rows(f)}
-    for index, part in case_files(journal_folder(path)):
-        row = case_file_row(part)
+    folder = journal_folder(path)
+    key = read_key(folder)
+    for index, part in case_files(folder):
+        row = case_file_row(part) if signed(part, key) else None
         if row is not None:
             rows[index] = row
     return [rows[k] for k in sorted(rows)]
@@ -805,9 +826,8 @@ def _lock(output: Path):
     output.parent.mkdir(parents=True, exist_ok=True)
     try:
         lock = JournalLock(output)
-    except ResultsBusy:
-        raise SweepError(f"{output} is being written by another sweep; wait for it to end (or choose another -o)") \
-            from None
+    except OutputBusy as busy:
+        raise SweepError(f"{output} is being written by {busy}; wait for it to end (or choose another -o)") from None
     except OSError as exc:
         raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None
     try:
@@ -855,11 +875,16 @@ def _open_sweep(output, overwrite, retry_failed, config, params, axes, specs, fo
         _same_sweep(output, old, config, [n for n, _ in old_params], params)
         rows = {r["key"]: r for r in existing}
         merged = [[n, list(dict.fromkeys(list(vals) + list(a.values)))] for (n, vals), a in zip(old_params, axes)]
+    key = read_key(folder)
     for index, part in case_files(folder):  # whole cases a killed sweep left: done, unless of another sweep
-        row, their = case_file_row(part), _case_file_config(part)
+        row = case_file_row(part)
         if row is None:
             part.unlink(missing_ok=True)
             continue
+        if not signed(part, key):
+            raise UnsafeJournal(f"{part} was not written by a sweep of {output} (its signature does not match "
+                                f"what it holds): remove it to run case {index} again, or pass --overwrite")
+        their = _case_file_config(part)
         _same_sweep(output, their, config, list(row["values"]), params)
         rows[row["key"]] = row
 
@@ -972,11 +997,12 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
             fresh = dirty = False
         if progress:
             progress(done, total, None)
-        pool, results_iter = _start(pending, str(folder), jobs, executor, compression, config_text, worker_timeout)
+        pool, results_iter = _start(pending, str(folder), jobs, executor, compression, (config_text, lock.key),
+                                    worker_timeout)
         for fut in results_iter:
             outcome = _outcome(fut, executor, len(state.skipped) + len(ran), output)
             if outcome.part is None and not outcome.store_error:  # from a cluster: written here
-                outcome = store_outcome(outcome, folder, compression, config_text)
+                outcome = store_outcome(outcome, folder, compression, config_text, lock.key)
             if outcome.store_error:  # the case could not be written (a full disk)
                 raise SweepStopped(f"case {outcome.index} could not be written ({outcome.store_error}); the "
                                    f"{len(state.skipped) + len(ran)} case(s) stored so far are kept in {output}: "
@@ -1019,16 +1045,17 @@ def _run_cases(state: _Plan, lock, output, header, params, jobs, executor, compr
     return SweepSummary(output, total, ran, state.skipped, failed, time.perf_counter() - start, out_rows)
 
 
-def _start(pending, folder: str, jobs, executor, compression, config_text, worker_timeout):
+def _start(pending, folder: str, jobs, executor, compression, signing, worker_timeout):
     """(pool, the cases' futures as they finish): in this process (``-j 1``), a local pool whose workers
-    write their cases into the journal themselves, or a dask executor whose results come back here."""
+    write their cases into the journal themselves (``signing``: the config text and key they are
+    stored with), or a dask executor whose results come back here."""
     if executor is None and (jobs == 1 or len(pending) <= 1):
-        return None, [_InlineFuture(run_case_stored, s, folder, compression, config_text) for s in pending]
+        return None, [_InlineFuture(run_case_stored, s, folder, compression, *signing) for s in pending]
     if executor is None:
         if not started():  # the kernels loaded here once; the pool's workers are forks of this process
             worker.warm_up()
         pool = default_executor(min(jobs or os.cpu_count() or 1, max(len(pending), 1)))
-        futures = [pool.submit(run_case_stored, s, folder, compression, config_text) for s in pending]
+        futures = [pool.submit(run_case_stored, s, folder, compression, *signing) for s in pending]
     else:  # workers elsewhere (dask) share no disk with us: their results come back in memory
         pool = executor
         futures = [pool.submit(run_case, s) for s in pending]
@@ -1179,8 +1206,10 @@ def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bo
                 raise SweepError(f"case {r['key']} is in both {seen[r['key']]} and {p}: a merge takes each "
                                  "case once")
             seen[r["key"]] = p
+    lock = _merge_lock(output)
     tmp = output.with_name(f".{output.name}.tmp-{os.getpid()}")
     try:
+        clean_stale_copies(output)
         shutil.copyfile(first, tmp)
         with h5py.File(tmp, "r+", locking=False) as f:
             all_rows = list(heads[0][3])
@@ -1202,4 +1231,16 @@ def merge_sweeps(inputs: Sequence[str | Path], output: str | Path, overwrite: bo
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    finally:
+        lock.release()
     return len(all_rows)
+
+
+def _merge_lock(output: Path) -> OutputLock:
+    """The merge's `OutputLock` on ``output``: refused while a sweep, a run or a merge writes it."""
+    try:
+        return OutputLock(output, "a merge")
+    except OutputBusy as busy:
+        raise SweepError(f"{output} is being written by {busy}; wait for it to end (or choose another -o)") from None
+    except OSError as exc:
+        raise SweepError(f"cannot write {output}: {exc.strerror or exc}") from None

@@ -19,17 +19,21 @@ with a column.
 """
 from __future__ import annotations
 
-import fcntl
+import hashlib
+import hmac
 import json
 import os
+import secrets
 import shutil
+import stat
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MbsError
 from ..lazy import lazy
-from ..results.hdf5 import WRITE_CHUNK_CACHE, ResultsBusy
+from ..results.hdf5 import WRITE_CHUNK_CACHE
+from ..results.output_lock import OutputLock
 
 h5py = lazy("h5py")
 
@@ -45,39 +49,156 @@ def journal_folder(output: str | Path) -> Path:
     return output.parent / f".{output.name}{JOURNAL}"
 
 
+class UnsafeJournal(MbsError):
+    """The journal folder, or a case file in it, is not one this sweep made."""
+
+    exit_code = 2
+
+
 class JournalLock:
-    """Exclusive ownership of a scan for one sweep: a ``flock`` on ``.lock`` inside the journal
-    folder (the scan file itself is replaced by renames, so a lock on it would not exclude anyone).
-    The lock dies with the process; a lock file removed by the sweep that held it is taken again."""
+    """Exclusive ownership of a scan for one sweep: the output's `OutputLock` (no run, merge or
+    other sweep writes the name meanwhile), then its journal folder, private (`private_folder`),
+    and the key its case files are signed with (`journal_key`)."""
 
     def __init__(self, output: Path):
         self.folder = journal_folder(output)
         self.output = None  # the scan file's own WriteLock, held by the sweep beside this one
-        for _ in range(10):
-            self.folder.mkdir(exist_ok=True)
-            path = self.folder / ".lock"
-            self.fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
-            try:
-                fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                os.close(self.fd)
-                raise ResultsBusy(f"{output} is being written by another sweep") from None
-            try:
-                if os.stat(path).st_ino == os.fstat(self.fd).st_ino:  # not removed meanwhile
-                    return
-            except FileNotFoundError:
-                pass
-            os.close(self.fd)
-        raise ResultsBusy(f"{output}: the lock of its journal keeps disappearing")
+        self.beside = OutputLock(output, "a sweep")  # OutputBusy, or OSError: the caller says so
+        try:
+            private_folder(self.folder, output)
+            self.key = journal_key(self.folder)
+        except BaseException:
+            self.beside.release()
+            raise
 
     def release(self, remove: bool = False) -> None:
         """Drop the lock; with ``remove``, the journal folder goes too when it holds no case."""
-        if self.fd < 0:
+        if self.beside is None:
             return
         if remove and not case_files(self.folder):
             shutil.rmtree(self.folder, ignore_errors=True)
-        os.close(self.fd)
-        self.fd = -1
+        self.beside.release()
+        self.beside = None
+
+
+def private_folder(folder: Path, output: Path) -> None:
+    """Make ``folder`` with mode 0700, or take the one there only if it is a real folder of this
+    user that nobody else can write in (its mode then narrowed to 0700); `UnsafeJournal` if not."""
+    try:
+        os.mkdir(folder, 0o700)
+        return
+    except FileExistsError:
+        pass
+    why = ""
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    except OSError:
+        why = "is a symbolic link" if os.path.islink(folder) else "is not a folder"
+    else:
+        try:
+            info = os.fstat(fd)
+            if info.st_uid != os.geteuid():
+                why = "belongs to another user"
+            elif info.st_mode & 0o022:
+                why = "can be written by other users"
+            else:
+                os.fchmod(fd, 0o700)
+        finally:
+            os.close(fd)
+    if why:
+        raise UnsafeJournal(f"{folder}, the journal folder of {output}, {why}: a sweep keeps its cases only in "
+                            "a folder of its own; remove it (after checking what it holds) or choose another -o")
+
+
+KEY = "key"  # the journal's file of the key its case files are signed with
+MAC_ATTR = "sweep_mac"  # a case file's signature: HMAC-SHA256 of all else it holds (`case_mac`)
+
+
+def journal_key(folder: Path) -> bytes:
+    """The key of the journal ``folder`` (made, 32 random bytes in a file of mode 0600, if none)."""
+    path = folder / KEY
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+    except FileExistsError:
+        return read_key(folder)
+    try:
+        os.write(fd, secrets.token_hex(32).encode())
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    return read_key(folder)
+
+
+def read_key(folder: Path) -> bytes:
+    """The journal's key, or b"" when it has none that can be read (no case is then taken)."""
+    try:
+        fd = os.open(folder / KEY, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+        try:
+            return os.read(fd, 64) if stat.S_ISREG(os.fstat(fd).st_mode) else b""
+        finally:
+            os.close(fd)
+    except OSError:
+        return b""
+
+
+def case_mac(f, key: bytes) -> str:
+    """HMAC-SHA256 under ``key`` of an open case file: every link, attribute and dataset but the MAC."""
+    h = hmac.new(key, digestmod=hashlib.sha256)
+
+    def put(data: bytes) -> None:
+        h.update(len(data).to_bytes(8, "little") + data)
+
+    def attrs(obj) -> None:
+        for name in sorted(obj.attrs):
+            if name != MAC_ATTR:
+                put(name.encode())
+                put(_bytes(obj.attrs[name]))
+
+    attrs(f)
+    names: list[str] = []
+    f.visit_links(names.append)
+    for name in sorted(names):
+        put(name.encode())
+        link = f.get(name, getlink=True)
+        if not isinstance(link, h5py.HardLink):
+            put(repr((type(link).__name__, getattr(link, "filename", ""), link.path)).encode())
+            continue
+        obj = f[name]
+        attrs(obj)
+        if isinstance(obj, h5py.Dataset):
+            put(repr((obj.dtype.descr, obj.shape)).encode())
+            for i in range(0, obj.shape[0] if obj.shape else 1, 1 << 16):
+                put(_bytes(obj[i:i + (1 << 16)] if obj.shape else obj[()]))
+    return h.hexdigest()
+
+
+def _bytes(value) -> bytes:
+    if isinstance(value, bytes):
+        return value
+    if isinstance(value, str):
+        return value.encode()
+    a = np.asarray(value)
+    if a.dtype.kind != "O":
+        return repr((a.dtype.descr, a.shape)).encode() + a.tobytes()
+    parts = [_bytes(x) if isinstance(x, (str, bytes, np.ndarray)) else repr(x).encode() for x in a.ravel()]
+    return b"".join(len(x).to_bytes(8, "little") + x for x in parts)
+
+
+def sign_case(f, key: bytes) -> None:
+    """Store the MAC of an open case file (written last: it covers everything else)."""
+    f.attrs[MAC_ATTR] = case_mac(f, key)
+
+
+def signed(path: Path, key: bytes) -> bool:
+    """Whether the case file ``path`` carries a MAC under ``key`` that matches what it holds."""
+    if not key:
+        return False
+    try:
+        with h5py.File(path, "r", locking=False) as f:
+            mac = f.attrs.get(MAC_ATTR, "")
+            return isinstance(mac, str) and hmac.compare_digest(mac, case_mac(f, key))
+    except (OSError, KeyError, ValueError, RuntimeError):
+        return False
 
 
 def clean_leftovers(output: Path) -> None:
@@ -87,10 +208,32 @@ def clean_leftovers(output: Path) -> None:
     folder = journal_folder(output)
     for p in [*folder.glob(".case-*.tmp"), *folder.glob(f".{PLAN}.*.tmp")]:
         p.unlink(missing_ok=True)
-    for p in output.parent.glob(f".{output.name}.tmp-*"):
-        p.unlink(missing_ok=True)
+    clean_stale_copies(output)
     for p in output.parent.glob(f".{output.name}{OLD_PARTS}*"):
         shutil.rmtree(p, ignore_errors=True)
+
+
+def clean_stale_copies(output: Path) -> None:
+    """Remove the half-written copies ``.<name>.tmp-<pid>`` of ``output`` that processes now
+    dead left (a killed sweep or merge); those of a live process, or another user's, stay."""
+    for p in output.parent.glob(f".{output.name}.tmp-*"):
+        pid = p.name.rsplit("-", 1)[1]
+        try:
+            mine = os.lstat(p).st_uid == os.geteuid()
+        except OSError:
+            continue
+        if mine and (not pid.isdigit() or not _alive(int(pid))):
+            p.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return pid != 0
 
 
 def case_files(folder: Path) -> list[tuple[int, Path]]:

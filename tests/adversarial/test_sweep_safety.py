@@ -121,7 +121,7 @@ def test_a_second_sweep_on_a_file_being_written_is_refused_and_takes_nothing(tmp
         assert _wait_for_case(out, first), "the first sweep stored no case"
         second = _mbs("sweep", IDEAL, *LONG, "-o", out)
         text = _clean(second, 2)
-        assert "being written by another sweep" in text
+        assert "being written by a sweep (mbs sweep, pid" in text
         stdout, stderr = first.communicate(timeout=600)
     finally:
         if first.poll() is None:
