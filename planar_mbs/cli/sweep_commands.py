@@ -25,6 +25,7 @@ from planar_mbs.lazy import lazy
 from planar_mbs.sweep.progress import ProgressTally
 
 from .common import ExitCode
+from .spectrum_options import KindOpt, ResolutionOpt, WindowOpt
 from .common import console as _console
 from .common import fail as _fail
 from .common import parse_sets as _sets
@@ -43,6 +44,7 @@ sweep_scan = lazy("planar_mbs.sweep.scan")
 simulation = lazy("planar_mbs.run.simulation")
 hdf5 = lazy("planar_mbs.results.hdf5")
 analysis = lazy("planar_mbs.results.analysis")
+spectrum_command = lazy("planar_mbs.cli.spectrum_command")
 server = lazy("planar_mbs.sweep.server")  # multiprocessing: only when a sweep ends
 rich_progress = lazy("rich.progress")  # only on a terminal, once the first case finishes
 # dask.distributed (optional, slow to import): only with --scheduler
@@ -113,6 +115,15 @@ TransientOpt = Annotated[float, typer.Option(
 ClockOpt = Annotated[Optional[str], typer.Option(
     "--clock", help="Body whose angle clocks the section.",
     show_default="the driven body, else the body that turns most")]
+
+
+SpectrumOpt = Annotated[Optional[str], typer.Option(
+    "--spectrum", help="Print the spectrum of this signal instead of the verdict (e.g. slider.ax).",
+    show_default=False)]
+FromOpt = Annotated[Optional[str], typer.Option(
+    "--from", help="With --spectrum: drop the transient before this time (0.1s).", show_default="the start")]
+ToOpt = Annotated[Optional[str], typer.Option(
+    "--to", help="With --spectrum: the last time used.", show_default="the end")]
 
 
 ParamOpt = Annotated[list[str], typer.Option(
@@ -420,14 +431,31 @@ def analyze(
     clock: ClockOpt = None,
     store: Annotated[bool, typer.Option("--store", help="Write the section and verdict into the file "
                                         "(group `poincare` of the run).")] = False,
+    spectrum: SpectrumOpt = None,
+    kind: KindOpt = "amplitude",
+    window: WindowOpt = None,
+    resolution: ResolutionOpt = None,
+    t_from: FromOpt = None,
+    t_to: ToOpt = None,
+    peaks: Annotated[int, typer.Option("--peaks", help="Peaks of the spectrum printed.", min=0)] = 5,
+    csv: Annotated[Optional[Path], typer.Option("--csv", help="Write the spectrum to this CSV file.",
+                                                show_default=False)] = None,
 ) -> None:
     """Poincaré section of a run and a verdict on its motion: periodic (with its period count),
     quasi-periodic or chaotic, with the indicators it rests on (0-1 test K, nearest-neighbour
     Lyapunov growth λ per period, correlation dimension D2, recurrence residual).
 
+    With --spectrum SIGNAL, its spectrum instead (--kind amplitude, psd or order), after --from,
+    with the window and resolution stated and the highest peaks (docs/spectra.md).
+
     For a sweep file, prints the stored verdict of every case.
     """
     try:
+        if spectrum is not None:
+            opts = spectrum_command.spectrum_options(kind, window, resolution, t_from, t_to, clock)
+            hdf5.check_results_file(str(results).partition(":")[0])
+            spectrum_command.print_spectrum(results, spectrum, opts, peaks, csv)
+            return
         _analyze(results, poincare, period, angle, transient, clock, store)
     except MbsError as err:
         _fail(err)
