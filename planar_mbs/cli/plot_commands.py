@@ -71,7 +71,7 @@ def plot(
         "--to", help="End of the time window drawn, with units (250ms).", show_default="the end of the run")] = None,
     spectrum: Annotated[Optional[list[str]], typer.Option(
         "--spectrum", help="A spectrum figure of this signal over the --from/--to window. Repeatable.",
-        show_default=False)] = None,
+        show_default="none")] = None,
     kind: KindOpt = "amplitude",
     window_name: WindowOpt = None,
     resolution: ResolutionOpt = None,
