@@ -103,7 +103,7 @@ def _dx_dr(theta: float) -> float:
 
 def _sweep(path, out, n):
     args = ["sweep", str(path), "--sample", "r=normal(50mm, 0.1mm)", "--cases", str(n), "--sampler", "mc",
-            "--seed", "11", "--keep", "slider.x", "--no-section", "-j", "1", "-q", "-o", str(out)]
+            "--random-state", "11", "--keep", "slider.x", "--no-section", "-j", "1", "-q", "-o", str(out)]
     return runner.invoke(app, args)
 
 
@@ -130,7 +130,7 @@ def test_monte_carlo_spread_of_the_slider_position(tmp_path):
     argv = ["mbs", "sweep", "stats", str(out), "slider.x@4ms"]
     route(argv)
     res = runner.invoke(app, argv[1:])
-    assert res.exit_code == 0 and "mc study, seed 11, 96 samples" in res.output and "std" in res.output, res.output
+    assert res.exit_code == 0 and "mc study, random state 11, 96 samples" in res.output and "std" in res.output, res.output
 
 
 def test_study_usage_errors(tmp_path):

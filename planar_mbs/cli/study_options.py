@@ -18,8 +18,8 @@ CasesOpt = Annotated[Optional[int], typer.Option(
     "(parameters + 2) cases each).", min=2, show_default="none")]
 SamplerOpt = Annotated[str, typer.Option("--sampler", help="With --sample: mc (Monte Carlo), lhs (Latin "
                                          "hypercube) or sobol (scrambled Sobol' sequence).")]
-SeedOpt = Annotated[int, typer.Option("--seed", help="With --sample: the seed; the same seed gives the same cases.",
-                                      min=0)]
+SeedOpt = Annotated[int, typer.Option("--random-state", help="With --sample: the random generator's state (an "
+                                      "integer); the same number gives the same cases.", min=0)]
 SobolOpt = Annotated[bool, typer.Option("--sobol-indices", help="With --sample: Saltelli's design, for first-order "
                                         "and total Sobol indices (`mbs sweep stats`).")]
 

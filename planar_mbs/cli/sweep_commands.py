@@ -202,7 +202,7 @@ def sweep(
     merge A B -o ALL` merges scans. Rerunning the same command resumes: finished cases are not run
     again, and a killed sweep loses no finished case.
 
-    With --sample instead of --param, a sampled study (docs/sampled_studies.md), read by `mbs sweep stats`.
+    With --sample instead of --param, a sampled study (docs/studies.md), read by `mbs sweep stats`.
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
     try:
@@ -455,7 +455,7 @@ def analyze(
     Lyapunov growth λ per period, correlation dimension D2, recurrence residual).
 
     With --spectrum SIGNAL, its spectrum instead (--kind amplitude, psd or order), after --from,
-    with the window and resolution stated and the highest peaks (docs/spectra.md).
+    with the window and resolution stated and the highest peaks (docs/studies.md).
 
     For a sweep file, prints the stored verdict of every case.
     """

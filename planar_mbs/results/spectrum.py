@@ -1,6 +1,6 @@
 """Spectra of a signal after its transient: FFT amplitude, Welch PSD, order spectrum.
 
-Three kinds, all through `scipy.signal` (docs/spectra.md):
+Three kinds, all through `scipy.signal` (docs/studies.md):
 
 ``amplitude``  one-sided amplitude spectrum, `scipy.signal.periodogram` with
                ``scaling="spectrum"``: a sine ``A sin(2π f t)`` on a bin reads ``A`` at ``f``

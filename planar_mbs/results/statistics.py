@@ -1,5 +1,5 @@
 """Statistics of one output over the cases of a sampled study, with confidence intervals, and
-Sobol' sensitivity indices (docs/sampled_studies.md).
+Sobol' sensitivity indices (docs/studies.md).
 
 ``mean``         with the Student-t interval ``m ± t s/√n``;
 ``std``          with the chi-square interval of a normal sample, ``s √((n−1)/χ²)``;

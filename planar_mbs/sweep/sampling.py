@@ -294,7 +294,7 @@ class StudyReport:
 
     def lines(self) -> list[str]:
         d = self.study
-        out = [f"{d.sampler} study, seed {d.seed}, {d.n} samples"
+        out = [f"{d.sampler} study, random state {d.seed}, {d.n} samples"
                + (" (Saltelli's design for Sobol indices)" if d.sobol_indices else "") + ": "
                + "; ".join(x.describe() for x in d.distributions)]
         out += self.statistics.lines()
