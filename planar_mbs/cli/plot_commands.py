@@ -123,7 +123,6 @@ def _with_clock(spectra, body):
     """The spectrum options, with `--clock` as the order spectrum's body."""
     if spectra is None:
         return None
-    spectra.pop("t_from", None), spectra.pop("t_to", None)  # the figure's window: --from/--to
     if body and spectra["kind"] == "order":
         spectra["clock"] = body
     return spectra

@@ -219,6 +219,9 @@ def run_study(model_path, distributions: Sequence[Distribution], output, *, n: i
         raise SweepError("give each sampled parameter once (--sample NAME=...)")
     study = Study(tuple(distributions), int(n), sampler, int(seed), bool(sobol_indices))
     old = None if overwrite else stored_study(output)
+    if old is None and not overwrite and Path(output).exists():
+        raise SweepError(f"{output} exists and is not a sampled study (a grid sweep, or a run); choose another -o "
+                         "or pass --overwrite")
     if old is not None and not old.same_design(study):
         raise SweepError(f"{output} holds another sampled study (other distributions, sampler, seed or design); "
                          "choose another -o or pass --overwrite")
