@@ -14,6 +14,7 @@ from planar_mbs.errors import MbsError
 from planar_mbs.lazy import lazy
 
 from .common import check_choice, check_number, check_output
+from .spectrum_options import KindOpt, ResolutionOpt, WindowOpt
 from .common import console as _console
 from .common import fail as _fail
 from .common import quantity as _quantity
@@ -24,6 +25,7 @@ figures = lazy("planar_mbs.outputs.plot")
 views = lazy("planar_mbs.results.views")
 rerun_log = lazy("planar_mbs.outputs.rerun_log")
 rich_table = lazy("rich.table")
+spectrum_command = lazy("planar_mbs.cli.spectrum_command")
 
 
 def _results_path(text: Path) -> Path:
@@ -67,6 +69,12 @@ def plot(
     = None,
     t_to: Annotated[Optional[str], typer.Option(
         "--to", help="End of the time window drawn, with units (250ms).", show_default="the end of the run")] = None,
+    spectrum: Annotated[Optional[list[str]], typer.Option(
+        "--spectrum", help="A spectrum figure of this signal over the --from/--to window. Repeatable.",
+        show_default="none")] = None,
+    kind: KindOpt = "amplitude",
+    window_name: WindowOpt = None,
+    resolution: ResolutionOpt = None,
 ) -> None:
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
@@ -89,13 +97,17 @@ def plot(
                       t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
                                         hint="a time from the start of the run, e.g. `--to 0.25s`"))
         notes: list[str] = []
+        spectra = spectrum_command.spectrum_options(kind, window_name, resolution, None, None, None) \
+            if spectrum else None
         check_output(output or file.parent / f"{file.stem}_plots", "--output", [("the results file", file)],
                      folder=True)
+        extra = {"spectra": spectrum or [], "spectrum_options": _with_clock(spectra, body)}
         if ":/" in str(results):  # one case of a sweep: plot it like a run
-            written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes)
+            written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes,
+                                 extra)
         else:
             written = figures.plot_file(file, signals or [], against, poincare, output, fmt, skip, body, orbit or [],
-                                notes=notes, **window)
+                                notes=notes, **window, **extra)
     except MbsError as err:
         _fail(err)
     for note in notes:
@@ -107,7 +119,16 @@ def plot(
         con.print("nothing to plot", markup=False)
 
 
-def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes):
+def _with_clock(spectra, body):
+    """The spectrum options, with `--clock` as the order spectrum's body."""
+    if spectra is None:
+        return None
+    if body and spectra["kind"] == "order":
+        spectra["clock"] = body
+    return spectra
+
+
+def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes, extra):
     """`mbs plot sweep.h5:/cases/3 ...`: plot one case of a sweep like a run."""
     try:
         res = hdf5.read_results(results)
@@ -117,7 +138,7 @@ def _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, bo
     stem = f"{Path(file).stem}_case{group.rstrip('/').rsplit('/', 1)[-1]}"
     out = output or Path(file).parent / f"{stem}_plots"
     return figures.plot_results(res, stem, signals or [], against, poincare, out, fmt, skip, body, orbit or [],
-                        notes=notes, **window)
+                        notes=notes, **window, **extra)
 
 
 def _list_signals(results: Path) -> None:

@@ -25,6 +25,8 @@ from planar_mbs.lazy import lazy
 from planar_mbs.sweep.progress import ProgressTally
 
 from .common import ExitCode
+from .spectrum_options import KindOpt, ResolutionOpt, WindowOpt
+from .study_options import CasesOpt, SampleOpt, SamplerOpt, SeedOpt, SobolOpt
 from .common import console as _console
 from .common import fail as _fail
 from .common import parse_sets as _sets
@@ -43,6 +45,8 @@ sweep_scan = lazy("planar_mbs.sweep.scan")
 simulation = lazy("planar_mbs.run.simulation")
 hdf5 = lazy("planar_mbs.results.hdf5")
 analysis = lazy("planar_mbs.results.analysis")
+spectrum_command = lazy("planar_mbs.cli.spectrum_command")
+study_command = lazy("planar_mbs.cli.study_command")
 server = lazy("planar_mbs.sweep.server")  # multiprocessing: only when a sweep ends
 rich_progress = lazy("rich.progress")  # only on a terminal, once the first case finishes
 # dask.distributed (optional, slow to import): only with --scheduler
@@ -115,10 +119,19 @@ ClockOpt = Annotated[Optional[str], typer.Option(
     show_default="the driven body, else the body that turns most")]
 
 
-ParamOpt = Annotated[list[str], typer.Option(
+SpectrumOpt = Annotated[Optional[str], typer.Option(
+    "--spectrum", help="Print the spectrum of this signal instead of the verdict (e.g. slider.ax).",
+    show_default="none: the verdict")]
+FromOpt = Annotated[Optional[str], typer.Option(
+    "--from", help="With --spectrum: drop the transient before this time (0.1s).", show_default="the start")]
+ToOpt = Annotated[Optional[str], typer.Option(
+    "--to", help="With --spectrum: the last time used.", show_default="the end")]
+
+
+ParamOpt = Annotated[Optional[list[str]], typer.Option(
     "--param", "-P", help="NAME=VALUES: a list (speed=800rpm,1200rpm), a linear range with a count "
     "(clearance=0.1mm..0.5mm:5) or names (law=hertz,lankarani_nikravesh). Repeatable; the sweep is the "
-    "cartesian product.", show_default=False)]
+    "cartesian product.", show_default="none: --sample")]
 SweepKeepOpt = Annotated[Optional[str], typer.Option(
     "--keep", help="Comma-separated signals to store per case besides its Poincaré section, verdict and "
     "summary statistics (extrema and RMS of every signal); an entity name (slider) keeps all its "
@@ -138,8 +151,13 @@ SweepForceOpt = Annotated[bool, typer.Option(
 
 def sweep(
     model: Annotated[Path, typer.Argument(help="The .mbs model file.", show_default=False)],
-    param: ParamOpt,
     output: Annotated[Path, typer.Option("--output", "-o", help="The sweep's HDF5 file.", show_default=False)],
+    param: ParamOpt = None,
+    sample: SampleOpt = None,
+    cases: CasesOpt = None,
+    sampler: SamplerOpt = "lhs",
+    seed: SeedOpt = 0,
+    sobol_indices: SobolOpt = False,
     set_: Annotated[Optional[list[str]], typer.Option(
         "--set", "-s", help="Fixed override of a `param` for every case, NAME=VALUE. Repeatable.",
         show_default=False)] = None,
@@ -184,10 +202,12 @@ def sweep(
     merge A B -o ALL` merges scans. Rerunning the same command resumes: finished cases are not run
     again, and a killed sweep loses no finished case.
 
+    With --sample instead of --param, a sampled study (docs/studies.md), read by `mbs sweep stats`.
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
     try:
-        axes = [sweep_scan.parse_param(p) for p in param]
+        study = study_command.study_options(param, sample, cases, sampler, seed, sobol_indices)
+        axes = [] if study else [sweep_scan.parse_param(p) for p in param]
         settings = _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs)
         section = _section_options(poincare, period, angle, transient, clock, no_section)
         keep_list = None if keep is not None and keep.strip() == "all" else \
@@ -195,7 +215,7 @@ def sweep(
         _check_sweep_files(model, output, set_ or [], keep_list)
         workers = None if scheduler else jobs or os.cpu_count() or 1  # a cluster's: unknown here
         with _interruptible(), _SweepProgress(quiet, workers) as bar, _cluster(scheduler) as executor:
-            summary = sweep_scan.run_sweep(model, axes, output, sets=_sets(set_ or []), settings=settings,
+            summary = study_command.start(study, model, axes, output, sets=_sets(set_ or []), settings=settings,
                                 revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
                                 jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
                                 progress=bar.update, worker_timeout=worker_timeout, force=force)
@@ -207,7 +227,7 @@ def sweep(
         raise typer.Exit(128 + _interruptible.signum(err))
     finally:
         server.remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
-    _report_sweep(summary, [a.name for a in axes])
+    study_command.report(summary, output) if study else _report_sweep(summary, [a.name for a in axes])
 
 
 def _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs) -> dict:
@@ -420,14 +440,31 @@ def analyze(
     clock: ClockOpt = None,
     store: Annotated[bool, typer.Option("--store", help="Write the section and verdict into the file "
                                         "(group `poincare` of the run).")] = False,
+    spectrum: SpectrumOpt = None,
+    kind: KindOpt = "amplitude",
+    window: WindowOpt = None,
+    resolution: ResolutionOpt = None,
+    t_from: FromOpt = None,
+    t_to: ToOpt = None,
+    peaks: Annotated[int, typer.Option("--peaks", help="Peaks of the spectrum printed.", min=0)] = 5,
+    csv: Annotated[Optional[Path], typer.Option("--csv", help="Write the spectrum to this CSV file.",
+                                                show_default="none")] = None,
 ) -> None:
     """Poincaré section of a run and a verdict on its motion: periodic (with its period count),
     quasi-periodic or chaotic, with the indicators it rests on (0-1 test K, nearest-neighbour
     Lyapunov growth λ per period, correlation dimension D2, recurrence residual).
 
+    With --spectrum SIGNAL, its spectrum instead (--kind amplitude, psd or order), after --from,
+    with the window and resolution stated and the highest peaks (docs/studies.md).
+
     For a sweep file, prints the stored verdict of every case.
     """
     try:
+        if spectrum is not None:
+            opts = spectrum_command.spectrum_options(kind, window, resolution, t_from, t_to, clock)
+            hdf5.check_results_file(str(results).partition(":")[0])
+            spectrum_command.print_spectrum(results, spectrum, opts, peaks, csv)
+            return
         _analyze(results, poincare, period, angle, transient, clock, store)
     except MbsError as err:
         _fail(err)
@@ -487,7 +524,7 @@ def _print_verdict(con, results, sec, verdict) -> None:
         con.print(line, markup=False)
 
 
-SUBCOMMANDS = {"replay": "sweep-replay", "merge": "sweep-merge"}
+SUBCOMMANDS = {"replay": "sweep-replay", "merge": "sweep-merge", "stats": "sweep-stats"}
 
 
 def route(argv: list[str]) -> None:

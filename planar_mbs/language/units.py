@@ -352,7 +352,7 @@ def to_si(q, plain: bool, dim: Dim, what: str, field: str = "") -> float:
 
 
 _CLI_QUANTITY = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*$")
-_DIMS = {"time": TIME, "length": LENGTH, "angular_velocity": ANGULAR_VELOCITY}
+_DIMS = {"time": TIME, "length": LENGTH, "angular_velocity": ANGULAR_VELOCITY, "frequency": FREQUENCY}
 
 
 def parse_quantity(text: str, dimension: str, where: str = "") -> float:

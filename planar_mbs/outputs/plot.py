@@ -51,6 +51,7 @@ from ..results.views import (
 matplotlib = lazy("matplotlib")
 mpl_figure = lazy("matplotlib.figure")
 plt = lazy("matplotlib.pyplot")
+spectrum = lazy("..results.spectrum", __package__)  # scipy.signal: only for a spectrum figure
 scan = lazy("..sweep.scan", __package__)  # 0.1 s of sockets and threads: only the verdicts of a sweep's cases
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -393,6 +394,33 @@ def _grid(n: int):
     return math.ceil(n / ncols), ncols
 
 
+def spectrum_figure(results: "Results", spec):
+    """A `planar_mbs.results.spectrum.Spectrum`: amplitude against frequency or order (linear), a PSD on
+    a log scale; its method, window and resolution under the run's title, its highest peaks marked."""
+    fig = _figure(8.0, 4.0)
+    ax = fig.subplots()
+    x, y = np.asarray(spec.x), np.asarray(spec.y)
+    if spec.kind == "psd":
+        ax.semilogy(x[1:], y[1:], lw=0.8)  # DC: ~0 after the mean is removed
+    else:
+        ax.plot(x, y, lw=0.8)
+        seen = np.nonzero(y > 1e-3 * y.max())[0] if len(y) and y.max() > 0 else []
+        if len(seen):  # up to half as far again as the last visible component
+            ax.set_xlim(0, min(x[-1], max(1.5 * x[seen[-1]], 10 * spec.resolution)))
+    for px, py in spec.peaks(5):
+        ax.plot(px, py, "v", ms=4, color="C3")
+        ax.annotate(f"{px:.3g}", (px, py), textcoords="offset points", xytext=(3, 3), fontsize="x-small")
+    ax.set_xlabel("order (cycles per revolution of " + str(spec.meta.get("clock")) + ")" if spec.kind == "order"
+                  else "frequency [Hz]")
+    what = {"amplitude": "amplitude", "psd": "PSD", "order": "order amplitude"}[spec.kind]
+    ax.set_ylabel(f"{spec.signal} {what} [{pretty_unit(spec.y_unit)}]")
+    ax.grid(True, lw=0.3, alpha=0.6)
+    res = f"{spec.resolution:.3g} " + ("orders" if spec.kind == "order" else "Hz")
+    ax.set_title(_title(results) + f"\n{spec.kind}: {spec.window} window, resolution {res}, "
+                 f"t = {spec.t_from:.4g} … {spec.t_to:.4g} s", fontsize="small")
+    return fig
+
+
 def sweep_grid_figure(cases, name: str, against: str | None = None):
     """One subplot per case of one signal (Muvengei et al.'s Figs. 9-11)."""
     keys = varying_parameters(cases)
@@ -513,6 +541,8 @@ def plot_file(
     t_from: float | None = None,
     t_to: float | None = None,
     notes: list[str] | None = None,
+    spectra: Sequence[str] = (),
+    spectrum_options: dict | None = None,
 ) -> list[Path]:
     """Draw the figures `mbs plot` makes and return the files written.
 
@@ -532,6 +562,9 @@ def plot_file(
         raise PlotError(f"error: {path} is not an HDF5 results file ({exc})") from None
     outdir = Path(outdir) if outdir is not None else path.parent / f"{path.stem}_plots"
     stem = path.stem
+    if sweep and spectra:
+        raise PlotError(f"error: {path} is a sweep file: a spectrum is drawn for a run or one case "
+                        f"({path}:/cases/0)")
     if sweep:
         panels = parse_panels(signals)
         pair = parse_pair(poincare_pair) if poincare_pair else None
@@ -541,7 +574,7 @@ def plot_file(
     except (KeyError, OSError) as exc:
         raise PlotError(f"error: {path} is not a results file written by `mbs run` ({exc})") from None
     return plot_results(results, stem, signals, against, poincare_pair, outdir, fmt, skip, body, orbit, model,
-                        t_from, t_to, notes)
+                        t_from, t_to, notes, spectra, spectrum_options)
 
 
 def plot_results(
@@ -559,9 +592,13 @@ def plot_results(
     t_from: float | None = None,
     t_to: float | None = None,
     notes: list[str] | None = None,
+    spectra: Sequence[str] = (),
+    spectrum_options: dict | None = None,
 ) -> list[Path]:
     """The figures of one run (already loaded); file names start with `stem`.  ``t_from`` / ``t_to``
-    (s) cut every figure to a time window; warnings (a too-coarse orbit) go to `notes`."""
+    (s) cut every figure to a time window; warnings (a too-coarse orbit) go to `notes`.  ``spectra``:
+    a spectrum figure of each signal named (`spectrum_figure`; ``spectrum_options`` as
+    `planar_mbs.results.spectrum.spectrum` takes them, over the same window)."""
     if fmt not in FORMATS:
         raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
     outdir = Path(outdir)
@@ -575,7 +612,11 @@ def plot_results(
     window = results.attrs.get("window") if results is not full else None
     if against:
         check_signals(results, [against])
-    defaults = not panels and pair is None and not orbit
+    defaults = not panels and pair is None and not orbit and not spectra
+    for name in spectra:
+        opts = {"kind": "amplitude", **(spectrum_options or {}), "t_from": t_from, "t_to": t_to}
+        spec = spectrum.spectrum(full, name, opts.pop("kind"), **opts)
+        _save(spectrum_figure(full, spec), outdir / f"{stem}_{spec.kind}_{_slug(name)}.{fmt}", written)
     if defaults:
         startup = startup_end(results, skip, model) if window is None else None  # a long run, no window asked
         for fname, names in default_panels(results, model):

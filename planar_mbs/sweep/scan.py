@@ -557,11 +557,14 @@ def _canon(obj) -> str:
 
 
 def plan(model_path, axes: Sequence[Axis], sets=None, settings=None, revolutions=None, per_rev=None,
-         keep=None, section=None, snapshot: ModelSnapshot | None = None) -> list[CaseSpec]:
-    """The cases of a sweep, numbered in product order (before any resumption)."""
+         keep=None, section=None, snapshot: ModelSnapshot | None = None,
+         cases: Sequence[dict[str, str]] | None = None) -> list[CaseSpec]:
+    """The cases of a sweep, numbered in product order (before any resumption); ``cases``, when
+    given, lists each case's values instead of the product of the axes (a sampled study)."""
+    values_list = expand(axes) if cases is None else [dict(c) for c in cases]
     return [CaseSpec(k, str(model_path), values, dict(sets or {}), dict(settings or {}), revolutions, per_rev,
                      tuple(keep) if keep is not None else None, section, snapshot)
-            for k, values in enumerate(expand(axes))]
+            for k, values in enumerate(values_list)]
 
 
 def kept_signals(model, keep: Sequence[str]) -> set[str]:
@@ -770,6 +773,8 @@ def run_sweep(
     progress: Callable[[int, int, CaseOutcome | None], None] | None = None,
     worker_timeout: float = 60.0,
     force: bool = False,
+    cases: Sequence[dict[str, str]] | None = None,
+    study: dict | None = None,
 ) -> SweepSummary:
     """Run every case of the sweep not yet in ``output`` and store it there.
 
@@ -785,6 +790,9 @@ def run_sweep(
     left without a worker for ``worker_timeout`` seconds, or without its scheduler, stops the sweep
     (`SweepStopped`; the cases stored so far are kept and a rerun resumes).  Unless ``force``, a
     case beyond `output_size.MAX_ROWS` rows or cases that do not fit on the disk are refused first.
+    ``cases`` lists the cases' values instead of the product of ``axes`` (which then name the
+    parameters and their values), and ``study`` is stored as the root attribute ``study`` (JSON):
+    a sampled study (`planar_mbs.sweep.sampling`).
     """
     start = time.perf_counter()
     output = Path(output)
@@ -799,7 +807,7 @@ def run_sweep(
     if section and section.get("signals"):
         section["signals"] = list(section["signals"])
     settings = dict(settings or {})
-    specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section, snapshot)
+    specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section, snapshot, cases)
     config = _config(snapshot, sets, settings, revolutions, per_rev, keep, section)
     params = [a.name for a in axes]
     _check_param_names(params)
@@ -815,7 +823,7 @@ def run_sweep(
         lock.release(remove=True)
         raise
     header = {"kind": "sweep", "config": json.dumps(config, default=str), "params": json.dumps(state.merged),
-              "version": _version(), **snapshot.attrs()}
+              "version": _version(), **snapshot.attrs(), **({"study": json.dumps(study)} if study else {})}
     return _run_cases(state, lock, output, header, params, jobs, executor, compression, progress, start,
                       worker_timeout)
 
