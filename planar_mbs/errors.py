@@ -92,7 +92,9 @@ class SimulationError(MbsError):
 
 def did_you_mean(name: str, candidates) -> str:
     """A hint naming the closest candidate(s), or '' when nothing is close."""
-    close = difflib.get_close_matches(name, list(candidates), n=3, cutoff=0.6)
+    if not isinstance(name, str):
+        return ""
+    close = difflib.get_close_matches(name, [c for c in candidates if isinstance(c, str)], n=3, cutoff=0.6)
     if not close:
         return ""
     if len(close) == 1:

@@ -9,9 +9,11 @@ range error of an option (the command line's other options use it too).
 from __future__ import annotations
 
 import math
+import os
 
 from .. import catalog
 from ..errors import ModelError
+from ..mechanism.model import Model
 from ..lazy import lazy
 
 # numpy: `mbs --help` and `mbs check` read this module's bounds (`MAX_T_END`) without loading it
@@ -140,3 +142,35 @@ def check_stop(t_stop: float, t_end: float, what: str = "run_until") -> None:
         raise ModelError(f"`{what}({t_stop:g} s)` is past the end of this Simulation, t_end = {t_end:g} s",
                          f"{what}(...)", hint="create the Simulation with a later t_end "
                          f"(Simulation(model, t_end=...)); `run()` runs to t_end")
+
+
+def check_arguments(model, signals, what: str) -> None:
+    """The API's arguments refused with the CLI's kind of message (ModelError, exit 2 from the CLI) before
+    they reach the run: a model that is not a compiled one (a path, None), signal names that are not text."""
+    from_path = isinstance(model, (str, os.PathLike))
+    if not isinstance(model, Model):
+        raise ModelError(f"{what} runs a compiled model, not {type(model).__name__} {model!r:.60}", f"{what}(...)",
+                         hint=("load it first: `mbs.load_model(path)`" if from_path else
+                               "`mbs.load_model(path)` or `mbs.compile_text(text)` gives one"))
+    if signals is None or isinstance(signals, str):
+        return
+    try:
+        names = list(signals)
+    except TypeError:
+        names = [signals]
+    bad = [n for n in names if not isinstance(n, str)]
+    if bad:
+        raise ModelError(f"signals are named by text (`slider.x`, or a whole entity `slider`), not {bad[0]!r}",
+                         f"{what}(signals=...)", hint="e.g. signals=[\"slider.x\", \"A\"]")
+
+
+def seconds_value(value, name: str) -> float:
+    """A finite number of seconds from a plain number (a 1-element array too), refused otherwise."""
+    try:
+        seconds = float(value.item() if hasattr(value, "item") and getattr(value, "size", 1) == 1 else value)
+    except (TypeError, ValueError):
+        raise ModelError(f"`{name}` takes a time (seconds, or text with units), not {value!r:.60}", f"{name}=",
+                         hint=f"e.g. {name}=\"1 ms\"") from None
+    if not math.isfinite(seconds):
+        raise ModelError(f"`{name}` must be a finite time, not {seconds}", f"{name}=", hint=f"e.g. {name}=\"1 ms\"")
+    return seconds

@@ -45,7 +45,8 @@ from .checks import end_warnings, not_physical
 from .driver import BUFFER_ROWS, Driver, MemorySink, Sink
 from .loads import Loads
 from .output_size import MAX_ROWS, estimate
-from .settings_check import check_memory, check_settings, check_stop, given_settings as _given
+from .settings_check import check_arguments, check_memory, check_settings, check_stop, given_settings as _given, \
+    seconds_value
 from ..results.hdf5 import DiskFull, FileResults, Results, ResultsWriter
 from ..results.section import driver_period
 from ..results.signals import signal_table, skip_bits
@@ -132,6 +133,8 @@ def _setting(model: Model, name: str, value):
                                  hint="e.g. projection=\"on\"")
             return {"true": "on", "false": "off"}.get(v, v)
         return "on" if value else "off"
+    if isinstance(value, np.ndarray):  # a 1-element array is its number; any other is refused below
+        value = value.item() if value.size == 1 else str(value)
     if isinstance(value, str):
         try:
             if name in _TIME_SETTINGS:
@@ -141,9 +144,10 @@ def _setting(model: Model, name: str, value):
             value = float(value)
         except ValueError:
             raise ModelError(f"`{name}` takes a number, not `{value}`", where, hint="e.g. rtol=1e-8") from None
-    if name == "max_steps":
-        return int(value)
-    return float(value)
+    try:
+        return int(value) if name == "max_steps" else float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"`{name}` takes a number, not {value!r:.60}", where, hint="e.g. rtol=1e-8") from None
 
 
 def run_settings(model: Model, revolutions=None, per_rev=None, **changes) -> Settings:
@@ -256,10 +260,13 @@ def simulate(
     only if it holds the results of a run (``overwrite=True``: any file), and never the model
     file or a file it includes.
     """
+    check_arguments(model, signals, "simulate")
     settings = run_settings(model, **settings_changes)
     check_settings(settings, given=_given(settings_changes), source=model.source_path)
     check_tolerances(settings)
     _check_rows(model, settings, max_rows)
+    if output is None:
+        check_memory(model, settings, "simulate without an output file")
     run = _Run(model, settings, output, signals, overwrite)
     with _deferred_interrupts() as received:
         try:
@@ -438,6 +445,7 @@ class Simulation:
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
                  overwrite: bool = False, **settings_changes):
+        check_arguments(model, signals, "Simulation")
         self.settings = run_settings(model, **settings_changes)
         check_settings(self.settings, given=_given(settings_changes), source=model.source_path)
         check_tolerances(self.settings)
@@ -566,4 +574,4 @@ def _seconds(value, name: str) -> float:
     """A time in seconds from a number or from text with units (``"1 ms"``)."""
     if isinstance(value, str):
         return parse_quantity(value, "time", where=f"{name}=")
-    return float(value)
+    return seconds_value(value, name)
