@@ -4,6 +4,7 @@ a case whose mechanism cannot be assembled, a parent killed under its pool.  Eac
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -78,7 +79,9 @@ def test_case_that_cannot_be_assembled_is_a_failed_case_and_the_sweep_goes_on(tm
     rows = {r["values"]["coupler"]: r for r in read_case_table(out)}
     assert {k: r["status"] for k, r in rows.items()} == {"80mm": "finished", "1mm": "failed",
                                                          "200mm": "failed", "81mm": "finished"}
-    assert "joint `B`" in rows["1mm"]["message"] and "joint `O4`" in rows["200mm"]["message"]
+    # a 1 mm coupler cannot reach: the message names one of its two pins (which one is the end point of the
+    # assembly's Newton iteration, and may differ in the last bits from one machine to another)
+    assert re.search(r"joint `[AB]` stays open", rows["1mm"]["message"]) and "joint `O4`" in rows["200mm"]["message"]
     with h5py.File(out, "r") as f:
         assert f["cases/1"].attrs["sweep_status"] == "failed" and len(f["cases/1/time"]) == 0
         assert len(f["cases/0/time"]) > 0
