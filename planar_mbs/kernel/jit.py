@@ -124,6 +124,7 @@ KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "mechanism"
 # same code in every release between them (0.61 had other class names)
 CHECKED_NUMBA = ((0, 62), (0, 68))
 PUBLIC_CACHE_ENV = "PLANAR_MBS_PUBLIC_CACHE"  # set to 1: numba's public cache, as where its internals differ
+WITHOUT_ENV = "PLANAR_MBS_WITHOUT"  # experiments: "inline_copy,loop_opt_level" compiles without those
 
 
 def source_hash(paths=KERNEL_SOURCES) -> str:
@@ -421,8 +422,10 @@ class _SharedScopeInlining(numba_event.Listener):
     modules cost a warm run 25 ms for nothing."""
 
     def on_start(self, event):
-        importlib.import_module(".inline_copy", __package__).apply()
-        importlib.import_module(".loop_opt_level", __package__).apply()
+        left_out = os.environ.get(WITHOUT_ENV, "").split(",")  # experiments only (benchmarks/machinery.py)
+        for name in ("inline_copy", "loop_opt_level"):
+            if name not in left_out:
+                importlib.import_module("." + name, __package__).apply()
 
     def on_end(self, event):
         pass
