@@ -1116,7 +1116,7 @@ class _CheckPass:
             clearance_assembly=self.clearance_assembly,
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
             source_key=self.spec.key, source_includes=dict(self.spec.includes),
-            source_files=list(self.spec.include_files),
+            source_files=list(self.spec.include_files), source_tables=dict(self.programs.table_files),
             clearance_start=self.clearance_start,
         )
 

@@ -81,6 +81,7 @@ class Programs:
         self.consts: list[float] = []
         self.progs: list[tuple[int, int]] = []
         self.tables: list = []  # (knot rows (n, 5), period)
+        self.table_files: dict[str, bytes] = {}  # path -> bytes of every table file read (`Model.source_tables`)
         self.loads = (0, 0)  # first and end row of the loads' programs
         self._start = 0
 

@@ -367,6 +367,7 @@ class Model:
     source_path: str = ""
     source_key: str = ""  # absolute path of the model file (symlinks kept): the base of source_includes
     source_includes: dict[str, str] = field(default_factory=dict)  # absolute path -> text, every include
+    source_tables: dict[str, bytes] = field(default_factory=dict)  # path -> bytes of every table file read
     source_files: list = field(default_factory=list)  # resolved paths of the model file and its includes
     # (nclearance, 4) initial state of each clearance joint as written: journal offset (x, y) and
     # relative velocity (x, y) in the bearing's frame; NaN where not given (kinematics.assemble)

@@ -192,6 +192,7 @@ def _from_file(progs, e: Call, kw):
                              hint=f"the path is relative to the model's folder ({path.parent})") from None
     if len(data) > MAX_TABLE_BYTES:
         raise name.pos.error(f"the table `{name.value}` is larger than {MAX_TABLE_BYTES >> 20} MB")
+    progs.table_files[str(path)] = data  # part of the model: stored with its results
     xscale, xdim = _unit(kw, "x_unit", e)
     yscale, ydim = _unit(kw, "y_unit", e)
     xs, ys = read_csv(data.decode("utf-8", errors="replace").removeprefix("\ufeff"), str(path))

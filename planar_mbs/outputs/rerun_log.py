@@ -70,6 +70,7 @@ rrb = lazy("rerun.blueprint")
 rerun_chunk = lazy("rerun.chunk")
 pa = lazy("pyarrow")  # rerun's columns
 compiler = lazy("..mechanism.compile", __package__)  # lark: only to rebuild a model from its results
+table_reader = lazy("..mechanism.tables", __package__)  # a run's stored tables, for that rebuild
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model
@@ -128,8 +129,12 @@ def model_from_results(results: "Results") -> "Model":
             includes = attrs.get("model_includes")
             if not isinstance(includes, dict) or not all(isinstance(v, str) for v in includes.values()):
                 includes = None  # written before the included files were stored: read them from disk
-            return compiler.compile_text(source, mpath or "<results>", overrides=params, includes=includes,
-                                key=str(attrs.get("model_key") or "") or None)
+            tables = attrs.get("model_tables")
+            tables = ({p: t.encode("utf-8", "surrogateescape") for p, t in tables.items()}
+                      if isinstance(tables, dict) and all(isinstance(t, str) for t in tables.values()) else {})
+            with table_reader.provided(tables):  # the tables as the run read them: no file needed
+                return compiler.compile_text(source, mpath or "<results>", overrides=params, includes=includes,
+                                             key=str(attrs.get("model_key") or "") or None)
         if mpath and Path(mpath).exists():
             return compiler.load_model(mpath, params)
     except ImportError as exc:  # the compiler is not there (yet)

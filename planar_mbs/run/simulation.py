@@ -283,6 +283,7 @@ def _header(model: Model, settings: Settings) -> dict:
         "model_path": model.source_path,
         "model_key": model.source_key,
         "model_includes": model.source_includes,  # every included file: `mbs view` rebuilds anywhere
+        "model_tables": {p: d.decode("utf-8", "surrogateescape") for p, d in model.source_tables.items()},
         "parameters": model.parameters,
         "version": __version__,
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},

@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 
 import planar_mbs as api
@@ -102,3 +103,23 @@ def test_merge_of_sweeps_with_different_tables_is_refused(tmp_path):
     res = mbs("sweep-merge", tmp_path / "a.h5", tmp_path / "b.h5", "-o", tmp_path / "all.h5", cwd=tmp_path)
     assert_clean(res, 2, "different model source")
     assert not os.path.exists(tmp_path / "all.h5")
+
+
+def test_a_runs_results_hold_its_tables_so_the_model_rebuilds_without_the_file(tmp_path):
+    """A table is part of the model: a run stores the bytes it read in its results, and the model is
+    rebuilt from them (as `mbs view` does) after the CSV is gone, with the same table."""
+    import planar_mbs as mbs
+    from planar_mbs.outputs.rerun_log import model_from_results
+
+    (tmp_path / "push.csv").write_text("t,f\n0,0\n0.5,2\n1,0\n", encoding="utf-8")
+    model_file = tmp_path / "m.mbs"
+    model_file.write_text("""body m { mass = 1 kg  inertia = 1 kg*m^2  position = (0, 0) }
+joint slide = translational(ground (0, 0), m, axis = (1, 0))
+force push = expression(m, fx = table("push.csv", x = t, x_unit = "s", y_unit = "N"))
+simulate { t_end = 10 ms  output_step = 1 ms }
+""", encoding="utf-8")
+    model = mbs.load_model(model_file)
+    mbs.simulate(model, output=tmp_path / "r.h5")
+    (tmp_path / "push.csv").unlink()
+    rebuilt = model_from_results(mbs.read_results(tmp_path / "r.h5"))
+    assert np.array_equal(rebuilt.kernel.table_seg, model.kernel.table_seg) and len(model.kernel.table_seg)
