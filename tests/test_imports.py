@@ -132,7 +132,7 @@ def test_no_import_cycle():
 
 # The package's folders in the order of the data flow, lowest first (docs/architecture.md):
 # a module imports from its own folder and the folders before it, never from one after it.
-STAGES = ["lazy", "version", "catalog", "errors", "pykernel", "language", "mechanism", "kernel", "results", "run", "sweep",
+STAGES = ["lazy", "version", "catalog", "errors", "files", "pykernel", "language", "mechanism", "kernel", "results", "run", "sweep",
           "outputs", "cli"]
 
 

@@ -24,6 +24,7 @@ from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
 from ..errors import ModelError, did_you_mean
+from ..files import replace_atomically
 from ..lazy import lazy
 from .units import UnitError, parse_unit
 from .spec import (
@@ -146,7 +147,7 @@ def _save_tables(built: Lark, path: str) -> None:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
         with os.fdopen(fd, "wb") as f:
             built.save(f)
-        os.replace(tmp, path)
+        replace_atomically(tmp, path, durable=False)  # a cache: rebuilt if a power cut loses it
     except Exception:  # noqa: BLE001  (no cache then: slower, not wrong)
         try:
             os.unlink(tmp)

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..errors import did_you_mean
+from ..files import replace_atomically
 from ..lazy import lazy
 from ..results.analysis import VERDICT_COLOURS, read_section
 from ..results.hdf5 import HDF5_SIGNATURE, SIGNALS, open_results, read_results
@@ -506,7 +507,7 @@ def _save(fig, path: Path, written: list[Path]) -> None:
                                     "hint: choose another --output folder")
         with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), "wb") as f:  # mode as umask says
             fig.savefig(f, format=path.suffix[1:])
-        os.replace(tmp, path)
+        replace_atomically(tmp, path, durable=False)  # a figure is drawn again in a moment
     except OSError as exc:
         raise PlotError(f"error: cannot write {path}: {exc.strerror or exc}") from None
     finally:

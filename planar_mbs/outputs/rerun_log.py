@@ -52,6 +52,7 @@ import numpy as np
 
 from .. import catalog
 from ..errors import MbsError
+from ..files import replace_atomically
 from ..lazy import lazy
 from ..mechanism.model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, PairKind
 from ..results.views import (
@@ -389,7 +390,7 @@ def _move_into_place(part: Path, path: Path) -> None:
         raise PlotError(f"error: cannot write the rerun recording {path}: rerun could not write it whole ({reason})\n"
                         f"hint: is the disk full? `df -h {path.parent}`; nothing was written over {path.name}"
                         ) from None
-    os.replace(part, path)
+    replace_atomically(part, path, durable=False)  # a recording is made again from its results
 
 
 def _record_all(rr, rec, results, model, path, magnify, fps, max_frames, signals, signal_rate, signal_stride,

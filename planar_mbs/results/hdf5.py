@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MbsError, ModelError, did_you_mean
+from ..files import replace_atomically
 from ..lazy import lazy
 from .output_lock import OutputBusy, OutputLock
 from .signals import Signal
@@ -403,7 +404,7 @@ def write_beside(path, results: Results, overwrite: bool = False, inputs=()) -> 
             write_results(f, results)
         finally:
             f.close()
-        os.replace(part, path)
+        replace_atomically(part, path)
         moved = True
     finally:
         if not moved:
@@ -754,7 +755,7 @@ class ResultsWriter:
             release_reserve(self.lock.fd, self.reserved)
             if self.whole and self.path != self.target and not self.broken:
                 try:
-                    os.replace(self.path, self.target)
+                    replace_atomically(self.path, self.target)
                     self.path = self.target
                 except OSError:
                     pass  # (a sticky folder, a vanished folder) the results stay in the part file

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MbsError
+from ..files import replace_atomically
 from ..lazy import lazy
 from ..results.hdf5 import WRITE_CHUNK_CACHE
 from ..results.output_lock import OutputLock
@@ -255,19 +256,9 @@ def case_file_row(path: Path) -> dict | None:
         return None
 
 
-def fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def publish(tmp: Path, final: Path) -> None:
     """Flush ``tmp`` to the disk and rename it to ``final`` (the folder's entry flushed too)."""
-    fsync_path(tmp)
-    os.replace(tmp, final)
-    fsync_path(final.parent)
+    replace_atomically(tmp, final, durable=True)
 
 
 def gather(output: Path, header: dict, rows: dict[str, dict], params: list[str], parameter_si,
