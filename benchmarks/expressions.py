@@ -108,14 +108,15 @@ def rhs_times(n=100_000, rounds=21) -> dict:
 
 def section(r: dict, c: tuple[float, float]) -> str:
     verdict = "met" if r["median_ratio"] <= 1.2 else "missed"
+    busy = "shared with other jobs" if r["load"] > 0.5 * r["cpus"] else "otherwise idle"
     return f"""{HEADING}
 
 One right-hand side of the slider-crank with five loads (a constant force, a torque, two rotational
 spring-dampers and a spring-damper), as the built-in elements and as `expression(...)` loads computing
 the same forces ({r['instructions']} program rows in all; the two right-hand sides agree to 1e-12),
 {r['n']:,} right-hand sides per round, {r['rounds']} rounds each timing both one after the other, one
-process (load average {r['load']:.1f} on this machine's {r['cpus']} cores while it ran: the ratio, not the
-microseconds, is the result; the ratio is the median of the rounds' ratios):
+process on this machine's {r['cpus']} cores ({busy}: the ratio, not the microseconds, is
+the result; the ratio is the median of the rounds' ratios):
 
 | loads | one rhs, best round [µs] |
 | --- | --- |

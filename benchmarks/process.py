@@ -371,7 +371,7 @@ def main() -> None:
 
     data = json.loads(DATA.read_text()) if DATA.exists() else {}
     data["process"] = res
-    print("\n".join(report.process_table(res, data.get("process_before"))))
+    print("\n".join(report.process_table(res)))
     if not args.no_store:  # the numbers and the section written from them, together
         DATA.write_text(json.dumps(data, indent=1))
         report.write_process_section(data)

@@ -1,7 +1,6 @@
 """docs/benchmarks.md from docs/benchmarks_data.json (written by benchmarks/run.py)."""
 from __future__ import annotations
 
-import os
 import statistics
 from pathlib import Path
 
@@ -24,15 +23,10 @@ def wp_table(sec):
     return "\n".join(lines)
 
 
-def process_table(pr, before=None) -> list[str]:
-    """The whole-process section: ratios measured in one run (benchmarks/process.py); ``before``: the
-    same measured before the start-up work (its ratios in a column of their own)."""
+def process_table(pr) -> list[str]:
+    """The whole-process section: ratios measured in one run (benchmarks/process.py)."""
     st, sw, lv, o, ch = pr["startup"], pr["sweep"], pr["loop_vs_scipy"], pr["output"], pr["chain40"]
     t = st["times"]
-    b = before or {}
-
-    def was(value, fmt):
-        return "" if value is None else format(value, fmt)
 
     def verdict(r, target, sense):
         if target is None:
@@ -40,14 +34,11 @@ def process_table(pr, before=None) -> list[str]:
         ok = r <= target if sense == "≤" else r >= target
         return f"{sense} {target:g}: **{'met' if ok else 'missed'}**"
 
-    when = (f"; \"before\": commit {b.get('commit', '?')}, {b.get('date', '?')}, load average "
-            f"{b.get('load', [0])[0]:.1f}" if b else "")
-    out = [f"Measured {pr['date']} (load average {pr['load'][0]:.1f} on {os.cpu_count()} cores), "
-           f"medians of {st['rounds']} interleaved rounds for the start-up rows, of {sw['rounds']} for the sweep"
+    out = [f"Medians of {st['rounds']} interleaved rounds for the start-up rows, of {sw['rounds']} for the sweep"
            + (f" ({sw['longer']['rounds']} for its longer cases)" if "longer" in sw else "")
-           + f", of {lv['rounds']} for the time loop, best of {o['rounds']} for the output rows{when}.\n",
-           "| what | time [s] | against | its time [s] | ratio | target | before |",
-           "| --- | ---: | --- | ---: | ---: | --- | ---: |"]
+           + f", of {lv['rounds']} for the time loop, best of {o['rounds']} for the output rows.\n",
+           "| what | time [s] | against | its time [s] | ratio | target |",
+           "| --- | ---: | --- | ---: | ---: | --- |"]
     rows = [("`mbs check models/slider_crank_clearance_a.mbs`", "mbs check", "`python -c \"import numpy\"`",
              "import numpy", "mbs check / import numpy"),
             ("`mbs --help`", "mbs --help", "`python -c \"import numpy\"`", "import numpy", "mbs --help / import numpy"),
@@ -55,53 +46,45 @@ def process_table(pr, before=None) -> list[str]:
              "import numba", "mbs run slider_crank / import numba")]
     for what, k, against, k2, rk in rows:
         r = st["ratios"][rk]
-        old = b.get("startup", {}).get("ratios", {}).get(rk, {}).get("ratio")
         out.append(f"| {what} | {t[k]:.3f} | {against} | {t[k2]:.3f} | {r['ratio']:.2f}× | "
-                   f"{verdict(r['ratio'], r['target'], r['sense'])} | {was(old, '.2f')}× |")
+                   f"{verdict(r['ratio'], r['target'], r['sense'])} |")
     if "exudyn slider_crank" in t:
         e = st.get("errors", {})
         r = st["ratios"]["exudyn / mbs run (slider_crank, whole process)"]["ratio"]
         out.append(f"| warm `mbs run models/slider_crank.mbs` (slider error {e.get('mbs run slider_crank', 0):.1e} m) | "
                    f"{t['mbs run slider_crank']:.3f} | Exudyn, same mechanism, whole process "
                    f"(error {e.get('exudyn slider_crank', 0):.1e} m) | {t['exudyn slider_crank']:.3f} | "
-                   f"Exudyn takes {r:.2f}× | | "
-                   f"{was(b.get('startup', {}).get('ratios', {}).get('exudyn / mbs run (slider_crank, whole process)', {}).get('ratio'), '.2f')}× |")
+                   f"Exudyn takes {r:.2f}× | |")
     r = st["ratios"]["scipy baseline / mbs run (clearance A, 5 rev, whole process)"]["ratio"]
     out.append(f"| `mbs run models/slider_crank_clearance_a.mbs` (5 rev, its own rtol 1e-8, HDF5 file) | "
                f"{t['mbs run clearance A 5 rev']:.3f} | scipy baseline, same case at rtol 1e-6, whole process | "
-               f"{t['scipy baseline clearance A 5 rev']:.3f} | scipy takes {r:.1f}× | | "
-               f"{was(b.get('startup', {}).get('ratios', {}).get('scipy baseline / mbs run (clearance A, 5 rev, whole process)', {}).get('ratio'), '.1f')}× |")
+               f"{t['scipy baseline clearance A 5 rev']:.3f} | scipy takes {r:.1f}× | |")
     spread_sw = f" (rounds: {sw['speedup_min']:.2f}–{sw['speedup_max']:.2f}×)" if "speedup_min" in sw else ""
     out.append(f"| `mbs sweep` of {sw['cases']} cases, `-j 2` | {sw['times']['-j 2']:.2f} | `-j 1` | "
                f"{sw['times']['-j 1']:.2f} | {sw['speedup']:.2f}× faster{spread_sw} | "
-               f"{verdict(sw['speedup'], sw['target'], '≥')} | "
-               f"{was(b.get('sweep', {}).get('speedup'), '.2f')}× |")
+               f"{verdict(sw['speedup'], sw['target'], '≥')} |")
     if "longer" in sw:
         lg = sw["longer"]
         out.append(f"| … the same cases, {lg['revolutions']} revolutions each, `-j 2` | {lg['times']['-j 2']:.2f} | "
                    f"`-j 1` | {lg['times']['-j 1']:.2f} | {lg['speedup']:.2f}× faster "
-                   f"(rounds: {lg['speedup_min']:.2f}–{lg['speedup_max']:.2f}×) | | |")
+                   f"(rounds: {lg['speedup_min']:.2f}–{lg['speedup_max']:.2f}×) | |")
     if "case_seconds" in sw:
         c = sw["case_seconds"]
         out.append(f"| … one case inside a worker of `-j 2` | {c['-j 2']:.2f} | one case in the `-j 1` process | "
-                   f"{c['-j 1']:.2f} | {c['-j 2'] / c['-j 1']:.2f}× slower | 1× on two free cores | |")
+                   f"{c['-j 1']:.2f} | {c['-j 2'] / c['-j 1']:.2f}× slower | 1× on two free cores |")
     spread = f" (rounds: {lv['ratio_min']:.0f}–{lv['ratio_max']:.0f}×)" if "ratio_min" in lv else ""
     out.append(f"| time loop, clearance slider-crank (A, 5000 rpm, 5 rev, rtol 1e-6) | {lv['ours']:.4f} | "
                f"scipy baseline's time loop, same settings | {lv['scipy']:.3f} | {lv['ratio']:.0f}× faster{spread} | "
                f"{verdict(lv['ratio'], lv['target'], '≥')}"
                f"{' on the median, not in every round' if lv.get('ratio_min', lv['ratio']) < lv['target'] <= lv['ratio'] else ''}"
-               f" | {was(b.get('loop_vs_scipy', {}).get('ratio'), '.0f')}× (one round) |")
-    ob = b.get("output", {})
+               " |")
     for name, sel in o.items():
         if not isinstance(sel, dict):
             continue  # target_us, rounds
-        old = ob.get(name, ob if name == "all signals" else {})  # earlier runs measured every signal only
-        us = lambda v: "" if v is None else f"{v:.2f} µs"  # noqa: E731
-        out.append(f"| one output row of `slider_crank.mbs`, {name} ({sel['signals']} signals), in the time loop | {us(sel['loop_us'])} "
-                   f"| | | | | {us(old.get('loop_us'))} |")
-        out.append(f"| one output row, {name}, in total with the HDF5 file | {us(sel['total_us'])} | | | | "
-                   f"≤ {o['target_us']:g} µs: **{'met' if sel['total_us'] <= o['target_us'] else 'missed'}** | "
-                   f"{us(old.get('total_us'))} |")
+        out.append(f"| one output row of `slider_crank.mbs`, {name} ({sel['signals']} signals), in the time loop | "
+                   f"{sel['loop_us']:.2f} µs | | | | |")
+        out.append(f"| one output row, {name}, in total with the HDF5 file | {sel['total_us']:.2f} µs | | | | "
+                   f"≤ {o['target_us']:g} µs: **{'met' if sel['total_us'] <= o['target_us'] else 'missed'}** |")
     if "stages" in pr:
         sg = pr["stages"]
         out.append(f"\nWhere the clearance slider-crank's time loop goes ({sg['loop']:.4f} s, {sg['rows']} output rows, "
@@ -121,15 +104,9 @@ def process_table(pr, before=None) -> list[str]:
                    "cached by a hash of it) was measured through this bound only, not built: the 100× goal rests as "
                    "much on the outputs and the integrator as on the rhs.\n")
     out.append("\n40-link chain (0.5 s, DOPRI5 rtol 1e-6, outputs every 1 ms), one process:\n")
-    out.append("| phase | seconds | before |\n| --- | ---: | ---: |")
+    out.append("| phase | seconds |\n| --- | ---: |")
     for k, v in ch.items():
-        old = b.get("chain40", {}).get(k)
-        fmt = (lambda x: f"{x:.3f}") if isinstance(v, float) else str
-        out.append(f"| {k} | {fmt(v)} | {'' if old is None else fmt(old)} |")
-    if b:
-        out.append(f"\n\"Before\": the same script at commit {b.get('commit', '?')} ({b.get('date', '?')}, load "
-                   f"{b.get('load', [0])[0]:.1f}: measured under load, so its absolute times are long).  Loading "
-                   "numba's compiled kernels moved from the assembly (then a compiled call) to the first simulate.\n")
+        out.append(f"| {k} | {v:.3f} |" if isinstance(v, float) else f"| {k} | {v} |")
     return out + process_notes(pr)
 
 
@@ -138,7 +115,7 @@ PROCESS_HEADING = "## The whole process: start-up, sweeps, output (`benchmarks/p
 
 def process_section(data) -> list[str]:
     """The whole-process section of docs/benchmarks.md, heading included, from data["process"]."""
-    return [PROCESS_HEADING + "\n", PROCESS_TEXT, *process_table(data["process"], data.get("process_before")), ""]
+    return [PROCESS_HEADING + "\n", PROCESS_TEXT, *process_table(data["process"]), ""]
 
 
 def _section_span(text: str, heading: str) -> tuple[int, int] | None:
@@ -234,7 +211,6 @@ def render(data, page: str = "") -> str:
         out.append("| --- | ---: | ---: | ---: | ---: |")
         for k, v in rhs.items():
             out.append(f"| {k} | {v['library']:.3f} | {v['hand']:.3f} | **{v['ratio']:.2f}×** | {v['numpy']:.1f} |")
-        out.append(RHS_HISTORY)
         out.append(RHS_AFTER)
     if "wp_clearance" in data and "ratios" in data:
         sec = data["wp_clearance"]
@@ -356,18 +332,14 @@ def render(data, page: str = "") -> str:
 
 
 MEMORY_TEXT = """`benchmarks/memory.py`: `mbs run models/slider_crank_clearance_a.mbs --t-end T` at the model's own
-output step (10 µs, 54 columns when measured, 56 now), each run its own process, its peak resident set size from the kernel
+output step (10 µs, 54 columns in these runs; the model has 56 now), each run its own process, its peak resident set size from the kernel
 (`os.wait4`). A run streams its rows to the HDF5 file and the `Results` it returns reads them back
-lazily, so the peak does not grow with T: target, the 100-s run within 1.2× the 1-s run. (Before, every
-row stayed in memory and HDF5's default chunk cache kept the written rows too: 283 MB for 1 s and 685 MB
-for 10 s, measured the same way; about 4 GB expected for 100 s.)
+lazily, so the peak does not grow with T: target, the 100-s run within 1.2× the 1-s run.
 
-Target **met: the 100-s run peaks at 1.04× the 1-s run** (measured 2026-11-24 on two idle cores, below).
-Until then a 100-s `mbs run` peaked at 1.44–1.45× (297 MB): not during the run (its resident set stays
-flat) but in the summary printed after it, which asked `"system.position_error" in res.signals`; the
-lazily read `Results` answered that with Python's default `Mapping.__contains__`, which reads the whole
-signal (80 MB for 10^7 rows) to find out.  It now answers from the names
-(`tests/adversarial/test_memory.py` shows it needs no file at all).
+Target **met: the 100-s run peaks at 1.04× the 1-s run** (on two idle cores, below).  The summary
+printed after a run asks `"system.position_error" in res.signals`; the lazily read `Results` answers
+that from the names, where Python's default `Mapping.__contains__` would read the whole signal (80 MB
+for 10^7 rows; `tests/adversarial/test_memory.py` shows it needs no file at all).
 """ + "\n"
 
 
@@ -377,9 +349,9 @@ machine is shared and only ratios taken together mean something.  Exudyn (`pip i
 same ideal slider-crank as `benchmarks/exudyn_slider_crank.py` (its row is in the table only when Exudyn was
 installed for the run); the scipy baseline runs as a script of its own
 (`benchmarks/scipy_baseline.py`, numpy and scipy only).  The table below is written from that run's numbers in
-`docs/benchmarks_data.json` ("process"); "before" is the same script's run stored before this work ("process_before").
+`docs/benchmarks_data.json` ("process"), measured on the machine named at the top.
 
-What the start-up work changed (issue "fast as a whole process"): `mbs check` loads neither numba (the
+What keeps the start-up short: `mbs check` loads neither numba (the
 initial pose is assembled by the constraint kernels' source run as plain Python, `planar_mbs.pykernel`), nor
 pint (units from a table of our own, each entry tested against pint; pint only for other unit names), nor typer
 (a plain `mbs check MODEL [--set ...]` bypasses it: typer's argument handling imports pydantic); a plain
@@ -387,11 +359,10 @@ pint (units from a table of our own, each entry tested against pint; pint only f
 A cached kernel loads without numba's target-context refresh, which imported every implementation numba has
 (scipy.linalg among them) and compiled its reference-counting runtime, none of which the kernels' machine code
 calls (`kernel/jit.py`), and without parsing its linking bitcode (0.8 MB for the time loop, 40–60 ms), which numba
-needs only to compile another function against it: the symbols come from the object file's symbol table (warm
-`mbs run` 0.458 → 0.400 s, 2026-11-25).  The modules defining typer commands no longer postpone their annotations; a command that
+needs only to compile another function against it: the symbols come from the object file's symbol table.  The modules defining typer commands do not postpone their annotations; a command that
 only prints ends without the interpreter's teardown, as `run` does; the CLI keeps BLAS on one thread.
 `benchmarks/process.py` writes the package's byte-code before its rounds, as pip does at install (an editable
-install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process: measured 2026-11-24, `mbs check`
+install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process: `mbs check`
 1.57× instead of 1.29×).  Results files keep one compound dataset per entity instead of one per signal (a 40-link
 chain: 83 HDF5 objects instead of 568 groups and datasets).
 
@@ -432,9 +403,8 @@ def process_notes(pr) -> list[str]:
         t = pr["startup"]["times"]
         out.append(f"* `mbs --help` takes {help_ratio['ratio']:.2f}× a bare `import numpy` here ({t['mbs --help']:.3f} s "
                    f"against {t['import numpy']:.3f} s; target ≤ {help_ratio['target']:g}×).  It sits on the "
-                   "line: eight runs of this script on 2026-11-25 (01:56–03:44) gave 1.23–1.60× as numpy's import "
-                   "took 0.083–0.124 s, and interleaved pairs gave 1.48× (15 pairs), 1.55× (9), 1.51× (12) and "
-                   "1.59× (12).  typer renders "
+                   "line: runs of this script have given 1.23–1.60× as numpy's own import took 0.083–0.124 s.  "
+                   "typer renders "
                    "its help with rich: `typer.rich_utils` imports `rich.markdown` (with markdown_it and pygments) "
                    "and `rich.traceback` (with attrs), which help text in typer's \"rich\" markup never uses: "
                    "about 0.05 of the 0.13 s (`python -X importtime`).  Loading `Markdown` lazily was asked of "
@@ -446,11 +416,8 @@ def process_notes(pr) -> list[str]:
         t = pr["startup"]["times"]
         out.append(f"* A warm `mbs run models/slider_crank.mbs` takes {run_ratio['ratio']:.2f}× a bare `import numba` "
                    f"here ({t['mbs run slider_crank']:.3f} s against {t['import numba']:.3f} s; target ≤ "
-                   f"{run_ratio['target']:g}×); this script measured 1.28–1.41× on 2026-11-24, and 15 paired runs "
-                   "on 2026-11-25 00:17 gave 1.61× (1.29–1.88×).  numba's own import has become quicker on this "
-                   "machine (0.28–0.29 s, against 0.31–0.54 s in the earlier runs), so what the run adds to it "
-                   "(h5py, lark, loading the time loop's machine code: about 0.17 s) weighs more; the run's own "
-                   "part measured no slower after this work's time-loop changes (paired, 0.87×).")
+                   f"{run_ratio['target']:g}×): what the run adds to numba's import (h5py, lark, loading the time loop's "
+                   "machine code: about 0.17 s) weighs more the quicker numba's own import is on the machine.")
     o = pr.get("output", {})
     sel = {k: v for k, v in o.items() if isinstance(v, dict)}
     if "all signals" in sel and sel["all signals"]["total_us"] >= o.get("target_us", 1.0):
@@ -476,17 +443,17 @@ def process_notes(pr) -> list[str]:
                    "multiprocessing's resource tracker, and each case written to its own file by its worker and "
                    "copied into the sweep file by the parent (17 MB a case; about 30 ms of CPU in all per case).  "
                    "Reaching 1.6× on cases this short needs a cheaper way for a case's signals into the file, not "
-                   "a better pool.  Traced on 2026-11-25 (timestamps in every process, idle cores): the fork "
+                   "a better pool.  Traced (timestamps in every process, idle cores): the fork "
                    "server has the kernels 0.38–0.39 s after the command starts (0.09 s for the command's "
                    "interpreter to start the server's, 0.29 s of imports and cache loads), the sweep's process is "
                    "ready to hand out cases at 0.29–0.31 s, the 8 cases then take 0.72 s on the two workers, and "
-                   "the sweep ends 0.04 s after its last case.  Found on the way: each worker used to map and zero "
-                   "its cases' memory afresh (glibc returned the freed arrays to the kernel after every case: "
-                   "9,000–10,000 page faults and 15 ms in each 0.15-s case, 31,000–38,000 in each 0.6-s case of "
-                   "120 revolutions); the workers now keep it (`planar_mbs.sweep.worker.keep_freed_memory`): 10 interleaved "
-                   "pairs of `-j 2` on the 8 short cases, 1.29 s against 1.33 s with glibc's defaults.  These sweep "
-                   "rows were measured when every case stored all its signals; cases are now stored small by default "
-                   "(section, verdict, summary; `--keep all` stores every signal), which was not measured here.")
+                   "the sweep ends 0.04 s after its last case.  Each worker keeps the memory of its finished cases "
+                   "(`planar_mbs.sweep.worker.keep_freed_memory`): with glibc's defaults the freed arrays go back to "
+                   "the kernel after every case and the next case maps and zeroes them afresh (9,000–10,000 page "
+                   "faults and 15 ms in each 0.15-s case, 31,000–38,000 in each 0.6-s case of 120 revolutions); 10 "
+                   "interleaved pairs of `-j 2` on the 8 short cases took 1.29 s against 1.33 s with glibc's "
+                   "defaults.  These sweep rows were measured with every signal of each case stored (as `--keep all` "
+                   "stores them); cases stored small, the default (section, verdict, summary), were not measured here.")
     return out + [""]
 
 
@@ -500,7 +467,7 @@ written by hand, come from the scripts they name and are kept as they are:
     .venv/bin/python benchmarks/run.py --only rhs,startup   # some; the others keep their last numbers
 
 Its numbers are in `docs/benchmarks_data.json`, figures in `docs/images/bench_*.png`.
-Machine: {cpu}, {cores} cores, {system}; Python {python}, numpy {numpy}, numba {numba}, scipy {scipy}; {date}.
+Machine: {cpu}, {cores} cores, {system}; Python {python}, numpy {numpy}, numba {numba}, scipy {scipy}.
 All times are wall-clock seconds of the **time loop** (`simulate`'s `wall_time`: the compiled `advance` calls, including
 the outputs it writes), best of three (one run for RK4 below 1 µs, and at 1 µs for the 10-s pendulum; the scipy runs once each).  Tolerances: `atol = 1e-3 rtol`.
 """
@@ -511,21 +478,17 @@ entry written out from the known sparsity, a 7×7 Cholesky on scratch arrays. Bo
 a numba loop on the same state; the library's and the numpy version's results agree with it to 1e-12.
 """
 
-RHS_HISTORY = """
-Earlier measurements of this table: 2026-11-24 22:56, after the kernels' inlining, 0.527 against 0.182 µs
-(2.90×) and 0.555 against 0.214 µs (2.59×); before the inlining, in the same session, 4.1× and 3.7×; on
-2026-11-23, 0.481 against 0.150 µs (3.21×) and 0.516 against 0.168 µs (3.07×)."""
-
 RHS_AFTER = """
 **Target (≤ 2×): missed.** Where the library's time goes (measured piece by piece, contact state, ns,
-2026-11-24, when the right-hand side took 0.555 µs): the
+when the right-hand side took 0.555 µs): the
 cosines/sines of the three bodies ~90 (the yardstick needs two bodies: the slider's angle is constrained to 0),
 the generic constraint rows ~185 (per-joint branches on type codes, zeroing the row-sparse Jacobian, the
 driver's motion law), forming and factoring the 7×7 Schur complement from the row-sparse Jacobian ~105, the
 two triangular solves ~60, forces and contact ~100. The yardstick does the same arithmetic in straight-line
-code with everything in registers. Done to get here (rhs 0.67–0.74 → ≈0.5 µs): the trigonometry of each body
-once per rhs instead of once per joint point (22 → 6 calls), a row-sparse Jacobian `J (m, 2, 3)` instead of a
-dense `m × n` one (no 63-entry zeroing and dense products), the envelope Schur factorisation below. What would
+code with everything in registers. The library already computes the trigonometry of each body once per rhs,
+not once per joint point (6 calls instead of 22), keeps a row-sparse Jacobian `J (m, 2, 3)` instead of a
+dense `m × n` one (no 63-entry zeroing and dense products), and factors the Schur complement in its envelope
+(below). What would
 close the rest: code generation per model (emit and compile the yardstick's straight-line code from the
 `Model`), at the price of one compilation per model instead of one cached kernel for all models.
 """
@@ -573,7 +536,7 @@ STARTUP_TEXT = """
 `mbs --help` imports typer and the CLI only; `mbs check` neither typer (a plain `check MODEL [--set ...]` command
 line bypasses it: typer's argument handling imports pydantic) nor numba (assembly runs the constraint kernels'
 source as plain Python, `planar_mbs.pykernel`) nor pint (units come from our own table, checked against pint
-entry by entry; pint is imported only for a unit outside it).  The warm `mbs run` overhead is now mostly numba:
+entry by entry; pint is imported only for a unit outside it).  The warm `mbs run` overhead is mostly numba:
 importing it, and on the first compiled call loading the kernels from its cache, without numba's target-context
 refresh (so no `scipy.linalg`: `kernel/jit.py`).
 """
@@ -603,11 +566,9 @@ with the same joints written along the chain, reversed, grouped by kind (all gro
 The constraint rows are placed at compile time by reverse Cuthill-McKee on the body-joint graph
 (`planar_mbs/mechanism/ordering.py`), so the four texts compile to the same row order and the same envelope: at N = 40
 the slowest text costs 1.01 times the fastest (target ≤ 1.3), and the cost per right-hand side grows linearly
-from 41 to 321 bodies, closed loops included (target: within 1.5 times linear). Measured on two idle cores; in
-brackets the previous measurement (every multiplier solve regularised with refinement sweeps, the machine
-running about 12 jobs: the N = 40 and 80 rows there are load noise). Before this ordering (rows in the order of the text)
-the 41-body chain cost 22-60 µs per right-hand side written along the chain and 900-2400 µs grouped by kind,
-and 193-242 times more at 321 bodies than at 41. Cost per accepted DOPRI5 step [µs] (0.2 s from the top,
+from 41 to 321 bodies, closed loops included (target: within 1.5 times linear).  Measured on two idle
+cores; `.venv/bin/python benchmarks/order_scaling.py` prints these tables and writes
+`docs/order_scaling_data.json`.  Cost per accepted DOPRI5 step [µs] (0.2 s from the top,
 rtol 1e-8), then cost per right-hand side from 41 to 321 bodies (linear would be 321/41 = 7.83 times).
 """
 
