@@ -1,97 +1,36 @@
 """The one decorator of every kernel: ``@kernel``.
 
-* ``cache=True``: compiled code is stored next to the sources and reused by
-  later processes.  When the package directory is not writable (a read-only or
-  system install) numba falls back to the user's cache directory
-  (``~/.cache/numba`` or ``$XDG_CACHE_HOME/numba``); ``NUMBA_CACHE_DIR`` chooses
-  one explicitly.  Numba alone checks only each kernel's own source file, so
-  editing `contact.py` would leave the cached time loop (in `loop.py`) running
-  the old contact physics; here every kernel's cache stamp also holds a hash of
-  all the sources the kernels are compiled from (`KERNEL_SOURCES`), so a change
-  to any of them recompiles every kernel.
-  First compilation of all kernels: docs/benchmarks.md ("Start-up").
-* ``error_model="numpy"``: a division by zero gives inf/NaN, which the time
-  loop reports as a non-finite state, instead of raising inside compiled code.
-* ``_nrt=False``: no numba runtime reference counting.  The kernels never
-  allocate (workspaces are made once in Python), and with the runtime on,
-  every call between kernels increfs and decrefs each array of `KernelModel` (36 arrays today)
-  and the workspace (30) with atomic operations: measured 5.4 µs per
-  right-hand side of Muvengei et al.'s slider-crank with it, 0.9 µs without.
-* ``@kernel(inline=True)``: numba inlines the function into its callers.  A call that is
-  not inlined passes every array of a tuple argument as separate values (the 36 arrays of
-  `KernelModel`, 30 of the workspace: a few hundred words per call).  Inlining the applied
-  forces, the constraint rows, the Schur factorisation and the multiplier solve into
-  `accelerations` took one right-hand side of the clearance slider-crank from 4.1x to 2.9x
-  the hand-specialised yardstick (`benchmarks/run.py --only rhs`), and `accelerations` into
-  `rhs` its time loop from 25.6 to 23 ms; `rhs` inlined at DOPRI5's one stage call site
-  (`dynamics.rhs_inlined`) took it to 20.4 ms for 8 s more of first compilation (50 to 58 s).
-  Inlining `rhs` at every call site doubled that compilation (94 s); at DOP853's stage call
-  site as well it took DOP853's loop on the same model from 39.6 to 34.5 ms (rtol 1e-8, medians
-  of 3 x 11, interleaved) for 7 s more of first compilation, which every model pays (`advance`
-  compiles all methods): not taken.  Inlining small helpers
-  (`jac_dot`) made it slower: each use is measured, not assumed.
-* A kernel that is not inlined is a library of its own, into which numba links the code of every
-  kernel it calls and then optimises and emits machine code for all of it again (LLVM is about half
-  of the first compilation: benchmarks/compile_profile.py).  So a kernel with one call site and no
-  caller in Python is inlined there (`passage_check`, `initial_step`, `refine`, `flip_switch` and the
-  event helpers `event_possible`, `locate_switch`, `_peak`, `_crossing`, `_illinois_rate`): its code
-  is optimised and emitted once, in its caller, instead of also in a library of its own.  With
-  `inline_copy` (below) making numba's inlining cheap, one process's first compilation took 74.3 s of
-  CPU against 79.6 s (LLVM 45.8 s against 51.5 s, a pair side by side) and the README's first command
-  49.8-53.4 s against 53.4-61.3 s (five and four cold runs alternating, 2 idle cores), results
-  bit-identical on every shipped model with DOPRI5, RK4 and DOP853, the time loop as fast.  Before
-  `inline_copy`, inlining `fixed_step`, `passage_check`, `dense_prepare` and `initial_step` had made
-  it longer (101.6 s against 94.5 s).  Inlining 23 more kernels of one call site made it longer again
-  (86.5 s against 78.7 s): those land in `_emit` and `project`, whose front end grew by 11 and 4.5 s.
-* The steps of `loop.advance` (`_resume`, `_adaptive`, `_contact_event`, `_end_step`, ...) are
-  inlined at their one call site each: the loop reads as named steps and compiles to what it was as
-  one function (bit-identical results on every shipped model, same speed).  The first compilation
-  got longer: 4 % of CPU in one process (115.2 s against 110.9 s, side by side, compile events per
-  kernel: `advance`'s own share did not grow), 10-14 % for the README's first command with the
-  compile helper (docs/benchmarks.md, "Start-up"); not explained yet.  Only the steps called once per
-  call of `advance` could be left to a call at no run-time cost, and those that reach `_emit` or `rhs`
-  would then be libraries that compile those again.
-* `observe` is inlined at its one call site in the time loop (`loop.observe_inlined` in `loop._emit`,
-  which also writes a run's first row and a last sample off the grid): one output row of the
-  slider-crank with every signal 0.94 -> 0.70-0.80 us in the loop (1.27 -> 1.01-1.21 us with the
-  HDF5 file), the clearance slider-crank's loop 113x -> 116-125x the scipy baseline, and first
-  compilation unchanged (72 s before, 68 s after, back to back): `_emit` had been compiled twice,
-  once for a literal 0 argument.  numba compiles a function once more for each literal argument
-  (a constant int or bool), so the time loop passes none to the kernels that hold big inlined code.
-* numba's IR inliner copies a callee's whole variable scope once per block at each inlined call site
-  (numba issue #8989); `inline_copy` makes it copy the scope once per call site, applied at this
-  process's first compilation where the fast path below is used: the first compilation of the time loop
-  in one process 84.8 s and 81.8 s of CPU against 103.3 s and 97.9 s with numba's own inliner (two pairs
-  run side by side, 2 cores), front end (typing and lowering) about a third shorter, LLVM unchanged.
-* `loop.advance`'s own library (the step control; the steps' arithmetic is in the kernels it calls)
-  is optimised by LLVM at O1, and so is `loop._emit`'s (the output row), every other kernel at O3
-  (`loop_opt_level`, applied as `inline_copy` is): `advance`'s is the last part of the first
-  compilation, which no second process can share; 1-4 s of CPU less in three pairs side by side,
-  `_emit`'s 3.5 s in one; the time loop as fast, results bit-identical.
-* Each kernel that is not inlined has two versions: the one Python calls, with numba's CPython and C
-  wrappers (argument unboxing: for the 36 arrays of `KernelModel` and 30 of the workspace, a big
-  function of its own that LLVM optimises and emits), and the `native` one that other kernels
-  call, compiled without them (numba's ``no_cpython_wrapper``/``no_cfunc_wrapper`` options) and
-  cached in files of its own.  A run calls only `advance` from Python, so every other kernel is
-  compiled once, without wrappers; a kernel that Python calls as well (a test, `Stepper`'s
-  `project`) is compiled a second time, with them, the first time Python calls it.  One process's
-  first compilation of the time loop: 59.2 s of CPU against 75.3 s (a pair side by side, 2 cores),
-  results bit-identical on every shipped model with DOPRI5, RK4 and DOP853.
-* A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`):
-  the refresh imports and registers every implementation numba has, among them its array functions,
-  whose import-time BLAS check imports scipy.linalg; about 0.25 s of a warm `mbs run` whose kernels
-  make no BLAS call and need none of it.
-* A cached kernel's library loads without parsing its linking bitcode (`_unserialize`), which numba
-  needs only to compile another function against it; its defined symbols are read from the object
-  file's symbol table: 40-60 ms of a warm `mbs run` (the time loop's library is 0.8 MB of bitcode).
-* The two loading shortcuts and the source-hash stamp use numba's private caching classes, read
-  against and tested on numba `CHECKED_NUMBA` (docs/install.md).  Where numba is outside that range
-  or lacks one of them (`fast_path_problem`), or `PLANAR_MBS_PUBLIC_CACHE=1`, the kernels go
-  through numba's public ``cache=True`` instead, in a cache folder named after `SOURCE_HASH` (the
-  stamp by another route), with one line on stderr: same results, slower start-up.
-* Where no cache folder can be written (a read-only install, no writable ``~/.cache``, a read-only
-  ``NUMBA_CACHE_DIR``), the kernels are cached in a folder of the temporary directory only this user
-  can write (numba's cache files are pickles), else compiled in each process; one line says which.
+* ``cache=True``: compiled code is kept and reused by later processes: next to the sources, else in
+  the user's cache folder (``~/.cache/numba``, ``$XDG_CACHE_HOME/numba``), or ``NUMBA_CACHE_DIR``.
+  Every kernel's cache stamp holds a hash of all the sources the kernels are compiled from
+  (`KERNEL_SOURCES`): numba alone checks only a kernel's own file, so an edit of `contact.py` would
+  leave the cached time loop running the old physics.  Where no folder can be written, a folder of
+  the temporary directory only this user can write (numba's cache files are pickles), else none.
+* ``error_model="numpy"``: a division by zero gives inf/NaN, which the time loop reports as a
+  non-finite state, instead of raising inside compiled code.
+* ``_nrt=False``: no reference counting.  The kernels never allocate (workspaces are made once in
+  Python); with it, every call between kernels would incref and decref each array of the model and
+  the workspace.
+* ``@kernel(inline=True)``: inlined into its callers by numba.  A call that is not inlined passes every
+  array of a tuple argument separately, and a kernel that is not inlined is a library of its own that
+  LLVM optimises again; the hot path (applied forces, constraint rows, the Schur solve) and kernels of
+  one call site are inlined.  Which ones is measured, not assumed (docs/benchmarks.md).
+
+Three pieces rely on numba's internals, read against and tested on numba `CHECKED_NUMBA`
+(docs/install.md); each earns its place in `benchmarks/machinery.py`, which measures them in one run
+against numba's public path (`PLANAR_MBS_PUBLIC_CACHE=1`, where none of them is used: the same results,
+a slower start).  Where numba is outside that range or lacks a class (`fast_path_problem`), the public
+path is taken with one line on stderr.
+
+* `inline_copy`: numba's inliner copies a callee's whole variable scope once per block (numba issue
+  #8989); copied once per inlining, the first compilation takes 0.8x the CPU time.
+* Two versions of each kernel that is not inlined: the one Python calls, with numba's CPython and C
+  wrappers, and the `native` one other kernels call, compiled without them; a run calls only `advance`
+  from Python, so every other kernel is compiled once, without wrappers.
+* A cached kernel loads without numba's target-context refresh (`_FunctionCache.load_overload`, which
+  imports every implementation numba has, scipy.linalg among them) and without parsing its linking
+  bitcode (`_unserialize`; its symbols are read from the object file).  With the wrapper-less twins,
+  the public path's first compilation takes 1.7x the CPU time and a warm run 5x the wall time.
 """
 from __future__ import annotations
 
@@ -124,7 +63,7 @@ KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "mechanism"
 # same code in every release between them (0.61 had other class names)
 CHECKED_NUMBA = ((0, 62), (0, 68))
 PUBLIC_CACHE_ENV = "PLANAR_MBS_PUBLIC_CACHE"  # set to 1: numba's public cache, as where its internals differ
-WITHOUT_ENV = "PLANAR_MBS_WITHOUT"  # experiments: "inline_copy,loop_opt_level" compiles without those
+WITHOUT_ENV = "PLANAR_MBS_WITHOUT"  # experiments: "inline_copy" compiles without it (benchmarks/machinery.py)
 
 
 def source_hash(paths=KERNEL_SOURCES) -> str:
@@ -417,15 +356,14 @@ _NATIVE_CACHE_CLASS = None if _CACHE_CLASS is None else _native_cache_class(_CAC
 
 
 class _SharedScopeInlining(numba_event.Listener):
-    """Applies `inline_copy` and `loop_opt_level` when this process starts its first compilation
+    """Applies `inline_copy` when this process starts its first compilation
     (numba's compile event fires only for code not loaded from a cache), not at import: their numba
     modules cost a warm run 25 ms for nothing."""
 
     def on_start(self, event):
         left_out = os.environ.get(WITHOUT_ENV, "").split(",")  # experiments only (benchmarks/machinery.py)
-        for name in ("inline_copy", "loop_opt_level"):
-            if name not in left_out:
-                importlib.import_module("." + name, __package__).apply()
+        if "inline_copy" not in left_out:
+            importlib.import_module(".inline_copy", __package__).apply()
 
     def on_end(self, event):
         pass
