@@ -17,6 +17,8 @@ and `mbs --help` stay fast.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .lazy import lazy
 from .version import __version__
 
@@ -24,11 +26,18 @@ __all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results
 
 # Each loads on first use (lark, numpy, numba, h5py): `import planar_mbs` loads none of them.
 _re = lazy("re")
-_errors = lazy(".errors", __package__)
-_compile = lazy(".mechanism.compile", __package__)
-_parse = lazy(".language.parse", __package__)
-_simulation = lazy(".run.simulation", __package__)
-_hdf5 = lazy(".results.hdf5", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from . import errors as _errors
+    from .mechanism import compile as _compile
+    from .language import parse as _parse
+    from .run import simulation as _simulation
+    from .results import hdf5 as _hdf5
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    _errors = lazy(".errors", __package__)
+    _compile = lazy(".mechanism.compile", __package__)
+    _parse = lazy(".language.parse", __package__)
+    _simulation = lazy(".run.simulation", __package__)
+    _hdf5 = lazy(".results.hdf5", __package__)
 
 
 def _python_error(err, overrides: dict, func: str):

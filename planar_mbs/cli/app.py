@@ -17,7 +17,7 @@ text again, twice per command, on each start (about 0.02 s of `mbs --help`).
 import inspect
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
 
@@ -30,8 +30,12 @@ from .help_text import ReadableCommand, ReadableGroup, TwoWordCommand, use_one_e
 from .run_options import RUN_OPTIONS, SET_HELP, Opt, merged
 
 # lark, numpy, the kernels: loaded when a command runs, never by `mbs --help`
-check_command = lazy(".check_command", __package__)
-run_command = lazy(".run_command", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from . import check_command
+    from . import run_command
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    check_command = lazy(".check_command", __package__)
+    run_command = lazy(".run_command", __package__)
 
 EPILOG = ("Exit codes: 0 success · 1 an internal error (a bug), or the reader of the output went away "
           "(| head) · 2 bad model, bad value or bad usage · 3 the simulation failed or is not physical, or a "

@@ -13,6 +13,8 @@ ones (assembly, Poincaré analysis), for which starting a thread pool per core c
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import os
 import signal
 import sys
@@ -29,9 +31,14 @@ from .common import guard_streams, stream_failure  # noqa: E402
 from .run_options import plain_run  # noqa: E402
 
 # loaded by the command that needs them, so that `mbs --help` and `mbs check` stay light
-app = lazy(".app", __package__)  # typer and pydantic
-check_command = lazy(".check_command", __package__)  # lark, numpy
-run_command = lazy(".run_command", __package__)  # the run's checks and printing
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from . import app
+    from . import check_command
+    from . import run_command
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    app = lazy(".app", __package__)  # typer and pydantic
+    check_command = lazy(".check_command", __package__)  # lark, numpy
+    run_command = lazy(".run_command", __package__)  # the run's checks and printing
 sweep_server = lazy("planar_mbs.sweep.server")  # multiprocessing: only `mbs sweep` on several cores
 
 

@@ -9,6 +9,8 @@ module checks the options, calls them in order and prints.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import errno
 import math
 import os
@@ -46,7 +48,10 @@ simulation = lazy("planar_mbs.run.simulation")
 study = lazy("planar_mbs.run.study")
 scan = lazy("planar_mbs.sweep.scan")
 rerun_log = lazy("planar_mbs.outputs.rerun_log")
-plot_commands = lazy(".plot_commands", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from . import plot_commands
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    plot_commands = lazy(".plot_commands", __package__)
 rich_progress = lazy("rich.progress")
 rich_utils = lazy("typer.rich_utils")
 

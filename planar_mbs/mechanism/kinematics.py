@@ -21,6 +21,8 @@ a redundant driver is an error (it repeats or contradicts a prescribed motion).
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import re
 
 import numpy as np
@@ -31,7 +33,10 @@ from .model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEAR
                     JP_PHI0, JointType, KernelModel, Model, PairKind)
 
 # the constraint kernels' source run as plain Python (20 ms to import): only an assembly needs it
-pyconstraints = lazy("..pykernel.constraints", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from ..pykernel import constraints as pyconstraints
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    pyconstraints = lazy("..pykernel.constraints", __package__)
 
 MAX_NEWTON = 50
 POSITION_TOL = 1e-12  # m (and rad): residual of C at an assembled pose

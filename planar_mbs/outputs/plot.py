@@ -52,8 +52,12 @@ from ..results.views import (
 matplotlib = lazy("matplotlib")
 mpl_figure = lazy("matplotlib.figure")
 plt = lazy("matplotlib.pyplot")
-spectrum = lazy("..results.spectrum", __package__)  # scipy.signal: only for a spectrum figure
-scan = lazy("..sweep.scan", __package__)  # 0.1 s of sockets and threads: only the verdicts of a sweep's cases
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from ..results import spectrum
+    from ..sweep import scan
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    spectrum = lazy("..results.spectrum", __package__)  # scipy.signal: only for a spectrum figure
+    scan = lazy("..sweep.scan", __package__)  # 0.1 s of sockets and threads: only the verdicts of a sweep's cases
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model

@@ -70,8 +70,12 @@ rerun_sdk = lazy("rerun")
 rrb = lazy("rerun.blueprint")
 rerun_chunk = lazy("rerun.chunk")
 pa = lazy("pyarrow")  # rerun's columns
-compiler = lazy("..mechanism.compile", __package__)  # lark: only to rebuild a model from its results
-table_reader = lazy("..mechanism.tables", __package__)  # a run's stored tables, for that rebuild
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from ..mechanism import compile as compiler
+    from ..mechanism import tables as table_reader
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    compiler = lazy("..mechanism.compile", __package__)  # lark: only to rebuild a model from its results
+    table_reader = lazy("..mechanism.tables", __package__)  # a run's stored tables, for that rebuild
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model

@@ -4,6 +4,8 @@ state beyond every physical bound (`absurd_state`), and the notes a finished run
 projection turned on, an energy drift: `end_warnings`)."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .. import catalog
@@ -13,10 +15,16 @@ from ..mechanism.model import CP_CLEARANCE, CT_MODE, JOINT_ROWS, ST_INFO, TOUCHI
     Status, lost_bound
 
 # numba: `mbs check` and `import planar_mbs` read this module without loading the kernels
-kernel = lazy("..kernel", __package__)
-dynamics = lazy("..kernel.dynamics", __package__)
-integrators = lazy("..kernel.integrators", __package__)
-workspace = lazy("..kernel.workspace", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from .. import kernel
+    from ..kernel import dynamics
+    from ..kernel import integrators
+    from ..kernel import workspace
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    kernel = lazy("..kernel", __package__)
+    dynamics = lazy("..kernel.dynamics", __package__)
+    integrators = lazy("..kernel.integrators", __package__)
+    workspace = lazy("..kernel.workspace", __package__)
 
 
 def state_name(model: Model, i: int) -> str:

@@ -14,6 +14,8 @@ end-of-run checks read (the deepest penetration, the energy drift).
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import time as _time
 from dataclasses import dataclass
 
@@ -26,7 +28,10 @@ from .first_compile import first_call
 from .checks import absurd_state, deepest_penetration, energy_drift, failure_message, known_force_kinds
 
 # numba: `mbs check` and `import planar_mbs` read this module without loading the kernels
-kernel = lazy("..kernel", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from .. import kernel
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    kernel = lazy("..kernel", __package__)
 
 CALL_SECONDS = 0.1  # wall time of one kernel call (a work budget in right-hand sides calibrated per call)
 FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibration

@@ -13,6 +13,8 @@ time and 51-60 s of CPU in the two processes (2 idle cores: docs/benchmarks.md, 
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import glob
 import importlib
 import inspect
@@ -30,9 +32,14 @@ from .children import die_with_parent, package_env
 # "compiling" line (`announce_if_cold` runs before the model is read)
 np = lazy("numpy")
 numba = lazy("numba")
-kernel = lazy("..kernel", __package__)
-jit = lazy("..kernel.jit", __package__)
-compiler = lazy("..mechanism.compile", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from .. import kernel
+    from ..kernel import jit
+    from ..mechanism import compile as compiler
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    kernel = lazy("..kernel", __package__)
+    jit = lazy("..kernel.jit", __package__)
+    compiler = lazy("..mechanism.compile", __package__)
 
 LOG_EVERY = 15.0  # seconds between two "still compiling" lines in a plain log
 HEAD = ("compiling the solver (numba, once: later runs load it from the cache in under a second; "

@@ -17,6 +17,8 @@ multipliers of its period map, differentiated by central differences.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -24,7 +26,10 @@ import numpy as np
 
 from ..lazy import lazy
 
-kernel = lazy("..kernel", __package__)  # numba: only `tangent_perturbation` runs a kernel
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from .. import kernel
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    kernel = lazy("..kernel", __package__)  # numba: only `tangent_perturbation` runs a kernel
 
 
 @dataclass

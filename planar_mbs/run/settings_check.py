@@ -8,6 +8,8 @@ range error of an option (the command line's other options use it too).
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 import os
 
@@ -17,8 +19,12 @@ from ..mechanism.model import Model
 from ..lazy import lazy
 
 # numpy: `mbs --help` and `mbs check` read this module's bounds (`MAX_T_END`) without loading it
-hdf5 = lazy("..results.hdf5", __package__)
-output_size = lazy(".output_size", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from ..results import hdf5
+    from . import output_size
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    hdf5 = lazy("..results.hdf5", __package__)
+    output_size = lazy(".output_size", __package__)
 
 MAX_T_END = 1e6  # s of simulated time (11.6 days): beyond it a typo is far likelier than a wish
 CLI, API = "cli", "api"

@@ -12,6 +12,8 @@ segment ends.  Copies are independent: two trajectories of one model never share
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import replace
 
 import numpy as np
@@ -25,7 +27,10 @@ from .checks import not_physical, physics_warnings
 from .driver import Driver, MemorySink
 from .simulation import run_settings
 
-kernel = lazy("..kernel", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from .. import kernel
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    kernel = lazy("..kernel", __package__)
 
 ROWS = 256  # observation rows fetched per kernel call
 

@@ -52,7 +52,7 @@ from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -106,10 +106,16 @@ from .store import (
 h5py = lazy("h5py")
 mp = lazy("multiprocessing")  # a local pool only
 process_pool = lazy("concurrent.futures.process")  # its ProcessPoolExecutor imports multiprocessing
-compiler = lazy("..mechanism.compile", __package__)  # the parser's lark: not for `mbs plot`/`analyze` of a sweep
-parsing = lazy("..language.parse", __package__)  # lark, as above
-table_reader = lazy("..mechanism.tables", __package__)
-worker = lazy(".worker", __package__)  # importing it loads numba and the kernels (the pool's preload)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from ..mechanism import compile as compiler
+    from ..language import parse as parsing
+    from ..mechanism import tables as table_reader
+    from . import worker
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    compiler = lazy("..mechanism.compile", __package__)  # the parser's lark: not for `mbs plot`/`analyze` of a sweep
+    parsing = lazy("..language.parse", __package__)  # lark, as above
+    table_reader = lazy("..mechanism.tables", __package__)
+    worker = lazy(".worker", __package__)  # importing it loads numba and the kernels (the pool's preload)
 
 FINISHED, FAILED, PENDING = "finished", "failed", "pending"
 MAX_CASES = 1_000_000  # cases of one sweep

@@ -11,6 +11,8 @@ Each worker keeps the memory it frees for its next case (`keep_freed_memory`).
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import ctypes
 import os
 
@@ -20,9 +22,14 @@ from .server import die_with_the_sweep
 # Loaded by `warm_up`, after BLAS is limited to one thread (numpy reads it when imported) and the
 # server is tied to the sweep (`die_with_the_sweep`): hence declared lazily.
 h5py = lazy("h5py")  # a local pool's workers write their cases: `sweep.run_case_stored`
-analysis = lazy("..results.analysis", __package__)  # every case is classified
-simulation = lazy("..run.simulation", __package__)  # numba and the kernels
-compiler = lazy("..mechanism.compile", __package__)
+if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
+    from ..results import analysis
+    from ..run import simulation
+    from ..mechanism import compile as compiler
+else:  # each loaded on its first use (see the comments: not on the light paths)
+    analysis = lazy("..results.analysis", __package__)  # every case is classified
+    simulation = lazy("..run.simulation", __package__)  # numba and the kernels
+    compiler = lazy("..mechanism.compile", __package__)
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
