@@ -6,8 +6,9 @@ Each variant runs the clearance slider-crank for 2 ms in a fresh process: "cold"
 cache (the first compilation, the compile helper of `run.first_compile` switched off so that one
 process does all of it; its CPU time is the measure, which a busy machine disturbs less than wall
 time), "warm" from the cache the cold run left (the whole process's wall time, best of 5).  Variants:
-everything on; without `kernel.inline_copy` (numba's own inliner); numba's public cache path (`PLANAR_MBS_PUBLIC_CACHE=1`: none of the private
-pieces: no fast loading, no wrapper-less twins, no `inline_copy`).  The rounds alternate the
+everything on; without `kernel.inline_copy` (numba's own inliner); without `kernel.loop_opt_level`
+(every library at O3); numba's public cache path (`PLANAR_MBS_PUBLIC_CACHE=1`: none of the private
+pieces: no fast loading, no wrapper-less twins, neither of the two above).  The rounds alternate the
 variants, so a change of the machine's load spreads over all of them.  Prints one line per variant.
 """
 from __future__ import annotations
@@ -28,6 +29,7 @@ RUN = ("import sys, planar_mbs as mbs; from planar_mbs.run import first_compile 
 VARIANTS = {
     "all on": {},
     "without inline_copy": {"PLANAR_MBS_WITHOUT": "inline_copy"},
+    "without loop_opt_level": {"PLANAR_MBS_WITHOUT": "loop_opt_level"},
     "public cache (no private pieces)": {"PLANAR_MBS_PUBLIC_CACHE": "1"},
 }
 

@@ -16,7 +16,7 @@
   LLVM optimises again; the hot path (applied forces, constraint rows, the Schur solve) and kernels of
   one call site are inlined.  Which ones is measured, not assumed (docs/benchmarks.md).
 
-Three pieces rely on numba's internals, read against and tested on numba `CHECKED_NUMBA`
+Four pieces rely on numba's internals, read against and tested on numba `CHECKED_NUMBA`
 (docs/install.md); each earns its place in `benchmarks/machinery.py`, which measures them in one run
 against numba's public path (`PLANAR_MBS_PUBLIC_CACHE=1`, where none of them is used: the same results,
 a slower start).  Where numba is outside that range or lacks a class (`fast_path_problem`), the public
@@ -24,6 +24,9 @@ path is taken with one line on stderr.
 
 * `inline_copy`: numba's inliner copies a callee's whole variable scope once per block (numba issue
   #8989); copied once per inlining, the first compilation takes 0.8x the CPU time.
+* `loop_opt_level`: the own libraries of `loop.advance` (the step control, the last part of the first
+  compilation, which no helper process can share) and `loop._emit` optimised by LLVM at O1, every other
+  kernel at O3: the first compilation takes 0.97x the CPU time, the time loop as fast.
 * Two versions of each kernel that is not inlined: the one Python calls, with numba's CPython and C
   wrappers, and the `native` one other kernels call, compiled without them; a run calls only `advance`
   from Python, so every other kernel is compiled once, without wrappers.
@@ -63,7 +66,7 @@ KERNEL_SOURCES = tuple(sorted(_HERE.glob("*.py"))) + (_HERE.parent / "mechanism"
 # same code in every release between them (0.61 had other class names)
 CHECKED_NUMBA = ((0, 62), (0, 68))
 PUBLIC_CACHE_ENV = "PLANAR_MBS_PUBLIC_CACHE"  # set to 1: numba's public cache, as where its internals differ
-WITHOUT_ENV = "PLANAR_MBS_WITHOUT"  # experiments: "inline_copy" compiles without it (benchmarks/machinery.py)
+WITHOUT_ENV = "PLANAR_MBS_WITHOUT"  # experiments: "inline_copy,loop_opt_level" (benchmarks/machinery.py)
 
 
 def source_hash(paths=KERNEL_SOURCES) -> str:
@@ -356,14 +359,15 @@ _NATIVE_CACHE_CLASS = None if _CACHE_CLASS is None else _native_cache_class(_CAC
 
 
 class _SharedScopeInlining(numba_event.Listener):
-    """Applies `inline_copy` when this process starts its first compilation
+    """Applies `inline_copy` and `loop_opt_level` when this process starts its first compilation
     (numba's compile event fires only for code not loaded from a cache), not at import: their numba
     modules cost a warm run 25 ms for nothing."""
 
     def on_start(self, event):
         left_out = os.environ.get(WITHOUT_ENV, "").split(",")  # experiments only (benchmarks/machinery.py)
-        if "inline_copy" not in left_out:
-            importlib.import_module(".inline_copy", __package__).apply()
+        for name in ("inline_copy", "loop_opt_level"):
+            if name not in left_out:
+                importlib.import_module("." + name, __package__).apply()
 
     def on_end(self, event):
         pass
