@@ -265,6 +265,7 @@ def render(data, page: str = "") -> str:
             out.append(f"| {k} | {v:.3f} |")
         out.append(STARTUP_TEXT)
         out.extend(_hand(page, "cache-loading"))
+        out.extend(_hand(page, "machinery"))
     if "skip" in data:
         s = data["skip"]
         out.append("## Skipping what a scene does not need\n")
