@@ -18,12 +18,14 @@ from __future__ import annotations
 import math
 
 from .. import catalog
+from ..lazy import lazy
+
+optimize = lazy("scipy.optimize")  # loaded when a model states an effective restitution
+pycontact = lazy("..pykernel.contact", __package__)  # the kernel's damping_factor, without numba
 
 
 def _root(f, lo: float, hi: float) -> float:
-    from scipy.optimize import brentq  # imported when a model states an effective restitution
-
-    return brentq(f, lo, hi, xtol=1e-300, rtol=1e-15, maxiter=500)
+    return optimize.brentq(f, lo, hi, xtol=1e-300, rtol=1e-15, maxiter=500)
 
 
 def chi_restitution(chi: float) -> float:
@@ -63,8 +65,7 @@ def dissipative_coefficient(law: int, e: float) -> float:
     """c_e of dissipative law `law` (a ContactLaw code) whose single impact rebounds with e: the
     law's chi(c_e), the kernel's `damping_factor`, decreasing from chi(0+) to chi(1) = 0, equals
     `restitution_chi(e)`.  ValueError when e is below the law's reach (chi(0+) too small)."""
-    from ..pykernel.contact import damping_factor
-
+    damping_factor = pycontact.damping_factor
     chi = restitution_chi(e)
     if chi == 0.0:
         return 1.0
