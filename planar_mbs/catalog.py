@@ -30,24 +30,33 @@ class LawGroup:
 
     ``takes``: the law settings allowed (in the joint or as the law's call
     arguments, ``law = flores(restitution = 0.9)``); ``needs``: those that must
-    be given; ``compliance``: where the law's compliance comes from ("stiffness":
-    K of F = K d^n, given or from the materials; "materials": sigma, the bearing
-    length and the radii, no K)."""
+    be given; ``one_of``: settings of which exactly one must be given (the law's
+    dissipation: its own coefficient, the effective restitution it is to produce
+    or a damping); ``compliance``: where the law's compliance comes from
+    ("stiffness": K of F = K d^n, given or from the materials; "materials": sigma,
+    the bearing length and the radii, no K); ``exponent``: the law's fixed n
+    (None: the `exponent` setting, default 1.5)."""
 
     name: str
     takes: tuple[str, ...]
     needs: tuple[str, ...]
     compliance: str
     summary: str
+    one_of: tuple[str, ...] = ()
+    exponent: float | None = None
 
 
 ELASTIC = LawGroup("elastic", ("restitution", "stiffness", "exponent"), (), "stiffness",
                    "F = K d^n, no dissipation")
-DISSIPATIVE = LawGroup("dissipative", ("restitution", "stiffness", "exponent"), ("restitution",), "stiffness",
-                       "F = K d^n (1 + chi(ce) d'/d'(-)), clipped at F >= 0")
+DISSIPATIVE = LawGroup("dissipative", ("restitution", "effective_restitution", "stiffness", "exponent"), (),
+                       "stiffness", "F = K d^n (1 + chi(ce) d'/d'(-)), clipped at F >= 0",
+                       one_of=("restitution", "effective_restitution"))
 CYLINDRICAL = LawGroup("cylindrical", ("restitution",), (), "materials",
                        "implicit in F, from the materials, the bearing length and the radii")
-LAW_GROUPS = (ELASTIC, DISSIPATIVE, CYLINDRICAL)
+LINEAR = LawGroup("linear", ("restitution", "effective_restitution", "damping", "stiffness"), ("stiffness",),
+                  "stiffness", "F = K d + c d', clipped at F >= 0; c given, or 2 zeta sqrt(K m) from a restitution",
+                  one_of=("restitution", "effective_restitution", "damping"), exponent=1.0)
+LAW_GROUPS = (ELASTIC, DISSIPATIVE, CYLINDRICAL, LINEAR)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,6 +98,8 @@ LAWS: tuple[LawSpec, ...] = (
             formula="F = K d^n (1 + 8 (1 - ce)/(5 ce) d'/d'(-))", reference="Flores, Machado, Silva & Martins 2011"),
     LawSpec(code=6, enum="GONTHIER", name="gonthier", title="Gonthier et al.", group=DISSIPATIVE,
             formula="F = K d^n (1 + (1 - ce^2)/ce d'/d'(-))", reference="Gonthier, McPhee, Lange & Piedboeuf 2004"),
+    LawSpec(code=7, enum="KELVIN_VOIGT", name="kelvin_voigt", title="Kelvin–Voigt", group=LINEAR,
+            formula="F = K d + c d'", reference="Kelvin-Voigt spring-dashpot; Schwager & Poeschel 2007"),
 )
 
 # ------------------------------------------------------------------ joint types
@@ -649,6 +660,8 @@ def check() -> None:
         _check_force(s)
     for s in INTEGRATORS:
         _check_tableau(s)
+    for g in LAW_GROUPS:
+        assert set(g.needs) <= set(g.takes) and set(g.one_of) <= set(g.takes), g.name
     assert ELEMENTS[0].name == CLEARANCE_JOINT and {e.pair for e in ELEMENTS} <= set(names(PAIRS))
 
 
@@ -673,7 +686,8 @@ def docs_lists() -> dict[str, str]:
             f"| `{s.name}` | {s.group.name} | {s.formula} | {s.reference} |" for s in LAWS),
         "law_groups": "\n".join(
             f"* {g.name} ({_code(s.name for s in LAWS if s.group is g) or 'none'}): {g.summary}; takes "
-            f"{_code(g.takes)}" + (f", needs {_code(g.needs)}" if g.needs else "") for g in LAW_GROUPS),
+            f"{_code(g.takes)}" + (f", needs {_code(g.needs)}" if g.needs else "")
+            + (f", needs one of {_code(g.one_of)}" if g.one_of else "") for g in LAW_GROUPS),
         "integrators": "| integrator | order | stages | step |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.name}` | {s.order} | {s.stages} | {s.summary} |" for s in INTEGRATORS),
         "forces": "| force | formula | settings | potential energy |\n| --- | --- | --- | --- |\n" + "\n".join(

@@ -265,7 +265,13 @@ def clearance(fields, law="lankarani_nikravesh"):
     ("clearance = 0.3 mm  bearing_radius = 5 mm  length = 0 mm  material = steel", "hertz", "must be positive"),
     ("clearance = 0.3 mm  bearing_radius = 5 mm  material = steal", "hertz", "unknown material `steal`"),
     ("clearance = 0.3 mm  bearing_radius = 5 mm  material = steel", "lankarani_nikravesh",
-     "needs `restitution`"),
+     "needs one of `restitution` or `effective_restitution`"),
+    ("clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  restitution = 0.9  effective_restitution = 0.9",
+     "flores", "give `restitution` or `effective_restitution` to law flores, not both"),
+    ("clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  effective_restitution = 0", "gonthier",
+     "restitution must lie in (0, 1]"),
+    ("clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  effective_restitution = 0.9", "hertz",
+     "law hertz takes no `effective_restitution`"),
     ("clearance = 0.3 mm  bearing_radius = 5 mm  material = steel  restitution = 1.5",
      "lankarani_nikravesh", "restitution must lie in (0, 1]"),
     ("clearance = 0.3 mm  bearing_radius = 5 mm", "hertz", "needs `material` (or `stiffness`)"),
@@ -288,8 +294,9 @@ def test_all_law_names_are_known():
     from planar_mbs.mechanism.model import CONTACT_LAW_NAMES
 
     for law, name in CONTACT_LAW_NAMES.items():
+        linear = "  stiffness = 1e8 N/m" if name == "kelvin_voigt" else ""  # no default K of F = K d
         m = compile_text(BASE + clearance("clearance = 0.3 mm  bearing_radius = 5 mm  length = 20 mm"
-                                          "  material = steel  restitution = 0.7", name), "t.mbs")
+                                          "  material = steel  restitution = 0.7" + linear, name), "t.mbs")
         assert m.kernel.clearance_law[0] == law
 
 

@@ -4,6 +4,9 @@
 * the two implicit cylindrical laws: delta(F(delta)) = delta to 1e-12 over six decades of
   penetration, agreement with a plain-Python root finder (scipy brentq) on the published
   equation, the end of the monotone branch (Status.CONTACT_SOLVE);
+* Kelvin-Voigt, F = max(0, K d + c d'): a single impact against the closed form of the linear
+  oscillator derived here, the contact ending where the clipped force reaches 0 (d'' = 0);
+* a stated `effective_restitution` measured back by a single impact, for every dissipative law;
 * the single-impact table: effective restitution (rebound / impact speed) of every law at
   ce = 0.3, 0.5, 0.7, 0.9, 1.0 measured by the solver, against an independent 1-D integration
   (scipy solve_ivp of m d'' = -F(d, d') with the published force) and against the exact relation
@@ -24,9 +27,13 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import kernel_models as K
+from planar_mbs import catalog
+from planar_mbs.errors import ModelError
 from planar_mbs.kernel.contact import cylinder_scales, damping_factor, elastic_energy, normal_force
+from planar_mbs.mechanism.compile import compile_text
+from planar_mbs.mechanism.restitution import dissipative_coefficient, kelvin_voigt_zeta, restitution_chi
 from planar_mbs.mechanism.model import (
-    CP_CLEARANCE, CP_EXPONENT, CP_FRICTION, CP_FRICTION_V0, CP_FRICTION_V1, CP_LENGTH, CP_R_BEARING,
+    CP_CLEARANCE, CP_DAMPING, CP_EXPONENT, CP_FRICTION, CP_FRICTION_V0, CP_FRICTION_V1, CP_LENGTH, CP_R_BEARING,
     CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS, CS_FN, CS_FRICTION, CS_PENETRATION, CS_SLIP,
     CYLINDRICAL_LAWS, DISSIPATIVE_LAWS, N_CLEARANCE_PARAM, ContactLaw, Integrator, Status,
 )
@@ -34,12 +41,14 @@ from planar_mbs.mechanism.model import (
 L = ContactLaw
 SIGMA_STEEL = (1 - 0.3 ** 2) / 207e9  # Muvengei et al. eq. 18: sigma = (1 - nu^2) / E
 ALL_LAWS = list(ContactLaw)
+CHI_LAWS = [law for law in ALL_LAWS if law != L.KELVIN_VOIGT]  # F = K d^n (1 + chi d'/d'(-)) with chi >= 0
 
 
-def params(c=3e-4, RB=5e-3, length=0.02, K=1e10, n=1.5, ce=0.9, sigma_sum=2 * SIGMA_STEEL):
+def params(c=3e-4, RB=5e-3, length=0.02, K=1e10, n=1.5, ce=0.9, sigma_sum=2 * SIGMA_STEEL, damping=0.0):
     p = np.zeros(N_CLEARANCE_PARAM)
     p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL], p[CP_LENGTH] = c, RB, RB - c, length
     p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = K, n, ce, sigma_sum
+    p[CP_DAMPING] = damping
     return p
 
 
@@ -49,6 +58,8 @@ def published_force(law, p, d, dd, v_imp):
     K_, n, ce = p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION]
     if law == L.HERTZ:  # Hertz; Muvengei et al. eq. 17
         return K_ * d ** n
+    if law == L.KELVIN_VOIGT:  # the linear spring-dashpot (n = 1), no pull
+        return max(K_ * d + p[CP_DAMPING] * dd, 0.0)
     if law == L.LANKARANI_NIKRAVESH:  # Muvengei et al. eq. 21 (Lankarani & Nikravesh 1990)
         F = K_ * d ** n * (1 + 3 * (1 - ce ** 2) / 4 * dd / v_imp)
     elif law == L.HUNT_CROSSLEY:  # Hunt & Crossley 1975: D = 3 K (1 - ce) / 2 / v(-) * d^n
@@ -89,13 +100,17 @@ def test_explicit_laws_match_published_equations(law):
     rng = np.random.default_rng(int(law))
     for ce in (0.3, 0.5, 0.9, 1.0):
         p = params(ce=ce, K=10 ** rng.uniform(8, 13), n=rng.choice([1.0, 1.5]))
+        if law == L.KELVIN_VOIGT:  # the compiler's n of the linear law, and a damping
+            p[CP_EXPONENT], p[CP_DAMPING] = 1.0, 10 ** rng.uniform(1, 5)
         for _ in range(50):
             d = 10 ** rng.uniform(-9, -4)
             v_imp = 10 ** rng.uniform(-3, 1)
             dd = rng.uniform(-1.2, 1.0) * v_imp
             F, st = normal_force(int(law), p, d, dd, v_imp, 0.0)
             assert st == 0
-            assert F == pytest.approx(published_force(law, p, d, dd, v_imp), rel=1e-13, abs=1e-300)
+            # Kelvin-Voigt's K d + c d' may cancel: its rounding is that of the terms
+            scale = p[CP_STIFFNESS] * d + p[CP_DAMPING] * abs(dd) if law == L.KELVIN_VOIGT else 0.0
+            assert F == pytest.approx(published_force(law, p, d, dd, v_imp), rel=1e-13, abs=1e-300 + 1e-15 * scale)
 
 
 def test_damping_factors():
@@ -173,12 +188,12 @@ def test_cylindrical_elastic_energy_is_the_integral_of_force(law):
 
 # ----------------------------------------------------------------------------- runs
 def free_journal(law, ce=0.9, c=1e-4, RB=5e-3, m=1.0, I=1e-3, v0=(0.5, 0.0), w0=0.0, Kc=1e10,
-                 friction=0.0, fv=(1e-4, 2e-4), bearing_on_ground=True):
+                 friction=0.0, fv=(1e-4, 2e-4), bearing_on_ground=True, n=1.5, damping=0.0):
     """A journal body moving inside a bearing fixed to ground (or the roles swapped: the
     bearing is the moving body around a ground journal), no gravity."""
-    cp = {CP_CLEARANCE: c, CP_R_BEARING: RB, CP_R_JOURNAL: RB - c, CP_STIFFNESS: Kc, CP_EXPONENT: 1.5,
+    cp = {CP_CLEARANCE: c, CP_R_BEARING: RB, CP_R_JOURNAL: RB - c, CP_STIFFNESS: Kc, CP_EXPONENT: n,
           CP_RESTITUTION: ce, CP_LENGTH: 0.02, CP_SIGMA_SUM: 2 * SIGMA_STEEL, CP_FRICTION: friction,
-          CP_FRICTION_V0: fv[0], CP_FRICTION_V1: fv[1]}
+          CP_FRICTION_V0: fv[0], CP_FRICTION_V1: fv[1], CP_DAMPING: damping}
     bodies = (-1, 0) if bearing_on_ground else (0, -1)
     km = K.build([(m, I)], clearances=[dict(bodies=bodies, points=((0, 0), (0, 0)), law=law, params=cp)])
     return km, np.zeros(3), np.array([v0[0], v0[1], w0])
@@ -250,7 +265,7 @@ def published_chi(law, ce):
             L.GONTHIER: (1 - ce**2) / ce}.get(law, 0.0)  # Gonthier, McPhee, Lange & Piedboeuf 2004
 
 
-@pytest.mark.parametrize("law", ALL_LAWS)
+@pytest.mark.parametrize("law", CHI_LAWS)
 def test_single_impact_restitution_table(law):
     """Rebound / impact speed of a free journal hitting a ground bearing, per law and ce, against
     two independent references: the 1-D integration of the published force law (scipy) and the
@@ -282,6 +297,150 @@ def test_known_behaviour_of_the_laws():
         assert abs(e[L.GONTHIER][i] - ce) <= 0.035
         # the dissipative laws never give more than the elastic rebound, and order as known
         assert e[L.GONTHIER][i] <= e[L.HUNT_CROSSLEY][i] <= e[L.LANKARANI_NIKRAVESH][i] <= 1.0
+
+
+# ----------------------------------------------------------------------------- Kelvin-Voigt
+K_LIN = 1e8  # N/m: peak penetration V0 sqrt(M / K) = 50 um < C, contact ~ pi sqrt(M / K) = 0.31 ms
+
+
+def linear_zeta(e):
+    """Damping ratio of the linear oscillator m x'' + c x' + K x = 0 that, unclipped, is back at x = 0
+    after its half period pi / wd with speed e v: exp(-zeta pi / sqrt(1 - zeta^2)) = e."""
+    return -math.log(e) / math.sqrt(math.pi ** 2 + math.log(e) ** 2)
+
+
+def kelvin_voigt_rebound(K, c, m):
+    """(rebound / impact speed, unclipped rebound, t1) of m x'' = -max(0, K x + c x') from x = 0,
+    x' = v, zeta < 1.  While the force is positive, x = (v/wd) exp(-s t) sin(wd t) with s = c/(2m),
+    wd = sqrt(K/m - s^2); then m x'' = -(K x + c x'), so the force reaches 0 exactly where x'' = 0:
+    x'' ~ (s^2 - wd^2) sin(wd t) - 2 s wd cos(wd t) = 0 at wd t1 = atan2(2 s wd, s^2 - wd^2), in
+    (0, pi): before the half period, where the unclipped oscillator would be back at x = 0 with
+    exp(-s pi / wd) v.  After t1 the body flies off at x'(t1) (K x + c x' < 0 from then on: x falls,
+    x' is constant), x'(t1) = v exp(-s t1) (cos(wd t1) - s/wd sin(wd t1))."""
+    s = c / (2 * m)
+    wd = math.sqrt(K / m - s * s)
+    t1 = math.atan2(2 * s * wd, s * s - wd * wd) / wd
+    xd = math.exp(-s * t1) * (math.cos(wd * t1) - s / wd * math.sin(wd * t1))
+    return -xd, math.exp(-s * math.pi / wd), t1
+
+
+@pytest.mark.parametrize("e", [0.2, 0.5, 0.8, 0.95])
+def test_kelvin_voigt_single_impact_against_the_linear_oscillator(e):
+    """A journal (1 kg, 0.5 m/s) into a ground bearing with F = max(0, K d + c d'), c = 2 zeta
+    sqrt(K m) from the unclipped half-period rebound e: the measured rebound is the clipped
+    closed form (higher than e: the force lets go before d = 0), and the contact's force vanishes at
+    t1 after the onset, the penetration being still positive there."""
+    c = 2 * linear_zeta(e) * math.sqrt(K_LIN * M)
+    ref, unclipped, t1 = kelvin_voigt_rebound(K_LIN, c, M)
+    assert unclipped == pytest.approx(e, rel=1e-12)
+    t, rows, y, stats, contact = impact(L.KELVIN_VOIGT, 1.0, n=1.0, Kc=K_LIN, damping=c)
+    assert stats[3] == 1 and contact[0, 0] == 0.0 and abs(y[4]) < 1e-12 * V0
+    assert -y[3] / V0 == pytest.approx(ref, rel=1e-6)
+    assert ref > e
+    Fn, pen = rows[:, 9 + CS_FN], rows[:, 9 + CS_PENETRATION]
+    onset = (C - 0.0) / V0  # the journal starts centred: it reaches the wall at C / V0
+    pushing = t[(Fn > 0)]
+    assert pushing[0] - onset < 2e-6 and pushing[-1] - onset == pytest.approx(t1, abs=2e-6)
+    assert np.any((Fn == 0) & (pen > 0))  # let go before the separation event
+
+
+def test_kelvin_voigt_damping_given_and_elastic_limit():
+    """`damping = c` as given (the closed form with that c), and c = 0 is elastic: rebound 1."""
+    t, rows, y, stats, contact = impact(L.KELVIN_VOIGT, 1.0, n=1.0, Kc=K_LIN, damping=3000.0)
+    assert -y[3] / V0 == pytest.approx(kelvin_voigt_rebound(K_LIN, 3000.0, M)[0], rel=1e-6)
+    t, rows, y, stats, contact = impact(L.KELVIN_VOIGT, 1.0, n=1.0, Kc=K_LIN, damping=0.0)
+    assert -y[3] / V0 == pytest.approx(1.0, abs=1e-7)
+
+
+def test_kelvin_voigt_compiles_its_damping_from_the_pair_mass():
+    """The compiler's c: as given; 2 zeta sqrt(K m) with m = m_i m_j/(m_i + m_j) of the pair (ground:
+    the other body's mass) from `restitution`; n = 1 and K in N/m; a missing K or two dissipation
+    settings are refused."""
+    def model(law_settings, bearing="ground (0, 0)"):
+        return compile_text(f"""
+body a {{ mass = 2 kg  inertia = 1e-3 kg*m^2 }}
+body b {{ mass = 3 kg  inertia = 1e-3 kg*m^2 }}
+joint J = clearance_revolute({bearing}, b) {{
+    clearance = 0.1 mm  bearing_radius = 5 mm  law = kelvin_voigt  {law_settings}
+}}""").kernel.clearance_param[0]
+    p = model("stiffness = 1e8 N/m  damping = 120 N*s/m")
+    assert p[CP_DAMPING] == 120.0 and p[CP_EXPONENT] == 1.0 and p[CP_STIFFNESS] == 1e8
+    p = model("stiffness = 1e8 N/m  restitution = 0.5")
+    assert p[CP_DAMPING] == pytest.approx(2 * linear_zeta(0.5) * math.sqrt(1e8 * 3.0), rel=1e-14)
+    p = model("stiffness = 1e8 N/m  restitution = 0.5", bearing="a (0, 0)")
+    assert p[CP_DAMPING] == pytest.approx(2 * linear_zeta(0.5) * math.sqrt(1e8 * 1.2), rel=1e-14)
+    with pytest.raises(ModelError, match="law kelvin_voigt of clearance joint `J` needs `stiffness`"):
+        model("restitution = 0.5")
+    with pytest.raises(ModelError, match="needs one of `restitution`, `effective_restitution` or `damping`"):
+        model("stiffness = 1e8 N/m")
+    with pytest.raises(ModelError, match="not both"):
+        model("stiffness = 1e8 N/m  restitution = 0.5  damping = 3 N*s/m")
+    with pytest.raises(ModelError, match="takes no `exponent`"):
+        model("stiffness = 1e8 N/m  restitution = 0.5  exponent = 1.5")
+    with pytest.raises(ModelError, match="law flores takes no `damping`"):
+        compile_text("""body b { mass = 3 kg  inertia = 1e-3 kg*m^2 }
+joint J = clearance_revolute(ground (0, 0), b) { clearance = 0.1 mm  bearing_radius = 5 mm  law = flores
+    stiffness = 1e10  restitution = 0.5  damping = 3 N*s/m }""")
+
+
+# ----------------------------------------------------------------------------- effective restitution
+IMPACT_MODEL = """
+body journal {{ mass = 1 kg  inertia = 1e-3 kg*m^2  velocity = (0.5 m/s, 0) }}
+joint J = clearance_revolute(ground (0, 0), journal) {{
+    clearance = 0.1 mm  bearing_radius = 5 mm  law = {law}  stiffness = {K}  effective_restitution = {e}
+}}
+simulate {{ t_end = 1.2 ms  rtol = 1e-11  atol = 1e-14  output_step = 10 us }}
+"""
+# chi bounded: e >= 0.663, 0.4877; Kelvin-Voigt's 0.1 is overdamped (zeta = 1.10 > 1)
+REACH = {L.LANKARANI_NIKRAVESH: (0.7, 0.95), L.HUNT_CROSSLEY: (0.5, 0.95), L.KELVIN_VOIGT: (0.1, 0.4, 0.7, 0.95)}
+
+
+@pytest.mark.parametrize("law", [law for law in ALL_LAWS if law in DISSIPATIVE_LAWS or law == L.KELVIN_VOIGT])
+def test_a_stated_effective_restitution_is_measured_back(law):
+    """`effective_restitution = e`: the single impact rebounds at e to 1e-6, whichever law
+    (the compiler found the law's own coefficient from the law's relation)."""
+    import planar_mbs as mbs
+
+    K_ = "1e9 N/m" if law == L.KELVIN_VOIGT else "1e10 N/m^1.5"
+    name = catalog.LAWS[int(law)].name
+    for e in REACH.get(law, (0.4, 0.7, 0.95)):
+        res = mbs.simulate(compile_text(IMPACT_MODEL.format(law=name, K=K_, e=e)))
+        touching = res["J.in_contact"]
+        after = np.flatnonzero(np.diff(touching) < 0)[0] + 1  # the first sample of the flight back
+        assert touching[:after].sum() > 5 and abs(res["journal.vy"][after]) < 1e-12
+        assert -res["journal.vx"][after] / 0.5 == pytest.approx(e, abs=1e-6), (name, e)
+
+
+@pytest.mark.parametrize("law, floor", [(L.LANKARANI_NIKRAVESH, "0.663"), (L.HUNT_CROSSLEY, "0.4877")])
+def test_an_effective_restitution_out_of_a_law_s_reach_is_refused(law, floor):
+    """chi of Lankarani-Nikravesh and Hunt-Crossley stays below 3/4 and 3/2 as c_e -> 0, so their
+    rebound cannot go below restitution_exact(3/4) = 0.663, restitution_exact(3/2) = 0.4877."""
+    name = catalog.LAWS[int(law)].name
+    assert f"{restitution_exact(published_chi(law, 1e-12)):.4g}" == floor
+    with pytest.raises(ModelError, match=f"at least {floor}") as info:
+        compile_text(IMPACT_MODEL.format(law=name, K="1e10", e=0.4))
+    assert "flores or gonthier" in info.value.hint
+
+
+def test_the_issue_s_effective_restitutions():
+    """Newton restitution 0.4 ported to Flores (c_e = 0.43449) and Gonthier (0.40243): chi from the exact
+    relation, then each paper's chi(c_e) inverted by hand (Flores: c_e = 1.6 / (chi + 1.6); Gonthier:
+    c_e^2 + chi c_e - 1 = 0)."""
+    chi = brentq(lambda x: restitution_exact(x) - 0.4, 0.5, 5.0, xtol=1e-15)
+    flores = dissipative_coefficient(int(L.FLORES), 0.4)
+    gonthier = dissipative_coefficient(int(L.GONTHIER), 0.4)
+    assert flores == pytest.approx(1.6 / (chi + 1.6), rel=1e-12) and round(flores, 5) == 0.43449
+    assert gonthier == pytest.approx((math.sqrt(chi * chi + 4) - chi) / 2, rel=1e-12) and round(gonthier, 5) == 0.40243
+    for e in (0.05, 0.3, 0.9, 0.999):  # and the relation both ways
+        assert restitution_exact(restitution_chi(e)) == pytest.approx(e, rel=1e-10)
+    assert restitution_chi(1.0) == 0.0 and dissipative_coefficient(int(L.GONTHIER), 1.0) == 1.0
+
+
+def test_kelvin_voigt_effective_restitution_inverts_the_clipped_rebound():
+    """The zeta found for a stated rebound gives it back through the test's own clipped closed form."""
+    for e in (0.2, 0.4, 0.9):  # zeta < 1 (e > exp(-2) = 0.135); above it the run checks
+        zeta = kelvin_voigt_zeta(e)
+        assert kelvin_voigt_rebound(1.0, 2 * zeta, 1.0)[0] == pytest.approx(e, rel=1e-12)
 
 
 @pytest.mark.parametrize("law", [L.HERTZ, L.DUBOWSKY_FREUDENSTEIN, L.ESDU_78035])

@@ -30,6 +30,8 @@ been evaluated before: on the output step, the chunking and resuming).
 Laws (``ContactLaw`` codes; docs/contact.md has the equations and references):
 
 * HERTZ ``F = K d^n``;
+* KELVIN_VOIGT ``F = K d + c d'`` (n = 1), clipped at F >= 0, c in ``CP_DAMPING`` (given, or
+  2 zeta sqrt(K m) from a restitution: `mechanism/restitution.py`);
 * the dissipative laws ``F = K d^n (1 + chi d'/d'(-))``, clipped at F >= 0 (a
   contact pushes, never pulls) with chi(ce) of Lankarani-Nikravesh
   ``3 (1 - ce^2)/4``, Hunt-Crossley ``3 (1 - ce)/2``, Flores ``8 (1 - ce)/(5 ce)``
@@ -58,6 +60,7 @@ from .jit import kernel
 
 from ..mechanism.model import (
     CP_CLEARANCE,
+    CP_DAMPING,
     CP_EXPONENT,
     CP_FRICTION,
     CP_FRICTION_V0,
@@ -93,6 +96,7 @@ ESDU_78035 = int(ContactLaw.ESDU_78035)
 HUNT_CROSSLEY = int(ContactLaw.HUNT_CROSSLEY)
 FLORES = int(ContactLaw.FLORES)
 GONTHIER = int(ContactLaw.GONTHIER)
+KELVIN_VOIGT = int(ContactLaw.KELVIN_VOIGT)
 N_LAWS = len(catalog.LAWS)
 CIRCLE_IN_CIRCLE = int(PairKind.CIRCLE_IN_CIRCLE)
 LUBRICATED = int(PairKind.LUBRICATED)
@@ -212,6 +216,8 @@ def normal_force(law, p, delta, vn, v_impact, f_last):
     dn = K * delta ** p[CP_EXPONENT]
     if law == HERTZ:  # Muvengei et al. eq. 17
         return dn, 0
+    if law == KELVIN_VOIGT:  # linear spring-dashpot (n = 1), clipped: no pull
+        return max(dn + p[CP_DAMPING] * vn, 0.0), 0
     if law < 0 or law >= N_LAWS:
         return 0.0, BAD_INPUT
     chi = damping_factor(law, p[CP_RESTITUTION])

@@ -41,6 +41,7 @@ from .model import (
     CONTACT_LAW_NAMES,
     CP_BREAKDOWN,
     CP_CLEARANCE,
+    CP_DAMPING,
     CP_EXPONENT,
     CP_KIND,
     CP_NX,
@@ -76,6 +77,7 @@ from .model import (
 )
 from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
 from .ordering import reorder
+from . import restitution as R
 from ..language.parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from ..language.spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
 
@@ -129,6 +131,8 @@ MATERIAL_FIELDS = {"E": "Young's modulus, e.g. 207 GPa", "nu": "Poisson's ratio,
                    "density": "e.g. 7800 kg/m^3"}
 _CONTACT_FIELDS = {  # every contact element (catalog.ELEMENTS) takes these
     "material": "material of both parts", "law": "contact law name", "restitution": "coefficient of restitution",
+    "effective_restitution": "the rebound the law is to give (its own coefficient found from it)",
+    "damping": "c of the Kelvin-Voigt law F = K d + c d'",
     "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)", "friction": "Coulomb coefficient (default 0)",
     "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
     "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
@@ -140,6 +144,8 @@ JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
         "length": "bearing length", "material": "material of both parts",
         "bearing_material": "material of the bearing", "journal_material": "material of the journal",
         "law": "contact law name", "restitution": "coefficient of restitution",
+        "effective_restitution": "the rebound the law is to give (its own coefficient found from it)",
+        "damping": "c of the Kelvin-Voigt law F = K d + c d'",
         "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)",
         "friction": "Coulomb coefficient (default 0)",
         "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
@@ -616,10 +622,12 @@ class _ClearancePass:
         cl, rb, rj = self._clearance_radii(f, st, label)
         length = f.scalar("length", U.LENGTH, 0.0, positive=True)
         sigma_sum = self._clearance_sigma(f, st, label)
-        stiffness, exponent, ce = self._clearance_law(f, st, label, name, group, rb, rj, sigma_sum, length)
+        stiffness, exponent, ce, damping = self._clearance_law(f, st, label, name, group, rb, rj, sigma_sum, length,
+                                                               self._effective_mass(bi, bj))
         p = self.a["clearance_param"][k]
         p[CP_CLEARANCE], p[CP_R_BEARING], p[CP_R_JOURNAL], p[CP_LENGTH] = cl, rb, rj, length
         p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = stiffness, exponent, ce, sigma_sum
+        p[CP_DAMPING] = damping
         self._clearance_friction(f, p)
         self._clearance_start(f, k, cl)
         self.a["clearance_body"][k] = (bi, bj)
@@ -637,10 +645,11 @@ class _ClearancePass:
                     f"the breakdown eccentricity ratio must lie in (0, 1), got {f.expr('breakdown').pos.text}",
                     hint="the film breaks down before the journal touches the bearing (ratio 1), e.g. 0.95")
 
-    def _contact_law(self, f: Fields, st: Statement, label: str, r_eff: float):
-        """(law, K, n, c_e, sigma) of a contact element of a plane geometry: a cylindrical law needs a
-        bearing, and without `stiffness` K = 4 / (3 (sigma_1 + sigma_2)) sqrt(R) (Hertz, a circle of
-        effective radius R on a plane or on another circle; no default for a sharp corner, R = 0)."""
+    def _contact_law(self, f: Fields, st: Statement, label: str, r_eff: float, bodies):
+        """(law, K, n, c_e, sigma, c) of a contact element of a plane geometry between `bodies`: a
+        cylindrical law needs a bearing, and without `stiffness` K = 4 / (3 (sigma_1 + sigma_2)) sqrt(R)
+        (Hertz, a circle of effective radius R on a plane or on another circle; no default for a sharp
+        corner, R = 0)."""
         name = f.symbol("law", list(LAWS))
         group = catalog.law(name).group
         if group.compliance == "materials":
@@ -654,14 +663,22 @@ class _ClearancePass:
             raise (st.name_pos or st.pos).error(f"{label} needs `material` (or `stiffness`)",
                                                 hint="e.g. `material = steel`")
         # the bearing radii only set _clearance_law's default stiffness, replaced here
-        K, n, ce = self._clearance_law(f, st, label, name, group, 2.0, 1.0, sigma_sum, 0.0)
+        K, n, ce, c = self._clearance_law(f, st, label, name, group, 2.0, 1.0, sigma_sum, 0.0,
+                                          self._effective_mass(*bodies))
         if not f.has("stiffness"):
             K = 4.0 / (3.0 * sigma_sum) * math.sqrt(r_eff)
-        return LAWS[name], K, n, ce, sigma_sum
+        return LAWS[name], K, n, ce, sigma_sum, c
 
-    def _fill_pair(self, k: int, kind: int, bodies, points, law, K, n, ce, sigma, f: Fields, **cols):
+    def _effective_mass(self, bi: int, bj: int) -> float:
+        """m_i m_j / (m_i + m_j) of a contact pair (ground: the other body's mass), the translational
+        masses alone: what the Kelvin-Voigt law's damping from a restitution is sized for."""
+        w = sum(1.0 / self.a["body_mass"][b] for b in (bi, bj) if b >= 0)
+        return 1.0 / w if w > 0 else math.inf
+
+    def _fill_pair(self, k: int, kind: int, bodies, points, law, K, n, ce, sigma, c, f: Fields, **cols):
         p = self.a["clearance_param"][k]
         p[CP_KIND], p[CP_STIFFNESS], p[CP_EXPONENT], p[CP_RESTITUTION], p[CP_SIGMA_SUM] = kind, K, n, ce, sigma
+        p[CP_DAMPING] = c
         for col, v in cols.items():
             p[globals()[col]] = v
         self._clearance_friction(f, p)
@@ -685,7 +702,7 @@ class _ClearancePass:
                                                 hint="a corner could then reach the far guide surface")
         if not 2 * rc < min(length, width):
             raise f.expr("corner_radius").pos.error("the corners' radius must be less than half the block's sides")
-        law, K, n, ce, sigma = self._contact_law(f, st, label, rc)
+        law, K, n, ce, sigma, c = self._contact_law(f, st, label, rc, (bi, bj))
         phi0 = 0.0  # the block's sides lie along `axis` in its own frame too: aligned at equal angles
         ab = ax
         ng, nb = np.array([-ax[1], ax[0]]), np.array([-ab[1], ab[0]])
@@ -693,7 +710,7 @@ class _ClearancePass:
         for i, (sa, sn) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
             line = np.asarray(pi) + sn * half * ng
             corner = np.asarray(pj) + sa * (0.5 * length - rc) * ab + sn * (0.5 * width - rc) * nb
-            self._fill_pair(k + i, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (line, corner), law, K, n, ce, sigma, f,
+            self._fill_pair(k + i, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (line, corner), law, K, n, ce, sigma, c, f,
                             CP_CLEARANCE=cl, CP_R_JOURNAL=rc, CP_NX=-sn * ng[0], CP_NY=-sn * ng[1], CP_LENGTH=length)
             self.clearance_assembly.append(
                 ("translational", bi, bj, tuple(pi), tuple(pj), tuple(ax), phi0, st.name) if i == 0 else ("none",))
@@ -713,8 +730,8 @@ class _ClearancePass:
         if shape == "circle_on_line":
             r = f.scalar("radius", U.LENGTH, 0.0, nonneg=True)
             m = self._unit_axis(f, "normal")
-            law, K, n, ce, sigma = self._contact_law(f, st, label, r)
-            self._fill_pair(k, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (pi, pj), law, K, n, ce, sigma, f,
+            law, K, n, ce, sigma, c = self._contact_law(f, st, label, r, (bi, bj))
+            self._fill_pair(k, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (pi, pj), law, K, n, ce, sigma, c, f,
                             CP_R_JOURNAL=r, CP_NX=m[0], CP_NY=m[1])
         else:
             r = f.scalar("radius", U.LENGTH, positive=True)
@@ -723,9 +740,10 @@ class _ClearancePass:
             if inside and not r < r1:
                 raise f.expr("radius").pos.error(f"the circle (radius {r:g} m) must be smaller than the cavity "
                                                  f"(first_radius {r1:g} m)")
-            law, K, n, ce, sigma = self._contact_law(f, st, label, r * r1 / (r1 - r if inside else r1 + r))
+            law, K, n, ce, sigma, c = self._contact_law(f, st, label, r * r1 / (r1 - r if inside else r1 + r),
+                                                        (bi, bj))
             kind = PairKind.CIRCLE_IN_CIRCLE if inside else PairKind.CIRCLE_ON_CIRCLE
-            self._fill_pair(k, int(kind), (bi, bj), (pi, pj), law, K, n, ce, sigma, f,
+            self._fill_pair(k, int(kind), (bi, bj), (pi, pj), law, K, n, ce, sigma, c, f,
                             CP_R_BEARING=r1, CP_R_JOURNAL=r, CP_CLEARANCE=r1 - r if inside else 0.0)
         self.clearance_assembly.append(("none",))
 
@@ -810,8 +828,9 @@ class _ClearancePass:
         return 0.0
 
     def _clearance_law(self, f: Fields, st: Statement, label: str, name: str, group, rb: float, rj: float,
-                       sigma_sum: float, length: float) -> tuple[float, float, float]:
-        """(K, n, c_e) of the contact law, checked against what the law's group reads."""
+                       sigma_sum: float, length: float, m_eff: float) -> tuple[float, float, float, float]:
+        """(K, n, c_e, c) of the contact law, checked against what the law's group reads; m_eff: the pair's
+        effective mass (`_effective_mass`)."""
         for key in sorted(LAW_SETTINGS - set(group.takes)):  # settings the law's group does not read
             if f.has(key):
                 why = (": its compliance comes from the materials, the bearing length and the radii"
@@ -819,6 +838,10 @@ class _ClearancePass:
                 other = next(s.name for s in catalog.LAWS if key in s.group.takes)
                 raise f.expr(key).pos.error(f"law {name} takes no `{key}`{why}",
                                             hint=f"remove it, or use a law that takes it, such as {other}")
+        for key in group.needs:
+            if not f.has(key):
+                raise (st.name_pos or st.pos).error(f"law {name} of {label} needs `{key}`",
+                                                    hint=f"add `{key} = ...` ({f.allowed[key]})")
         if group.compliance == "materials":
             # implicit cylindrical laws (Muvengei et al. eqs. 22, 23): compliance from sigma, L and the radii
             if not length > 0:
@@ -828,7 +851,7 @@ class _ClearancePass:
                 raise (st.name_pos or st.pos).error(
                     f"law {name} of {label} needs `material` (or `bearing_material` + `journal_material`)",
                     hint="e.g. `material = steel` with `material steel { E = 207 GPa  nu = 0.3 }`")
-        exponent = f.scalar("exponent", U.NUMBER, 1.5, positive=True)
+        exponent = group.exponent or f.scalar("exponent", U.NUMBER, 1.5, positive=True)
         if group.compliance == "materials":
             stiffness = hertz_stiffness(rb, rj, sigma_sum)  # not used by the law; kept for reference
         elif f.has("stiffness"):
@@ -842,14 +865,43 @@ class _ClearancePass:
                 raise f.expr("exponent").pos.error(
                     "the default stiffness (Muvengei et al. eq. 18) holds for exponent 1.5; give `stiffness` too")
             stiffness = hertz_stiffness(rb, rj, sigma_sum)
-        if "restitution" in group.needs or f.has("restitution"):
-            ce = f.scalar("restitution", U.NUMBER)
-            if not 0 < ce <= 1:
-                raise f.expr("restitution").pos.error(
-                    f"the coefficient of restitution must lie in (0, 1], got {f.expr('restitution').pos.text}")
-        else:
-            ce = 1.0
-        return stiffness, exponent, ce
+        ce, damping = self._law_dissipation(f, st, label, name, group, stiffness, m_eff)
+        return stiffness, exponent, ce, damping
+
+    def _law_dissipation(self, f: Fields, st: Statement, label: str, name: str, group, K: float,
+                         m_eff: float) -> tuple[float, float]:
+        """(c_e, c): the law's restitution and the Kelvin-Voigt damping, from the one of `group.one_of`
+        given: the law's own coefficient, the effective restitution it is to give (its coefficient
+        found from it, `restitution.py`) or the damping."""
+        given = [key for key in group.one_of if f.has(key)]
+        if len(given) > 1:
+            raise f.expr(given[1]).pos.error(f"give `{given[0]}` or `{given[1]}` to law {name}, not both",
+                                             hint="each sets the law's dissipation")
+        if group.one_of and not given:
+            keys = [f"`{key}`" for key in group.one_of]
+            raise (st.name_pos or st.pos).error(f"law {name} of {label} needs one of {', '.join(keys[:-1])} or {keys[-1]}",
+                                                hint="e.g. `restitution = 0.9` or `effective_restitution = 0.9`")
+        values = {key: self._restitution(f, key) for key in ("restitution", "effective_restitution") if f.has(key)}
+        ce = values.get("restitution", 1.0)
+        if group is catalog.LINEAR:
+            damping = f.scalar("damping", U.DAMPING, nonneg=True) if f.has("damping") else R.kelvin_voigt_damping(
+                K, m_eff, values.get("restitution"), values.get("effective_restitution"))
+            return ce, damping
+        if "effective_restitution" in values:
+            try:
+                ce = R.dissipative_coefficient(int(LAWS[name]), values["effective_restitution"])
+            except ValueError as e:
+                raise f.expr("effective_restitution").pos.error(
+                    str(e), hint="use flores or gonthier, which reach any restitution") from None
+        return ce, 0.0
+
+    def _restitution(self, f: Fields, key: str) -> float:
+        """A coefficient of restitution in (0, 1]."""
+        e = f.scalar(key, U.NUMBER)
+        if not 0 < e <= 1:
+            raise f.expr(key).pos.error(
+                f"the coefficient of restitution must lie in (0, 1], got {f.expr(key).pos.text}")
+        return e
 
     def _clearance_friction(self, f: Fields, p: np.ndarray) -> None:
         """Coulomb friction and its slip-speed ramp v0 -> v1 into the joint's parameter row."""

@@ -77,7 +77,8 @@ CP_NX = 12  # outward normal (nx, ny) of the first body's line, in its frame (CI
 CP_NY = 13
 CP_VISCOSITY = 14  # dynamic viscosity mu of the lubricant [Pa s] (LUBRICATED)
 CP_BREAKDOWN = 15  # eccentricity ratio where the film breaks down and dry contact begins (LUBRICATED)
-N_CLEARANCE_PARAM = 16
+CP_DAMPING = 16  # c of the Kelvin-Voigt law F = K d + c d' [N s/m] (given, or from a restitution)
+N_CLEARANCE_PARAM = 17
 # contact geometries of the clearance elements (catalog.PAIRS); R_i = CP_R_BEARING, R_j = CP_R_JOURNAL
 PairKind = IntEnum("PairKind", {s.enum: s.code for s in catalog.PAIRS}, module=__name__)
 PairKind.__doc__ = "Contact geometries of the clearance and contact elements (catalog.PAIRS)."
