@@ -16,12 +16,16 @@ through `planar_mbs.pykernel`, without numba):
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from .. import catalog
 from ..lazy import lazy
 
 optimize = lazy("scipy.optimize")  # loaded when a model states an effective restitution
-pycontact = lazy("..pykernel.contact", __package__)  # the kernel's damping_factor, without numba
+if TYPE_CHECKING:  # the module itself, for type checkers and import-graph tools
+    from ..pykernel import contact as pycontact
+else:  # loaded on first use
+    pycontact = lazy("..pykernel.contact", __package__)  # the kernel's damping_factor, without numba
 
 
 def _root(f, lo: float, hi: float) -> float:
