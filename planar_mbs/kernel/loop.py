@@ -257,7 +257,7 @@ def observe(km, cfg, t, y, contact, ws, row):
     if (skip & OBS_SKIP_CLEARANCE) == 0:
         _observe_clearances(km, q, qd, contact, ws, row, lay[OB_CLEARANCE])
     else:
-        for i in range(lay[OB_CLEARANCE], lay[OB_SYSTEM]):
+        for i in range(lay[OB_CLEARANCE], lay[OB_FORCE]):
             row[i] = math.nan
     _observe_system(km, q, qd, contact, ws, row, lay[OB_SYSTEM], (skip & OBS_SKIP_ENERGY) == 0, errors, loads)
     _observe_loads(km, ws, row, lay[OB_FORCE], lay[OB_DRIVER_WORK], loads)

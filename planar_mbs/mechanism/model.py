@@ -196,8 +196,8 @@ N_STATS = 8
 # ---- the observation row: one definition, written by kernel.loop.observe, read by signals.signal_table.
 # Blocks in order (`observation_layout` gives their first columns): q, q', q'' (3 nbody each), joint
 # reactions (N_JOINT_SIGNALS per ideal joint), driver efforts, driver powers (one per driver),
-# clearance signals (N_CLEARANCE_SIGNALS per clearance joint), system signals (N_SYSTEM_SIGNALS),
-# force elements (N_FORCE_SIGNALS each), driver works (one per driver).
+# clearance signals (N_CLEARANCE_SIGNALS per clearance joint), force elements (N_FORCE_SIGNALS each),
+# driver works (one per driver), system signals (N_SYSTEM_SIGNALS: last, its energies and errors at the end).
 JS_FX, JS_FY, JS_MOMENT = 0, 1, 2  # reaction on the joint's second body (moment about its joint point)
 N_JOINT_SIGNALS = 3
 CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
@@ -209,8 +209,8 @@ CS_WORK, CS_DISSIPATED = 14, 15
 # CS_WORK: work of the element's contact (and film) forces on both bodies since the start; CS_DISSIPATED:
 # the energy it took out, -(CS_WORK + its elastic energy now - at the start)
 N_CLEARANCE_SIGNALS = 16
-SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 0, 1, 2, 3
-SYS_GRAVITY_POWER, SYS_GRAVITY_WORK, SYS_INPUT_WORK, SYS_DISSIPATED, SYS_BALANCE = 4, 5, 6, 7, 8
+SYS_GRAVITY_POWER, SYS_GRAVITY_WORK, SYS_INPUT_WORK, SYS_DISSIPATED, SYS_BALANCE = 0, 1, 2, 3, 4
+SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 5, 6, 7, 8
 # SYS_INPUT_WORK: work of the loads and drivers less what their potentials store (damping, actuators,
 # expressions, drivers); SYS_DISSIPATED: the clearance elements' CS_DISSIPATED summed; SYS_BALANCE:
 # T + V - (T + V at the start) - SYS_INPUT_WORK + SYS_DISSIPATED, zero but for the integration's error
@@ -218,7 +218,7 @@ N_SYSTEM_SIGNALS = 9
 FS_VALUE, FS_POWER, FS_WORK = 0, 3, 4  # a force element's values (catalog.ForceSpec.signals), power, work
 N_FORCE_SIGNALS = 5
 # indices into `observation_layout`'s tuple
-OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_SYSTEM, OB_FORCE, OB_DRIVER_WORK, OB_SIZE = \
+OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_FORCE, OB_DRIVER_WORK, OB_SYSTEM, OB_SIZE = \
     range(11)
 
 
@@ -232,10 +232,10 @@ def observation_layout(nbody, njoint, ndriver, nclearance, nforce):
     effort = joint + N_JOINT_SIGNALS * njoint
     power = effort + ndriver
     clearance = power + ndriver
-    system = clearance + N_CLEARANCE_SIGNALS * nclearance
-    force = system + N_SYSTEM_SIGNALS
+    force = clearance + N_CLEARANCE_SIGNALS * nclearance
     dwork = force + N_FORCE_SIGNALS * nforce
-    return q, qd, qdd, joint, effort, power, clearance, system, force, dwork, dwork + ndriver
+    system = dwork + ndriver
+    return q, qd, qdd, joint, effort, power, clearance, force, dwork, system, system + N_SYSTEM_SIGNALS
 
 
 # ---- work channels: the powers whose integrals the time loop keeps (`kernel.work`), one per force element,

@@ -90,6 +90,7 @@ POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_
 FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
 # joints whose reaction includes a moment (they lock the relative rotation; catalog.JointSpec.moment)
 MOMENT_JOINTS = tuple(JointType(s.code) for s in catalog.JOINTS if s.moment)
+_KINDS = {s.code: s for s in catalog.FORCES}
 
 
 @dataclass(frozen=True)
@@ -168,8 +169,9 @@ def signal_table(model: Model) -> list[Signal]:
     ]
     for e, name in enumerate(model.force_names):
         col = lay[OB_FORCE] + N_FORCE_SIGNALS * e
-        spec = catalog.force_kind(int(k.force_type[e]))
-        table += [Signal(name, q, u, (col + FS_VALUE + i,)) for i, (q, u) in enumerate(spec.signals)]
+        spec = _KINDS.get(int(k.force_type[e]))  # an unknown kind: refused before a run (checks.known_force_kinds)
+        values = spec.signals if spec is not None else ()
+        table += [Signal(name, q, u, (col + FS_VALUE + i,)) for i, (q, u) in enumerate(values)]
         table += [Signal(name, "power", "W", (col + FS_POWER,)), Signal(name, "work", "J", (col + FS_WORK,))]
     for d, name in enumerate(model.driver_names):
         table.append(Signal(name, "work", "J", (lay[OB_DRIVER_WORK] + d,)))
@@ -189,7 +191,7 @@ def skip_bits(model: Model, columns=None) -> int:
     loads = [lay[OB_FORCE] + N_FORCE_SIGNALS * e + i for e in range(model.nforce) for i in range(FS_WORK)]
     groups = (
         (OBS_SKIP_DYNAMICS, range(lay[OB_QDD], lay[OB_CLEARANCE])),
-        (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], s)),
+        (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], lay[OB_FORCE])),
         (OBS_SKIP_ENERGY, (s + SYS_KINETIC, s + SYS_POTENTIAL, s + SYS_INPUT_WORK, s + SYS_DISSIPATED,
                            s + SYS_BALANCE)),
         (OBS_SKIP_ERRORS, (s + SYS_POSITION_ERROR, s + SYS_VELOCITY_ERROR)),
