@@ -451,7 +451,9 @@ class ForceSpec:
     (a ``<name>_program`` column holds 1 + the result row of an expression giving ``<name>``).
     ``potential``: ``kernel/forces.py``'s `force_potential` counts its energy; ``dissipative``: the
     columns that make it do work without a potential unless zero (a workless mechanism's energy check
-    reads both).  ``settable``: the columns `Simulation.set_load` sets, in order."""
+    reads both).  ``settable``: the columns `Simulation.set_load` sets, in order.  ``signals``: the
+    (quantity, unit) of each value its formula in ``kernel/forces.py``'s `force_element` reports
+    (at most `N_FORCE_VALUES`, in order); every kind also records its power and work."""
 
     code: int  # ForceType value, the kernel's force code
     enum: str
@@ -465,6 +467,7 @@ class ForceSpec:
     potential: bool = False
     dissipative: tuple[str, ...] = ()
     settable: tuple[str, ...] = ()
+    signals: tuple[tuple[str, str], ...] = ()
     example: str = ""
 
     @property
@@ -507,16 +510,20 @@ def _spring(code: int, enum: str, name: str, angle: bool) -> ForceSpec:
                                else "") + ": a constant or an expression", unit=what, default=0.0)),
         columns=("stiffness", "damping", free, "actuator", "actuator_program"), potential=True,
         dissipative=("damping", "actuator", "actuator_program"), settable=("actuator",),
+        signals=(("torque", "N*m"), ("angle", "rad"), ("rate", "rad/s")) if angle else
+        (("force", "N"), ("length", "m"), ("rate", "m/s")),
         example=f"{name}(a (p), b (p))" if not angle else f"{name}(a, b)")
 
 
 FORCES: tuple[ForceSpec, ...] = (
     ForceSpec(code=0, enum="CONSTANT_FORCE", name="constant", fill="load", formula="F = (fx, fy), global, at P",
               settings=(JointSetting(name="force", meaning="(fx, fy) in the global frame", unit="force"),),
-              columns=("fx", "fy"), potential=True, settable=("fx", "fy"), example="constant(a (p), force = (fx, fy))"),
+              columns=("fx", "fy"), potential=True, settable=("fx", "fy"),
+              signals=(("fx", "N"), ("fy", "N")), example="constant(a (p), force = (fx, fy))"),
     ForceSpec(code=1, enum="CONSTANT_TORQUE", name="torque", fill="load", formula="T on the body", points=False,
               settings=(JointSetting(name="torque", meaning="e.g. 2 N*m", unit="torque"),),
-              columns=("torque",), potential=True, settable=("torque",), example="torque(a, torque = T)"),
+              columns=("torque",), potential=True, settable=("torque",),
+              signals=(("torque", "N*m"),), example="torque(a, torque = T)"),
     _spring(2, "SPRING_DAMPER", "spring_damper", angle=False),
     _spring(3, "ROTATIONAL_SPRING_DAMPER", "rotational_spring_damper", angle=True),
     ForceSpec(code=4, enum="EXPRESSION", name="expression", fill="expression",
@@ -525,9 +532,11 @@ FORCES: tuple[ForceSpec, ...] = (
                                      "signals", unit="force"),
                         JointSetting(name="fy", meaning="force along global y (the same)", unit="force"),
                         JointSetting(name="torque", meaning="torque on the body (the same)", unit="torque")),
-              columns=("fx_program", "fy_program", "torque_program"), example="expression(a (p), fx = ...)"),
+              columns=("fx_program", "fy_program", "torque_program"),
+              signals=(("fx", "N"), ("fy", "N"), ("torque", "N*m")), example="expression(a (p), fx = ...)"),
 )
 N_FORCE_PARAM = max(len(s.param_columns) for s in FORCES)  # force_param columns
+N_FORCE_VALUES = 3  # values a force element reports (`ForceSpec.signals`), besides its power and work
 
 
 def force_kind(code: int) -> ForceSpec:
@@ -628,6 +637,7 @@ def _check_force(s: ForceSpec) -> None:
     cols = s.param_columns
     assert len(set(cols)) == len(cols) and set(s.dissipative) | set(s.settable) <= set(cols), s.name
     assert s.fill != "settings" or not s.columns, f"{s.name}: a settings force stores its settings, in order"
+    assert len(s.signals) <= N_FORCE_VALUES and all(q not in ("power", "work") for q, _ in s.signals), s.name
 
 
 def _check_joint(s: JointSpec) -> None:

@@ -97,8 +97,8 @@ def synthetic_rows(model: Model, t: np.ndarray) -> np.ndarray:
     """Observation rows of a plausible run: ideal crank motion, a journal that wanders
     around the clearance circle (in and out of contact), made-up reactions."""
     omega = float(model.kernel.driver_motion_param[0, 1])
-    nb, nj, nd, nc = model.nbody, model.njoint, model.ndriver, model.nclearance
-    rows = np.zeros((len(t), observation_size(nb, nj, nd, nc)))
+    nb, nj, nd, nc, nf = model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce
+    rows = np.zeros((len(t), observation_size(nb, nj, nd, nc, nf)))
     th = omega * t
     A = CRANK * np.stack([np.cos(th), np.sin(th)], 1)
     e_len = CLEARANCE * (0.97 + 0.06 * np.sin(2 * np.pi * 37 * t))

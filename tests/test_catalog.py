@@ -188,10 +188,10 @@ DUMMY_FORCE = ('    ForceSpec(code=NEW, enum="DRAG_DUMMY", name="drag_dummy", fi
                '              formula="F = -c v at the centre of mass",\n'
                '              settings=(JointSetting(name="coefficient", meaning="c", unit="damping"),)),\n')
 DUMMY_FORCE_CODE = ("DRAG_DUMMY = int(ForceType.DRAG_DUMMY)\n",
-                    "        elif typ == DRAG_DUMMY:\n"
-                    "            if bi >= 0:\n"
-                    "                Qe[3 * bi] -= p[0] * qd[3 * bi]\n"
-                    "                Qe[3 * bi + 1] -= p[0] * qd[3 * bi + 1]\n")
+                    "    elif typ == DRAG_DUMMY:\n"
+                    "        if bi >= 0:\n"
+                    "            Qe[3 * bi] -= p[0] * qd[3 * bi]\n"
+                    "            Qe[3 * bi + 1] -= p[0] * qd[3 * bi + 1]\n")
 
 MODEL = """
 material steel { E = 207 GPa  nu = 0.3 }
@@ -276,7 +276,7 @@ def extended(tmp_path_factory):
     _insert(pkg, "force", "catalog.py", ")\nN_FORCE_PARAM = ", DUMMY_FORCE.replace("NEW", str(len(catalog.FORCES))))
     _insert(pkg, "force", "kernel/forces.py", "EXPRESSION = int(ForceType.EXPRESSION)\n", DUMMY_FORCE_CODE[0],
             after=True)
-    _insert(pkg, "force", "kernel/forces.py", "        else:\n            return BAD_INPUT\n    return 0\n",
+    _insert(pkg, "force", "kernel/forces.py", "    else:\n        return BAD_INPUT\n    return 0\n",
             DUMMY_FORCE_CODE[1])
     _insert(pkg, "integrator", "catalog.py", ")\n\n# ------------------------------------------------------------------ force elements",
             DUMMY_INTEGRATOR.replace("NEW", str(len(catalog.INTEGRATORS))))

@@ -259,15 +259,18 @@ def test_skipped_columns_of_the_observation_row_are_nan_and_the_rest_unchanged()
     from planar_mbs.kernel import make_workspace, observe
     from planar_mbs.mechanism.kinematics import assemble
     from planar_mbs.mechanism.model import (CFG_SKIP, OB_CLEARANCE, OB_QDD, OB_SYSTEM, OBS_SKIP_CLEARANCE,
-                                  OBS_SKIP_DYNAMICS, OBS_SKIP_ENERGY, OBS_SKIP_ERRORS, observation_layout,
+                                  OBS_SKIP_DYNAMICS, OBS_SKIP_ENERGY, OBS_SKIP_ERRORS, OBS_SKIP_LOADS,
+                                  SYS_BALANCE, SYS_DISSIPATED, SYS_GRAVITY_POWER, SYS_GRAVITY_WORK,
+                                  SYS_INPUT_WORK, SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR,
+                                  SYS_VELOCITY_ERROR, OB_FORCE, observation_layout,
                                   observation_size)
 
     model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
     km = model.kernel
     q, qd = assemble(model)
     y = np.concatenate([q, qd])
-    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance)
-    n = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance)
+    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce)
+    n = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce)
     contact = np.zeros((model.nclearance, 3))
 
     def row(bits):
@@ -280,16 +283,23 @@ def test_skipped_columns_of_the_observation_row_are_nan_and_the_rest_unchanged()
     full = row(0)
     assert np.all(np.isfinite(full))
     groups = {OBS_SKIP_DYNAMICS: range(lay[OB_QDD], lay[OB_CLEARANCE]),
-              OBS_SKIP_CLEARANCE: range(lay[OB_CLEARANCE], lay[OB_SYSTEM]),
-              OBS_SKIP_ENERGY: range(lay[OB_SYSTEM], lay[OB_SYSTEM] + 2),
-              OBS_SKIP_ERRORS: range(lay[OB_SYSTEM] + 2, lay[OB_SYSTEM] + 4)}
+              OBS_SKIP_CLEARANCE: range(lay[OB_CLEARANCE], lay[OB_FORCE]),
+              OBS_SKIP_ENERGY: [lay[OB_SYSTEM] + i for i in (SYS_KINETIC, SYS_POTENTIAL, SYS_INPUT_WORK, SYS_DISSIPATED, SYS_BALANCE)],
+              OBS_SKIP_ERRORS: [lay[OB_SYSTEM] + i for i in (SYS_POSITION_ERROR, SYS_VELOCITY_ERROR)],
+              OBS_SKIP_LOADS: [lay[OB_SYSTEM] + SYS_GRAVITY_POWER]}
     for bit, cols in groups.items():
         part = row(bit)
         blank = np.zeros(n, bool)
         blank[list(cols)] = True
         assert np.all(np.isnan(part[blank])) and np.array_equal(part[~blank], full[~blank])
     bare = row(sum(groups))
-    assert np.array_equal(bare[:lay[OB_QDD]], y) and np.all(np.isnan(bare[lay[OB_QDD]:]))
+    works = [lay[OB_SYSTEM] + SYS_GRAVITY_WORK, *range(lay[OB_FORCE], lay[OB_SYSTEM])]  # no force here: drivers'
+    assert model.nforce == 0
+    blank = np.ones(n, bool)
+    blank[:lay[OB_QDD]] = False
+    blank[works] = False
+    assert np.array_equal(bare[:lay[OB_QDD]], y) and np.all(np.isnan(bare[blank]))
+    assert np.all(bare[works] == 0.0)  # the works, kept always: 0 at a run's start
 
 
 def test_reactions_kept_alone_balance_the_slider_and_torque_matches_inverse_dynamics(ideal_run):

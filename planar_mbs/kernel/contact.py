@@ -469,12 +469,14 @@ def clearance_force(km, k, q, qd, cs, contact):
 
 
 @kernel
-def add_clearance_forces(km, q, qd, cs, contact, Qe, stats):
+def add_clearance_forces(km, q, qd, cs, contact, Qe, stats, pw, p0):
     """Qe += contact forces (normal and friction) of every clearance element in contact mode, and
-    the film force of every lubricated joint (an element in free flight costs one comparison).
+    the film force of every lubricated joint (an element in free flight costs one comparison); the
+    power of element k's forces on its two bodies into pw[p0 + k].
     Returns 0, or a status (BAD_INPUT, CONTACT_SOLVE) with stats[ST_INFO] = element index."""
     nc = km.clearance_body.shape[0]
     for k in range(nc):
+        pw[p0 + k] = 0.0
         if contact_mode(contact, k) == FREE and int(km.clearance_param[k, CP_KIND]) != LUBRICATED:
             continue
         F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, cs, contact)
@@ -491,7 +493,29 @@ def add_clearance_forces(km, q, qd, cs, contact, Qe, stats):
         # arms from the centres of mass to the contact points (Muvengei et al. eqs. 15, 16)
         add_point_force(Qe, bi, rix, riy, -fx, -fy)
         add_point_force(Qe, bj, rjx, rjy, fx, fy)
+        pw[p0 + k] = _point_power(qd, bj, rjx, rjy, fx, fy) - _point_power(qd, bi, rix, riy, fx, fy)
     return 0
+
+
+@kernel
+def _point_power(qd, b, ax, ay, fx, fy):
+    """Power of the force (fx, fy) at arm (ax, ay) from body b's centre of mass: its generalized force
+    (fx, fy, a x f) times the body's velocities (0 on ground)."""
+    if b < 0:
+        return 0.0
+    k = 3 * b
+    return fx * qd[k] + fy * qd[k + 1] + (ax * fy - ay * fx) * qd[k + 2]
+
+
+@kernel
+def clearance_energy(km, k, q, qd, contact):
+    """Elastic energy of clearance element k (0 unless in contact mode)."""
+    if contact_mode(contact, k) == FREE:
+        return 0.0
+    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+    if delta > 0.0:
+        return elastic_energy(km.clearance_law[k], km.clearance_param[k], delta, contact[k, CT_LAST_FORCE])
+    return 0.0
 
 
 @kernel

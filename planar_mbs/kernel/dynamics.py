@@ -220,15 +220,18 @@ def jac_t_sub(ws, r, lam_r, minv, scale, out):
 
 @kernel(inline=True)
 def accelerations(km, cfg, t, q, qd, contact, ws, stats):
-    """Fill ws.qdd and ws.lam (and ws.Qe, ws.C, ws.J, ws.Ct, ws.gam, ws.cs) at (t, q, q').
+    """Fill ws.qdd and ws.lam (and ws.Qe, ws.C, ws.J, ws.Ct, ws.gam, ws.cs) at (t, q, q'), and the
+    powers of the loads, drivers and clearance elements in ws.pw (`model.work_layout`).
 
     Returns a Status code: 0, SINGULAR (stats[ST_INFO] = row), BAD_INPUT."""
     body_trig(q, ws.cs)
     st = applied_forces(km, ws, t, q, qd)
     if st != 0:
         return st
+    nf = km.force_type.shape[0]
+    nd = km.driver_type.shape[0]
     if km.clearance_body.shape[0] > 0:
-        st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.Qe, stats)
+        st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.Qe, stats, ws.pw, nf + 1 + nd)
         if st != 0:
             return st
     n = q.shape[0]
@@ -256,6 +259,9 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     multipliers(km, ws, ws.lam)
     for r in range(m):
         jac_t_sub(ws, r, ws.lam[r], minv, 1.0, ws.qdd)
+    for d in range(nd):  # a driver's power: its row's constraint force -J_r^T lam_r times q'
+        r = km.driver_row[d]
+        ws.pw[nf + 1 + d] = -ws.lam[r] * jac_dot(ws, r, qd)
     return 0
 
 

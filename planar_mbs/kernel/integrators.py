@@ -120,6 +120,8 @@ def rk_stages(method, km, cfg, t, h, contact, ws, stats, first, last, y0):
     if first == 1:
         for i in range(N):
             K[0, i] = ws.f[i]
+        for i in range(ws.pw.shape[0]):  # the powers of each stage beside it (`kernel.work`)
+            ws.pk[0, i] = ws.pf[i]
     ys = ws.ys
     for s in range(first, last):
         # sum_j A_sj k_j summed in ys, stage by stage over the whole state (contiguous), the zero
@@ -136,6 +138,8 @@ def rk_stages(method, km, cfg, t, h, contact, ws, stats, first, last, y0):
         st = rhs_inlined(km, cfg, t + C[s] * h, ws.ys, contact, ws, stats, K[s])
         if st != 0:
             return st, math.inf
+        for i in range(ws.pw.shape[0]):
+            ws.pk[s, i] = ws.pw[i]
     if first != 1:
         return 0, 0.0
     return 0, solution_and_error(method, cfg, y0, h, ws)
@@ -223,7 +227,10 @@ def end_stage(method, km, cfg, t, h, contact, ws, stats):
     ke = END_STAGE[method]
     if ke < TRIAL_STAGES[method]:
         return 0
-    return rhs(km, cfg, t + h, ws.yb, contact, ws, stats, ws.K[ke])
+    st = rhs(km, cfg, t + h, ws.yb, contact, ws, stats, ws.K[ke])
+    for i in range(ws.pw.shape[0]):
+        ws.pk[ke, i] = ws.pw[i]
+    return st
 
 
 @kernel

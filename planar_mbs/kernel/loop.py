@@ -37,10 +37,12 @@ from .workspace import (
     DN_JUMP_AT,
     DN_PROJECT_FROM,
     DN_SPEED,
+    DN_CUT,
     DN_TA,
     DN_T_END,
     FL_DENSE_METHOD,
     FL_DENSE_READY,
+    FL_ENERGY0,
     FL_JUMP_ROW,
     FL_JUMPS,
     FL_PASSAGE,
@@ -50,6 +52,9 @@ from .workspace import (
     FL_STEP_REG,
     FL_SWITCH_EXPR,
     FL_SWITCH_JOINT,
+    WK_NOW,
+    WK_SAVE,
+    WK_T,
 )
 
 from ..mechanism.model import (
@@ -79,6 +84,20 @@ from ..mechanism.model import (
     CS_POINT_X,
     CS_POINT_Y,
     CS_SLIP,
+    CS_DISSIPATED,
+    CS_WORK,
+    FS_POWER,
+    FS_VALUE,
+    FS_WORK,
+    N_FORCE_SIGNALS,
+    OB_DRIVER_WORK,
+    OB_FORCE,
+    OBS_SKIP_LOADS,
+    SYS_BALANCE,
+    SYS_DISSIPATED,
+    SYS_GRAVITY_POWER,
+    SYS_GRAVITY_WORK,
+    SYS_INPUT_WORK,
     JS_FX,
     JS_FY,
     JS_MOMENT,
@@ -112,6 +131,8 @@ from ..mechanism.model import (
 )
 from .constraints import _JOINT_ROWS, ANGLE, body_trig, constraint_rows_eval, driver_motion, point_cs
 from .contact import (
+    add_clearance_forces,
+    clearance_energy,
     clearance_force,
     clearance_kinematics,
     contact_energy,
@@ -122,7 +143,8 @@ from .contact import (
 from .dynamics import DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs
 from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
 from .expressions import flip_switch, init_switches
-from .forces import force_potential
+from .forces import applied_forces, force_potential
+from .work import energy_start, kinetic_energy, work_accept, work_at, work_end, work_restore
 from .integrators import (
     ADAPTIVE,
     BAD_METHOD,
@@ -215,7 +237,15 @@ def observe(km, cfg, t, y, contact, ws, row):
     nj = km.joint_type.shape[0]
     nd = km.driver_type.shape[0]
     nc = km.clearance_body.shape[0]
-    lay = layout(n // 3, nj, nd, nc)  # model.observation_layout, compiled
+    nf = km.force_type.shape[0]
+    loads = (skip & OBS_SKIP_LOADS) == 0
+    if loads and not dynamics:  # the powers and values of the loads, which `accelerations` leaves in ws
+        st = applied_forces(km, ws, t, q, qd)
+        if st == 0 and nc > 0:
+            st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.Qe, ws.sstats, ws.pw, nf + 1 + nd)
+        if st != 0:
+            return st
+    lay = layout(n // 3, nj, nd, nc, nf)  # model.observation_layout, compiled
     for i in range(n):
         row[lay[OB_Q] + i] = q[i]
         row[lay[OB_QD] + i] = qd[i]
@@ -227,10 +257,27 @@ def observe(km, cfg, t, y, contact, ws, row):
     if (skip & OBS_SKIP_CLEARANCE) == 0:
         _observe_clearances(km, q, qd, contact, ws, row, lay[OB_CLEARANCE])
     else:
-        for i in range(lay[OB_CLEARANCE], lay[OB_SYSTEM]):
+        for i in range(lay[OB_CLEARANCE], lay[OB_FORCE]):
             row[i] = math.nan
-    _observe_system(km, q, qd, contact, ws, row, lay[OB_SYSTEM], (skip & OBS_SKIP_ENERGY) == 0, errors)
+    _observe_system(km, q, qd, contact, ws, row, lay[OB_SYSTEM], (skip & OBS_SKIP_ENERGY) == 0, errors, loads)
+    _observe_loads(km, ws, row, lay[OB_FORCE], lay[OB_DRIVER_WORK], loads)
     return 0
+
+
+@kernel(inline=True)
+def _observe_loads(km, ws, row, cforce, cdwork, loads):
+    """The force elements' values, powers and works, and the drivers' works (ws.wk[WK_T]: at this row)."""
+    nf = km.force_type.shape[0]
+    nd = km.driver_type.shape[0]
+    w = ws.wk[WK_T]
+    for e in range(nf):
+        col = cforce + N_FORCE_SIGNALS * e
+        for i in range(FS_POWER - FS_VALUE):
+            row[col + FS_VALUE + i] = ws.fv[e, i] if loads else math.nan
+        row[col + FS_POWER] = ws.pw[e] if loads else math.nan
+        row[col + FS_WORK] = w[e]
+    for d in range(nd):
+        row[cdwork + d] = w[nf + 1 + d]
 
 
 @kernel(inline=True)
@@ -255,23 +302,40 @@ def _observe_clearances(km, q, qd, contact, ws, row, col0):
         row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
         row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
         row[col + CS_FILM_PRESSURE] = film_peak(km, k, q, qd, e, vn)
+        W = ws.wk[WK_T, km.force_type.shape[0] + 1 + km.driver_type.shape[0] + k]
+        row[col + CS_WORK] = W
+        row[col + CS_DISSIPATED] = ws.energy0[2 + k] - clearance_energy(km, k, q, qd, contact) - W
 
 
 @kernel(inline=True)
-def _observe_system(km, q, qd, contact, ws, row, col, energy, errors):
-    """The system block of an observation row: energies and constraint errors (NaN where skipped)."""
-    n = q.shape[0]
+def _observe_system(km, q, qd, contact, ws, row, col, energy, errors, loads):
+    """The system block of an observation row: energies, gravity's power and work, the energy balance
+    and constraint errors (NaN where skipped)."""
     T = math.nan
     V = math.nan
+    Win = math.nan
+    Wd = math.nan
+    nf = km.force_type.shape[0]
+    nd = km.driver_type.shape[0]
+    w = ws.wk[WK_T]
     if energy:
-        T = 0.0
-        nb = n // 3
-        for b in range(nb):
-            T += (0.5 * km.body_mass[b] * (qd[3 * b] ** 2 + qd[3 * b + 1] ** 2)
-                  + 0.5 * km.body_inertia[b] * qd[3 * b + 2] ** 2)
-        V = force_potential(km, q, qd)
+        T = kinetic_energy(km, qd)
+        Vf = force_potential(km, q, qd)
+        V = Vf
         if km.clearance_body.shape[0] > 0:
             V += contact_energy(km, q, qd, contact)
+        # the loads' and drivers' work less what their potentials (gravity's too) stored since the start
+        Win = Vf - ws.energy0[1]
+        for i in range(nf + 1 + nd):
+            Win += w[i]
+        Wd = 0.0
+        for k in range(km.clearance_body.shape[0]):
+            Wd -= w[nf + 1 + nd + k] + clearance_energy(km, k, q, qd, contact) - ws.energy0[2 + k]
+    row[col + SYS_GRAVITY_POWER] = ws.pw[nf] if loads else math.nan
+    row[col + SYS_GRAVITY_WORK] = w[nf]
+    row[col + SYS_INPUT_WORK] = Win
+    row[col + SYS_DISSIPATED] = Wd
+    row[col + SYS_BALANCE] = T + V - ws.energy0[0] - Win + Wd
     perr = math.nan
     verr = math.nan
     if errors:
@@ -368,6 +432,8 @@ def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t1, y1):
         if single:
             for i in range(y1.shape[0]):
                 ws.yt[i] = y1[i]
+            for i in range(ws.wk.shape[1]):
+                ws.wk[WK_T, i] = ws.wk[WK_NOW, i]
         else:
             tk = t0 + k * dto
             if tk > tend + GRID_TOL * dto:
@@ -380,6 +446,7 @@ def _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t1, y1):
                 if st != 0:
                     return st, nw, False
             dense_eval(ws, th, ws.yt)
+            work_at(ws, th, WK_T)
         st = observe_inlined(km, cfg, tk, ws.yt, contact, ws, out[nw])
         if st != 0:
             stats[ST_INFO] = ws.sstats[ST_INFO]
@@ -496,11 +563,15 @@ def passage_check(method, km, cfg, t, y, h, contact, ws, stats):
     for i in range(N):
         F[0, i] = ws.f[i]
         F[1, i] = ws.yb[i]
+    for i in range(ws.pf.shape[0]):
+        ws.wk[WK_SAVE, i] = ws.pf[i]
     st = fixed_step(method, km, cfg, t, y, 0.5 * h, contact, ws, stats)
     if st == 0:
         for i in range(N):
             F[2, i] = ws.yb[i]
             ws.f[i] = ws.K[END_STAGE[method], i]
+        for i in range(ws.pf.shape[0]):
+            ws.pf[i] = ws.pk[END_STAGE[method], i]
         st = fixed_step(method, km, cfg, t + 0.5 * h, F[2], 0.5 * h, contact, ws, stats)
     err = 0.0
     if st == 0:
@@ -513,6 +584,8 @@ def passage_check(method, km, cfg, t, y, h, contact, ws, stats):
                 stats[ST_INFO] = i
     for i in range(N):
         ws.f[i] = F[0, i]
+    for i in range(ws.pf.shape[0]):
+        ws.pf[i] = ws.wk[WK_SAVE, i]
     st2 = fixed_step(method, km, cfg, t, y, h, contact, ws, stats)
     if st != 0:
         return st
@@ -556,7 +629,7 @@ def _refused(km, cfg, y, stats, out_t, out):
     nc = km.clearance_body.shape[0]
     cap = out_t.shape[0]
     method = int(cfg[CFG_METHOD])
-    nobs = layout(N // 6, km.joint_type.shape[0], km.driver_type.shape[0], nc)[OB_SIZE]
+    nobs = layout(N // 6, km.joint_type.shape[0], km.driver_type.shape[0], nc, km.force_type.shape[0])[OB_SIZE]
     if (cap == 0 or not (cfg[CFG_OUTPUT_STEP] > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
             or N != 2 * km.minv.shape[0]):
         return BAD_INPUT
@@ -584,9 +657,13 @@ def _resume(km, cfg, t0, t, y, clock, contact, stats, ws, out_t, out, nw):
         if st != 0:
             return st, nw
         clock[1] = min(clock[1], hcap)
+    n = y.shape[0] // 2
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
         init_switches(km, ws.xreg, ws.xmode, ws.xfault, t, y)
+    if ws.flags[FL_ENERGY0] == 0:  # the first state of the run (or one a study set): the energy balance's reference
+        energy_start(km, y[:n], y[n:], contact, ws)
+    if stats[ST_OUTPUTS] == 0:
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
             return st, 0
@@ -602,9 +679,17 @@ def _start(km, cfg, t, y, contact, stats, ws):
     st = rhs(km, cfg, t, y, contact, ws, stats, ws.f)
     if st != 0:
         return st
+    _keep_powers(ws)
     if not _all_finite(ws.f):
         return NONFINITE
     return 0
+
+
+@kernel(inline=True)
+def _keep_powers(ws):
+    """ws.pf = the powers of the rhs just evaluated into ws.f (the next step's first stage)."""
+    for i in range(ws.pw.shape[0]):
+        ws.pf[i] = ws.pw[i]
 
 
 @kernel(inline=True)
@@ -755,6 +840,7 @@ def _accept(method, t, hh, last, t_stop, y, stats, ws):
     ws.dense[DN_TA] = t
     ws.dense[DN_H] = hh
     ws.dense[DN_T_END] = tnew
+    work_accept(method, hh, ws)
     return tnew
 
 
@@ -777,6 +863,7 @@ def _contact_event(method, km, cfg, t, hh, tnew, y, contact, stats, ws):
             tnew = t + th * hh
             dense_eval(ws, th, y)
             ws.dense[DN_T_END] = tnew
+            ws.dense[DN_CUT] = th
         elif kev >= 0:
             for i in range(y.shape[0]):
                 y[i] = ws.yb[i]
@@ -799,9 +886,11 @@ def _switch_event(km, cfg, t, hh, tnew, kev, th, y, contact, stats, ws):
             if ths < 1.0:
                 tnew = t + ths * hh
                 dense_eval(ws, ths, y)
+                ws.dense[DN_CUT] = ths
             else:
                 for i in range(N):
                     y[i] = ws.yb[i]
+                ws.dense[DN_CUT] = 1.0
             ws.dense[DN_T_END] = tnew
     ws.flags[FL_SWITCH_EXPR] = sev
     if kev < 0 and sev < 0:
@@ -834,15 +923,19 @@ def _end_step(method, km, cfg, t0, t, h, y, clock, contact, stats, ws, out_t, ou
         clock[0] = ws.dense[DN_TA]
         for i in range(N):
             y[i] = ws.ya[i]
+        work_restore(ws)
         return NONFINITE, nw, h
     if restart:
         st = rhs(km, cfg, t, y, contact, ws, stats, ws.f)
         if st != 0:
             return st, nw, h
+        _keep_powers(ws)
     else:
         kf = END_STAGE[method]
         for i in range(N):
             ws.f[i] = ws.K[kf, i]
+        for i in range(ws.pw.shape[0]):
+            ws.pf[i] = ws.pk[kf, i]
     if not _all_finite(ws.f):
         return NONFINITE, nw, h
     return 0, nw, h
@@ -916,6 +1009,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
         if st != 0:
             clock[0] = t
             return st, nw
+        work_end(ws)
         t = tnew
         st, nw, h = _end_step(method, km, cfg, t0, t, h, y, clock, contact, stats, ws, out_t, out, nw)
         if st != 0:

@@ -7,7 +7,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import catalog
-from ..mechanism.model import JOINT_ROWS, N_STATS, KernelModel, frozen, observation_size
+from ..mechanism.model import JOINT_ROWS, N_STATS, WL_SIZE, KernelModel, frozen, observation_size, work_layout
 from .constraints import row_bodies
 from .expressions import expression_scratch
 
@@ -30,7 +30,8 @@ FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its succes
 FL_SWITCH_EXPR = 9  # comparison of an expression that switches at the end of the last step (-1: none)
 FL_JUMPS = 10  # switches at which a driver's motion jumped and the state was projected (`loop.motion_jump`)
 FL_JUMP_ROW = 11  # the constraint row of the first such jump
-N_FLAGS = 12
+FL_ENERGY0 = 12  # 1: ws.energy0 and the works ws.wk[WK_NOW] start from the run's first state (`work.energy_start`)
+N_FLAGS = 13
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
 DN_H = 1  # its size
@@ -40,7 +41,17 @@ DN_ERR_OLD = 4  # error of the last accepted step (PI controller)
 DN_PROJECT_FROM = 5  # time at which `projection = auto` turned the projection on (NaN: never)
 DN_SPEED = 6  # largest speed |v| + L |omega| of a body seen by the constraint check (`loop.lost_check`)
 DN_JUMP_AT = 7  # time of the first switch at which a driver's motion jumped (NaN: none; `loop.motion_jump`)
-N_DENSE = 8
+DN_CUT = 8  # theta at which an event cut the last accepted step (1: not cut)
+N_DENSE = 9
+# ws.wk rows (float64, one column per work channel, `model.work_layout`): the cumulative works
+WK_A = 0  # at the start of the last accepted step
+WK_B = 1  # at the end of its full step (the quadrature of its stages' powers)
+WK_PA = 2  # the powers at its start ...
+WK_PB = 3  # ... and at its end (the cubic Hermite between them, `work.work_at`)
+WK_NOW = 4  # at the current state (the end of the kept part of the last step)
+WK_T = 5  # at the time of the observation row being written
+WK_SAVE = 6  # scratch: the powers of ws.f while `loop.passage_check` moves it
+N_WK = 7
 
 
 class Workspace(NamedTuple):
@@ -77,6 +88,14 @@ class Workspace(NamedTuple):
     xreg: np.ndarray  # (max(ninstr, 1), 3) expression registers: value, d/dt, d2/dt2 (`kernel.expressions`)
     xmode: np.ndarray  # (ninstr,) frozen 0/1 of a comparison row, or a table's piece (LIVE: computed afresh)
     xfault: np.ndarray  # (2,) [force element, t] of the first non-finite expression value (-1: none)
+    pw: np.ndarray  # (nwork,) powers of the work channels at the current rhs (`model.work_layout`)
+    pf: np.ndarray  # (nwork,) the powers at the state of ws.f (the next step's first stage)
+    pk: np.ndarray  # (N_STAGES, nwork) the powers at each stage of the last step, as ws.K
+    wk: np.ndarray  # (N_WK, nwork) cumulative works, rows WK_*
+    fv: np.ndarray  # (nforce, N_FORCE_VALUES) each force element's reported values (`forces.force_element`)
+    fsave: np.ndarray  # (6,) scratch of `forces.element_power`
+    wF: np.ndarray  # (N_DENSE_ROWS,) scratch of `work.work_at`
+    energy0: np.ndarray  # (2 + nclearance,) at the start: T + V, the loads' potential, each clearance's elastic energy
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -109,7 +128,7 @@ def sizes(km: KernelModel) -> tuple[int, int, int, int, int]:
 def nobs(km: KernelModel) -> int:
     """Columns of one observation row (model.observation_size)."""
     nb, nj, nd, nc, _ = sizes(km)
-    return observation_size(nb, nj, nd, nc)
+    return observation_size(nb, nj, nd, nc, len(km.force_type))
 
 
 def envelope(rowbody: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -167,6 +186,9 @@ def make_workspace(km: KernelModel) -> Workspace:
     dense[DN_FINAL_SAMPLE] = np.nan
     dense[DN_PROJECT_FROM] = np.nan
     dense[DN_JUMP_AT] = np.nan
+    dense[DN_CUT] = 1.0
+    nf = len(km.force_type)
+    nw = work_layout(nf, nd, nc)[WL_SIZE]
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
@@ -175,6 +197,8 @@ def make_workspace(km: KernelModel) -> Workspace:
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
         res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
+        pw=np.zeros(nw), pf=np.zeros(nw), pk=np.zeros((N_STAGES, nw)), wk=np.zeros((N_WK, nw)),
+        fv=np.zeros((nf, catalog.N_FORCE_VALUES)), fsave=np.zeros(6), wF=np.zeros(N_DENSE_ROWS), energy0=np.zeros(2 + nc),
     )
 
 

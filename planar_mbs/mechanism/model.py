@@ -157,6 +157,7 @@ OBS_SKIP_DYNAMICS = 1  # q'' block, joint reactions, driver efforts and powers
 OBS_SKIP_CLEARANCE = 2  # the clearance joints' block
 OBS_SKIP_ENERGY = 4  # system kinetic and potential energy
 OBS_SKIP_ERRORS = 8  # system position and velocity errors
+OBS_SKIP_LOADS = 16  # the force elements' values and powers, gravity's power (their works are always kept)
 
 
 class Status(IntEnum):
@@ -196,22 +197,33 @@ N_STATS = 8
 # ---- the observation row: one definition, written by kernel.loop.observe, read by signals.signal_table.
 # Blocks in order (`observation_layout` gives their first columns): q, q', q'' (3 nbody each), joint
 # reactions (N_JOINT_SIGNALS per ideal joint), driver efforts, driver powers (one per driver),
-# clearance signals (N_CLEARANCE_SIGNALS per clearance joint), system signals (N_SYSTEM_SIGNALS).
+# clearance signals (N_CLEARANCE_SIGNALS per clearance joint), force elements (N_FORCE_SIGNALS each),
+# driver works (one per driver), system signals (N_SYSTEM_SIGNALS: last, its energies and errors at the end).
 JS_FX, JS_FY, JS_MOMENT = 0, 1, 2  # reaction on the joint's second body (moment about its joint point)
 N_JOINT_SIGNALS = 3
 CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
 CS_IN_CONTACT, CS_IMPACT_VELOCITY, CS_FRICTION, CS_SLIP = 7, 8, 9, 10
 CS_POINT_X, CS_POINT_Y, CS_FILM_PRESSURE = 11, 12, 13
+CS_WORK, CS_DISSIPATED = 14, 15
 # CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T;
-# CS_POINT_*: the contact point on the second body (global); CS_FILM_PRESSURE: peak film pressure (LUBRICATED)
-N_CLEARANCE_SIGNALS = 14
-SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 0, 1, 2, 3
-N_SYSTEM_SIGNALS = 4
+# CS_POINT_*: the contact point on the second body (global); CS_FILM_PRESSURE: peak film pressure (LUBRICATED);
+# CS_WORK: work of the element's contact (and film) forces on both bodies since the start; CS_DISSIPATED:
+# the energy it took out, -(CS_WORK + its elastic energy now - at the start)
+N_CLEARANCE_SIGNALS = 16
+SYS_GRAVITY_POWER, SYS_GRAVITY_WORK, SYS_INPUT_WORK, SYS_DISSIPATED, SYS_BALANCE = 0, 1, 2, 3, 4
+SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 5, 6, 7, 8
+# SYS_INPUT_WORK: work of the loads and drivers less what their potentials store (damping, actuators,
+# expressions, drivers); SYS_DISSIPATED: the clearance elements' CS_DISSIPATED summed; SYS_BALANCE:
+# T + V - (T + V at the start) - SYS_INPUT_WORK + SYS_DISSIPATED, zero but for the integration's error
+N_SYSTEM_SIGNALS = 9
+FS_VALUE, FS_POWER, FS_WORK = 0, 3, 4  # a force element's values (catalog.ForceSpec.signals), power, work
+N_FORCE_SIGNALS = 5
 # indices into `observation_layout`'s tuple
-OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_SYSTEM, OB_SIZE = range(9)
+OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_FORCE, OB_DRIVER_WORK, OB_SYSTEM, OB_SIZE = \
+    range(11)
 
 
-def observation_layout(nbody, njoint, ndriver, nclearance):
+def observation_layout(nbody, njoint, ndriver, nclearance, nforce):
     """First column of each block of the observation row, and the row size, as a tuple indexed
     by OB_*.  Plain integer arithmetic: the kernels compile this same function (`kernel.loop`)."""
     q = 0
@@ -221,8 +233,23 @@ def observation_layout(nbody, njoint, ndriver, nclearance):
     effort = joint + N_JOINT_SIGNALS * njoint
     power = effort + ndriver
     clearance = power + ndriver
-    system = clearance + N_CLEARANCE_SIGNALS * nclearance
-    return q, qd, qdd, joint, effort, power, clearance, system, system + N_SYSTEM_SIGNALS
+    force = clearance + N_CLEARANCE_SIGNALS * nclearance
+    dwork = force + N_FORCE_SIGNALS * nforce
+    system = dwork + ndriver
+    return q, qd, qdd, joint, effort, power, clearance, force, dwork, system, system + N_SYSTEM_SIGNALS
+
+
+# ---- work channels: the powers whose integrals the time loop keeps (`kernel.work`), one per force element,
+# then gravity, one per driver, one per clearance element; `work_layout` gives their first indices.
+WL_FORCE, WL_GRAVITY, WL_DRIVER, WL_CLEARANCE, WL_SIZE = range(5)
+
+
+def work_layout(nforce, ndriver, nclearance):
+    """First work channel of each group, and their count, as a tuple indexed by WL_* (compiled too)."""
+    gravity = nforce
+    driver = gravity + 1
+    clearance = driver + ndriver
+    return 0, gravity, driver, clearance, clearance + nclearance
 
 
 class KernelModel(NamedTuple):
@@ -277,9 +304,9 @@ def frozen(km: KernelModel) -> KernelModel:
     return KernelModel(*(read_only(np.asarray(a)) for a in km))
 
 
-def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int) -> int:
+def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int, nforce: int) -> int:
     """Columns of one observation row (`observation_layout`)."""
-    return observation_layout(nbody, njoint, ndriver, nclearance)[OB_SIZE]
+    return observation_layout(nbody, njoint, ndriver, nclearance, nforce)[OB_SIZE]
 
 
 @dataclass(frozen=True)

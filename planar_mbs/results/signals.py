@@ -28,6 +28,20 @@ from ..mechanism.model import (
     CS_POINT_X,
     CS_POINT_Y,
     CP_FRICTION,
+    CS_DISSIPATED,
+    CS_WORK,
+    FS_POWER,
+    FS_VALUE,
+    FS_WORK,
+    N_FORCE_SIGNALS,
+    OB_DRIVER_WORK,
+    OB_FORCE,
+    OBS_SKIP_LOADS,
+    SYS_BALANCE,
+    SYS_DISSIPATED,
+    SYS_GRAVITY_POWER,
+    SYS_GRAVITY_WORK,
+    SYS_INPUT_WORK,
     CP_KIND,
     JS_FX,
     JS_FY,
@@ -68,12 +82,15 @@ CLEARANCE_QUANTITIES = [
     ("fx", "N", CS_FX), ("fy", "N", CS_FY), ("in_contact", "1", CS_IN_CONTACT),
     ("impact_velocity", "m/s", CS_IMPACT_VELOCITY),
 ]
+# the work of its contact (and film) forces on both bodies, and the energy it dissipated, since the start
+WORK_QUANTITIES = [("work", "J", CS_WORK), ("dissipated", "J", CS_DISSIPATED)]
 FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "m/s", CS_SLIP)]
 # the contact point on the second body (journal, circle, corner), global frame; the film's peak pressure
 POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_Y)]
 FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
 # joints whose reaction includes a moment (they lock the relative rotation; catalog.JointSpec.moment)
 MOMENT_JOINTS = tuple(JointType(s.code) for s in catalog.JOINTS if s.moment)
+_KINDS = {s.code: s for s in catalog.FORCES}
 
 
 @dataclass(frozen=True)
@@ -104,7 +121,7 @@ def signal_table(model: Model) -> list[Signal]:
     """Every signal the model produces, in observation-row order (`model.observation_layout`)."""
     nb = model.nbody
     k = model.kernel
-    lay = observation_layout(nb, model.njoint, model.ndriver, model.nclearance)
+    lay = observation_layout(nb, model.njoint, model.ndriver, model.nclearance, model.nforce)
     table: list[Signal] = []
     for b, name in enumerate(model.body_names):
         for block, (qty, unit) in enumerate(BODY_QUANTITIES):
@@ -132,6 +149,7 @@ def signal_table(model: Model) -> list[Signal]:
         quantities += POINT_QUANTITIES
         if int(k.clearance_param[c, CP_KIND]) == PairKind.LUBRICATED:
             quantities += FILM_QUANTITIES
+        quantities += WORK_QUANTITIES
         table += [Signal(name, q, u, (col + off,)) for q, u, off in quantities]
     s = lay[OB_SYSTEM]
     table += [
@@ -141,6 +159,22 @@ def signal_table(model: Model) -> list[Signal]:
         Signal("system", "position_error", "1", (s + SYS_POSITION_ERROR,)),
         Signal("system", "velocity_error", "1", (s + SYS_VELOCITY_ERROR,)),
     ]
+    if np.any(np.asarray(k.gravity) != 0.0):
+        table += [Signal("gravity", "power", "W", (s + SYS_GRAVITY_POWER,)),
+                  Signal("gravity", "work", "J", (s + SYS_GRAVITY_WORK,))]
+    table += [
+        Signal("system", "input_work", "J", (s + SYS_INPUT_WORK,)),
+        Signal("system", "dissipated", "J", (s + SYS_DISSIPATED,)),
+        Signal("system", "energy_balance", "J", (s + SYS_BALANCE,)),
+    ]
+    for e, name in enumerate(model.force_names):
+        col = lay[OB_FORCE] + N_FORCE_SIGNALS * e
+        spec = _KINDS.get(int(k.force_type[e]))  # an unknown kind: refused before a run (checks.known_force_kinds)
+        values = spec.signals if spec is not None else ()
+        table += [Signal(name, q, u, (col + FS_VALUE + i,)) for i, (q, u) in enumerate(values)]
+        table += [Signal(name, "power", "W", (col + FS_POWER,)), Signal(name, "work", "J", (col + FS_WORK,))]
+    for d, name in enumerate(model.driver_names):
+        table.append(Signal(name, "work", "J", (lay[OB_DRIVER_WORK] + d,)))
     return table
 
 
@@ -152,13 +186,16 @@ def skip_bits(model: Model, columns=None) -> int:
     efforts).  0 when every signal is kept."""
     if columns is None:
         return 0
-    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance)
+    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce)
     s = lay[OB_SYSTEM]
+    loads = [lay[OB_FORCE] + N_FORCE_SIGNALS * e + i for e in range(model.nforce) for i in range(FS_WORK)]
     groups = (
         (OBS_SKIP_DYNAMICS, range(lay[OB_QDD], lay[OB_CLEARANCE])),
-        (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], s)),
-        (OBS_SKIP_ENERGY, (s + SYS_KINETIC, s + SYS_POTENTIAL)),
+        (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], lay[OB_FORCE])),
+        (OBS_SKIP_ENERGY, (s + SYS_KINETIC, s + SYS_POTENTIAL, s + SYS_INPUT_WORK, s + SYS_DISSIPATED,
+                           s + SYS_BALANCE)),
         (OBS_SKIP_ERRORS, (s + SYS_POSITION_ERROR, s + SYS_VELOCITY_ERROR)),
+        (OBS_SKIP_LOADS, [*loads, s + SYS_GRAVITY_POWER]),
     )
     used = {int(c) for c in columns}
     return sum(bit for bit, cols in groups if not used.intersection(cols))

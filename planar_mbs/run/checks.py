@@ -215,9 +215,6 @@ def _projecting_note(ws) -> list[str]:
             "positions and velocities are projected onto the constraints from then on (projection = auto)"]
 
 
-ENERGY_PER_RTOL = 1e3  # a workless mechanism's energy may drift by this many rtol of its largest kinetic energy
-
-
 def known_force_kinds(model: Model) -> None:
     """Every force element of `model` is a kind the catalog describes (ModelError otherwise: a model
     built by hand, or by another version, with a code the kernel would refuse mid-run)."""
@@ -244,30 +241,41 @@ def _workless(model: Model) -> bool:
 
 
 def energy_drift(table, rows: np.ndarray, track: dict[str, float]) -> None:
-    """Track the total energy's first value, its largest change and the largest kinetic energy."""
-    cols = {s.quantity: s.extract(rows) for s in table
-            if s.entity == "system" and s.quantity in ("kinetic_energy", "potential_energy")}
-    if len(cols) < 2 or not len(rows):
+    """Track the energy balance's largest magnitude and the run's energy scale (`energy_scale`)."""
+    want = ("kinetic_energy", "input_work", "dissipated", "energy_balance")
+    cols = {s.quantity: s.extract(rows) for s in table if s.entity == "system" and s.quantity in want}
+    if len(cols) < len(want) or not len(rows):
         return
-    T, E = cols["kinetic_energy"], cols["kinetic_energy"] + cols["potential_energy"]
-    if not np.all(np.isfinite(E)):
+    balance = cols["energy_balance"]
+    if not np.all(np.isfinite(balance)):
         return
-    E0 = track.setdefault("energy.first", float(E[0]))
-    track["energy.drift"] = max(track.get("energy.drift", 0.0), float(np.abs(E - E0).max()))
-    track["energy.kinetic"] = max(track.get("energy.kinetic", 0.0), float(T.max()))
+    scale = np.maximum(np.maximum(cols["kinetic_energy"], np.abs(cols["input_work"])), np.abs(cols["dissipated"]))
+    track["energy.balance"] = max(track.get("energy.balance", 0.0), float(np.abs(balance).max()))
+    track["energy.scale"] = max(track.get("energy.scale", 0.0), float(scale.max()))
+
+
+BALANCE_PER_RTOL = 100.0  # the energy balance may be off by this many rtol of the run's energy scale
+
+
+def energy_bound(settings: Settings, scale: float) -> float:
+    """The largest |energy balance| (J) a run keeps without a warning: BALANCE_PER_RTOL rtol of its energy
+    scale (the largest kinetic energy, input work or dissipated energy of the run)."""
+    return BALANCE_PER_RTOL * settings.rtol * scale
 
 
 def _energy_warning(model: Model, settings: Settings, track: dict[str, float]) -> list[str]:
-    """A workless mechanism whose energy drifted by more than ENERGY_PER_RTOL rtol of its largest
-    kinetic energy: the motion is not to be trusted (a singular position crossed onto another
-    branch, a too loose tolerance)."""
-    drift, T = track.get("energy.drift", 0.0), track.get("energy.kinetic", 0.0)
-    if not _workless(model) or not T > 0 or drift <= ENERGY_PER_RTOL * settings.rtol * T:
+    """A run whose energy balance (`system.energy_balance`: T + V - (T + V)(0) - input work + dissipated)
+    is off by more than `energy_bound`: the motion is not to be trusted (too loose a tolerance for its
+    impacts, a singular position crossed onto another branch)."""
+    off, scale = track.get("energy.balance", 0.0), track.get("energy.scale", 0.0)
+    if not scale > 0 or off <= energy_bound(settings, scale):
         return []
-    return [f"the total energy of this mechanism, which nothing drives or damps, changed by {drift:.3g} J "
-            f"({drift / T:.2g} of its largest kinetic energy, more than {ENERGY_PER_RTOL:g} rtol): the motion is "
-            "not to be trusted (tighten rtol; with projection = off, a singular position may have been crossed "
-            "onto another branch)"]
+    what = ("the total energy of this mechanism, which nothing drives or damps, changed by" if _workless(model)
+            else "the energy balance does not close: the total energy less the work of the loads and drivers, "
+                 "plus the energy the contacts dissipated, changed by")
+    return [f"{what} {off:.3g} J ({off / scale:.2g} of the run's energy scale, {scale:.3g} J; more than "
+            f"{BALANCE_PER_RTOL:g} rtol): the motion is not to be trusted (tighten rtol; with projection = off, "
+            "a singular position may have been crossed onto another branch)"]
 
 
 def deepest_penetration(table, rows: np.ndarray, deepest: dict[str, float]) -> None:

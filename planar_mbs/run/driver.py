@@ -30,8 +30,10 @@ from .checks import absurd_state, deepest_penetration, energy_drift, failure_mes
 # numba: `mbs check` and `import planar_mbs` read this module without loading the kernels
 if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
     from .. import kernel
+    from ..kernel import workspace
 else:  # each loaded on its first use (see the comments: not on the light paths)
     kernel = lazy("..kernel", __package__)
+    workspace = lazy("..kernel.workspace", __package__)
 
 CALL_SECONDS = 0.1  # wall time of one kernel call (a work budget in right-hand sides calibrated per call)
 FIRST_BUDGET = 2000.0  # right-hand sides of the first call, before any calibration
@@ -132,6 +134,7 @@ class Driver:
         self.track: dict[str, float] = {}  # deepest penetration per joint, energy drift
         self.wall = 0.0
         self.status = int(Status.DONE)
+        self._y_after = None  # the state the last call left (a state changed since restarts the energy balance)
         self.absurd = absurd_state(model, self.data.y, 0.0)  # beyond every physical bound: not worth a step
         self._compile()
 
@@ -155,6 +158,7 @@ class Driver:
         new = object.__new__(Driver)
         new.__dict__.update(self.__dict__)
         new.data, new.cfg, new.track = self.data.copy(), self.cfg.copy(), dict(self.track)
+        new._y_after = None if self._y_after is None else self._y_after.copy()
         return new
 
     def watch(self, rows: np.ndarray) -> None:
@@ -166,10 +170,14 @@ class Driver:
     def call(self, t_stop: float, out_t: np.ndarray, out: np.ndarray) -> tuple[int, int]:
         """One call of the compiled loop; its work budget calibrated for the next one."""
         d = self.data
+        if self._y_after is not None and not np.array_equal(d.y, self._y_after):
+            # a study set the state between calls: the works and the energy balance start again from it
+            d.ws.flags[workspace.FL_ENERGY0] = 0
         start, rhs_before = _time.perf_counter(), int(d.stats[ST_RHS])
         status, n = kernel.advance(self.model.kernel, self.cfg, d.y, d.clock, d.contact, d.stats, d.ws, t_stop,
                                    out_t, out)
         seconds = _time.perf_counter() - start
+        self._y_after = d.y.copy()
         self.wall += seconds
         d.clock[CLOCK_BUDGET] = _next_budget(int(d.stats[ST_RHS]) - rhs_before, seconds, d.clock[CLOCK_BUDGET])
         self.status = int(status)
