@@ -95,7 +95,7 @@ class MemorySink(Sink):
     `also` (a `ResultsWriter`) gets each block too."""
 
     def __init__(self, nobs: int, cols=None, cap: int = BUFFER_ROWS, also=None, watch=None):
-        self.out_t, self.out = np.zeros(BUFFER_ROWS), np.zeros((BUFFER_ROWS, nobs))
+        self.out_t, self.out = np.zeros(max(cap, BUFFER_ROWS)), np.zeros((max(cap, BUFFER_ROWS), nobs))
         self.cols, self.cap, self.also, self.watch = cols, cap, also, watch
         self.times: list[np.ndarray] = []
         self.blocks: list[np.ndarray] = []
@@ -113,6 +113,11 @@ class MemorySink(Sink):
         if self.also is not None:
             self.also.append(chunk_t, chunk)
         return False
+
+    def clear(self) -> None:
+        """Forget the blocks kept (the buffer stays: allocated once)."""
+        self.times.clear()
+        self.blocks.clear()
 
     def rows(self, width: int) -> tuple[np.ndarray, np.ndarray]:
         if not self.blocks:

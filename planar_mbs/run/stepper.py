@@ -48,6 +48,7 @@ class Stepper:
         self.driver = Driver(model, self.settings, np.concatenate([q, qd]))
         self.table = signal_table(model)
         self.driver.table = self.table
+        self._sink = MemorySink(self.driver.nobs, cap=ROWS)  # reused by every segment
 
     @classmethod
     def restore(cls, model: Model, y, contact, t: float, allow_unphysical: bool = False,
@@ -102,6 +103,7 @@ class Stepper:
         new = object.__new__(Stepper)
         new.__dict__.update(self.__dict__)
         new.driver = self.driver.copy()
+        new._sink = MemorySink(self.driver.nobs, cap=ROWS)
         if projection is not None:
             new.settings = replace(self.settings, projection=projection)
             new.driver.settings = new.settings
@@ -122,7 +124,8 @@ class Stepper:
     def run_to(self, t_stop: float) -> tuple[np.ndarray, np.ndarray]:
         """Integrate to ``t_stop``; returns the output times and observation rows written
         on the way (the output grid of the settings).  Raises `SimulationError`."""
-        sink = MemorySink(self.driver.nobs, cap=ROWS)
+        sink = self._sink
+        sink.clear()
         status = self.driver.run(t_stop, sink)
         if self.driver.absurd:
             raise SimulationError(self.driver.absurd, time=self.t)
