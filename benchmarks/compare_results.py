@@ -8,7 +8,8 @@
 exercise every integrator's step, events and dense output (RK4 and DOP853 on the clearance
 slider-crank).  To compare two versions, run it once with each on the path (e.g.
 ``PYTHONPATH=/tmp/other python benchmarks/compare_results.py run /tmp/a``), then `compare`: it prints,
-per file, whether the time column and every signal are bit-identical, else the largest absolute and
+per file, whether the time column and every signal both files have are bit-identical (and how many
+signals only one of them has), else the largest absolute and
 relative difference, and exits 1 when any file differs or is missing.  `time` prints one line of
 time-loop wall times (the smallest of 3 runs each; run it alternately with each version on the path,
 several times, and compare medians: the machine's load changes between runs).
@@ -67,7 +68,15 @@ def timing() -> None:
 def _datasets(f) -> dict[str, np.ndarray]:
     import h5py
     found = {"time": f["time"][()]}
-    f["signals"].visititems(lambda k, v: found.__setitem__(k, v[()]) if isinstance(v, h5py.Dataset) else None)
+    def add(name, item):
+        if not isinstance(item, h5py.Dataset):
+            return
+        data = item[()]
+        if data.dtype.names:  # one compound dataset per entity: compare its fields one by one
+            found.update({f"{name}.{field}": data[field] for field in data.dtype.names})
+        else:
+            found[name] = data
+    f["signals"].visititems(add)
     return found
 
 
@@ -82,14 +91,17 @@ def compare(a: Path, b: Path) -> int:
             continue
         with h5py.File(fa, "r") as ha, h5py.File(fb, "r") as hb:
             da, db = _datasets(ha), _datasets(hb)
-        if set(da) != set(db) or any(da[k].shape != db[k].shape for k in da):
-            print(f"{fa.stem}: different signals or row counts")
+        shared = sorted(set(da) & set(db))
+        only = f"; only in {a.name}: {len(set(da) - set(db))}, only in {b.name}: {len(set(db) - set(da))}" \
+            if set(da) != set(db) else ""
+        if any(da[k].shape != db[k].shape for k in shared):
+            print(f"{fa.stem}: different row counts ({len(da['time'])} and {len(db['time'])}){only}")
             bad += 1
             continue
-        numeric = [k for k in da if da[k].dtype.kind in "fiu"]
-        same = all(np.array_equal(da[k], db[k], equal_nan=k in numeric) for k in da)
+        numeric = [k for k in shared if da[k].dtype.kind in "fiu"]
+        same = all(np.array_equal(da[k], db[k], equal_nan=k in numeric) for k in shared)
         if same:
-            print(f"{fa.stem}: bit-identical ({len(da['time'])} rows, {len(da)} datasets)")
+            print(f"{fa.stem}: bit-identical ({len(da['time'])} rows, {len(shared)} shared datasets{only})")
             continue
         bad += 1
         dabs = max(float(np.nanmax(np.abs(da[k] - db[k]), initial=0.0)) for k in numeric)
