@@ -1,4 +1,4 @@
-"""The figures of docs/plots.md, the README and docs/tutorial.md, drawn by the commands those pages show.
+"""The figures of docs/plots.md, docs/signals.md, the README and docs/tutorial.md, drawn by the commands those pages show.
 
     .venv/bin/python docs/scripts/page_figures.py            # redraws them into docs/images
     .venv/bin/python docs/scripts/page_figures.py OUTDIR     # draws them into OUTDIR (tests/test_doc_figures.py)
@@ -26,6 +26,10 @@ SWEEP_RUN = ("mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm,1200
 SWEEP_PLOT = "mbs plot sweep_a.h5 -o docs/images"
 SWEEP = ["sweep_a_grid_slider.ax.png", "sweep_a_poincare_grid_slider.vx_slider.ax.png",
          "sweep_a_bifurcation_slider.vx.png"]
+BALANCE_RUN = "mbs run models/slider_crank_motor.mbs -o motor.h5"
+BALANCE_PLOT = ("mbs plot motor.h5 motor.torque motor.power system.input_work A.dissipated "
+                "system.energy_balance")
+BALANCE = "motor_motor.torque_motor.power_system.input_work_A.dissipated_system.energy_balance.png"
 TUTORIAL_RUN = "mbs run four_bar.mbs"
 TUTORIAL_PLOT = "mbs plot results/four_bar.h5 rocker_link.phi motor.torque --against crank_link.phi"
 
@@ -38,6 +42,7 @@ PAGES = {
     "docs/plots.md": ([PLOTS_RUN, PLOTS_DEFAULT, PLOTS_AGAINST],
                       {**{f"docs/images/{n}": n for n in A_5000}, f"a_5000_plots/{AGAINST}": AGAINST}),
     "docs/plots.md#sweeps": ([SWEEP_RUN, SWEEP_PLOT], {f"docs/images/{n}": n for n in SWEEP}),
+    "docs/signals.md": ([BALANCE_RUN, BALANCE_PLOT], {f"motor_plots/{BALANCE}": "signals_energy_balance.png"}),
     "docs/tutorial.md": ([TUTORIAL_RUN, TUTORIAL_PLOT],
                          {"results/four_bar_plots/four_bar_rocker_link.phi_motor.torque_vs_crank_link.phi.png":
                           "tutorial_four_bar.png"}),
