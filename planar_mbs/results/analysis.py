@@ -49,7 +49,7 @@ points lie on a curve (``dimension`` ≤ 1.3).  **Undecided** (``agree = False``
 settled, when ``K`` and ``lyapunov`` disagree, when both say regular but the
 points fill an area, and when they say chaos but the points nearly repeat
 (recurrence below ``NEAR_PERIODIC``, 1e-2: an orbit blurred by integration error
-or chaos too small to tell).  Chaos (or a lean to it) over fewer revolutions than
+or chaos too small to tell).  A chaotic verdict over fewer revolutions than
 ``LONGEST_TRANSIENT`` carries the caveat that it may be transient: a clearance
 slider-crank of docs/replication.md was chaotic for 980 revolutions before it
 settled on an orbit.  A headline (`Verdict.headline`) opens with a class only
