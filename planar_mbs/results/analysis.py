@@ -1,14 +1,25 @@
-"""A measured verdict on the motion: periodic, quasi-periodic or chaotic, after its transient.
+"""A measured verdict on the motion: periodic, quasi-periodic, chaotic or undecided, after its transient.
 
 The section points come from `planar_mbs.results.section` (the one Poincaré section of
 the project, shared with plots, rerun and sweeps).  A **verdict** (`classify`)
-first finds where the motion settles (`planar_mbs.results.section.settling`: the
-earliest point from which the points recur with a period ≤ 16, else the start
-of the part whose windows all have the same mean and spread) and classifies
-only what comes after; a run that has not settled is classified on its last
-half and says "not settled after N revolutions".  It rests on these indicators
-of the settled points, each reported with it (docs/replication.md gives the
-thresholds and how they were validated on the forced Duffing oscillator):
+first finds where the motion settles (`planar_mbs.results.section.settling`) and
+classifies only what comes after:
+
+* **settled at revolution N** (on an orbit): the earliest point from which every
+  point repeats after p ≤ 16 revolutions within ``TOL_PERIODIC`` (1e-3) of the
+  signals' range over the run, and the points of each of the p phases stay within
+  ``SETTLED_SPREAD`` (1e-2) of it, over a window of at least 20 and 3p points;
+* **stationary from revolution N** (not an orbit): the start of the part whose
+  windows of max(20, n/10) points all have the mean and spread of the last half
+  within ``STATIONARY_TOL`` (0.15) of that range: steady statistics, which chaos
+  has too, and which a chaotic transient keeps until it ends;
+* **not settled**: neither; the last half is classified and the verdict is
+  "undecided" (it says what that half looks like).
+
+`report` names the window and the thresholds in its settling line.  The verdict
+rests on these indicators of the settled points, each reported with it
+(docs/replication.md gives the thresholds and how they were validated on the
+forced Duffing oscillator):
 
 ``recurrence``  the smallest ``p`` such that the points repeat after ``p``
                 iterations, ``max_k |x[k+p] − x[k]|`` relative to the spread of
@@ -28,14 +39,21 @@ thresholds and how they were validated on the forced Duffing oscillator):
                 from two nearby trajectories (Benettin's method) as a check.
 ``dimension``   the correlation dimension of the section (Grassberger–
                 Procaccia): about 1 for points on a closed curve
-                (quasi-periodic), above 1 for a strange attractor.  Reported,
-                and used only to tell a closed curve from a cloud when the
-                other two disagree.
+                (quasi-periodic), above 1 for a strange attractor.
 
-Rules: periodic(p) when the recurrence test passes; otherwise chaotic when
-``K`` and ``lyapunov`` both say so, quasi-periodic when both say regular,
-and when they disagree the correlation dimension decides (the verdict then
-carries ``agree = False``).
+Rules: periodic(p) when the points settled on an orbit (the 0-1 test, unreliable
+on short periodic sequences, is reported beside it); otherwise chaotic when
+``K`` and ``lyapunov`` both say so, quasi-periodic when both say regular and the
+points lie on a curve (``dimension`` ≤ 1.3).  **Undecided** (``agree = False``,
+``leaning`` the class the evidence leans to, ``doubt`` why) when the run has not
+settled, when ``K`` and ``lyapunov`` disagree, when both say regular but the
+points fill an area, and when they say chaos but the points nearly repeat
+(recurrence below ``NEAR_PERIODIC``, 1e-2: an orbit blurred by integration error
+or chaos too small to tell).  A chaotic verdict over fewer revolutions than
+``LONGEST_TRANSIENT`` carries the caveat that it may be transient: a clearance
+slider-crank of docs/replication.md was chaotic for 980 revolutions before it
+settled on an orbit.  A headline (`Verdict.headline`) opens with a class only
+where the indicators agree on it.
 
 numpy only; matplotlib is imported on first use by the figure functions.
 """
@@ -54,6 +72,8 @@ K_CHAOS = 0.5  # 0-1 test: K above -> chaotic, below -> regular
 LYAPUNOV_CHAOS = 0.1  # nearest-neighbour growth per iteration above -> chaotic
 DIMENSION_CURVE = 1.3  # correlation dimension below -> points on a curve
 MIN_POINTS = 20  # fewest section points classified
+NEAR_PERIODIC = 1e-2  # recurrence residual below which points that are no orbit nearly repeat
+LONGEST_TRANSIENT = 981  # revolution at which the longest chaotic transient of docs/replication.md ended
 
 
 # the section itself lives in planar_mbs.results.section (one rule for plots, rerun, analysis, sweeps)
@@ -61,6 +81,9 @@ from ..lazy import lazy
 from .hdf5 import DiskFull, ResultsFileError, memory_budget, open_for_writing, release_reserve, reserve_space
 from .section import (
     MAX_PERIOD,
+    MIN_SETTLED,
+    SETTLED_SPREAD,
+    STATIONARY_TOL,
     TOL_PERIODIC,
     AnalysisError,
     PoincareSection,
@@ -73,6 +96,7 @@ from .section import (
     section_times,
     settling,
     snap_to_grid,
+    stationary_window,
 )
 
 matplotlib = lazy("matplotlib")  # figures only
@@ -161,7 +185,7 @@ def correlation_dimension(points: np.ndarray) -> float:
 class Verdict:
     """The motion's class and the indicators it rests on."""
 
-    verdict: str  # "periodic", "quasi-periodic", "chaotic" or "undetermined"
+    verdict: str  # "periodic", "quasi-periodic", "chaotic", "undecided" or "undetermined"
     period: int | None  # iterations of the map (driver periods) for periodic motion
     K: float  # 0-1 test
     lyapunov: float  # nearest-neighbour growth per iteration
@@ -173,10 +197,19 @@ class Verdict:
     settled_at: int | None = None  # index of the first section point of the settled part (None: not settled)
     settled_revolution: int | None = None  # the revolution it was taken at
     n_total: int | None = None  # section points of the whole run
+    settled_by: str = ""  # "orbit" (a periodic orbit) or "statistics" (stationary); "" not settled
+    revolutions: int | None = None  # revolution of the run's last section point
+    leaning: str = ""  # "undecided": the class the indicators lean to
+    doubt: str = ""  # "undecided": which indicators disagree, in short words
+
+    def on_orbit(self) -> bool:
+        """Settled on a periodic orbit (not only stationary statistics)."""
+        return self.settled_revolution is not None and (
+            self.settled_by == "orbit" or (not self.settled_by and self.verdict == "periodic"))
 
     def settling_text(self) -> str:
         if self.settled_revolution is not None:
-            return f"settled at revolution {self.settled_revolution}"
+            return f"{'settled at' if self.on_orbit() else 'stationary from'} revolution {self.settled_revolution}"
         if self.n_total:
             return "not settled"
         return ""
@@ -186,29 +219,41 @@ class Verdict:
             return f"periodic ({self.period}T)" if self.period and self.period > 1 else "periodic"
         return self.verdict
 
+    def maybe_transient(self) -> bool:
+        """Chaos seen over fewer revolutions than a chaotic transient measured in docs/replication.md
+        lasted (`LONGEST_TRANSIENT`): it may still end on an orbit."""
+        return self.verdict == "chaotic" and self.revolutions is not None and self.revolutions < LONGEST_TRANSIENT
+
     def doubts(self) -> list[str]:
         """What the verdict cannot vouch for, in short words: too few points, not settled, the
-        indicators disagreeing.  Every command shows them with the verdict (`headline`, `report`)."""
+        indicators disagreeing (then the verdict is "undecided" and the last doubt says what it
+        looks like), chaos that may be transient.  Every command shows them with the verdict
+        (`headline`, `report`)."""
         out = []
         if self.verdict == "undetermined":
-            out.append(f"too few points: {self.n_points} of at least {MIN_POINTS}")
-        else:
-            if self.settled_revolution is None and self.n_total:
-                out.append("not settled")
-            if self.n_points < MIN_POINTS:  # the settled part (or last half) alone
-                out.append(f"few points: {self.n_points} classified")
-        if not self.agree and self.verdict != "undetermined":
-            out.append("indicators disagree")
+            return [f"too few points: {self.n_points} of at least {MIN_POINTS}"]
+        if self.settled_revolution is None and self.n_total:
+            out.append("not settled")
+        if self.n_points < MIN_POINTS:  # the settled part (or last half) alone
+            out.append(f"few points: {self.n_points} classified")
+        if self.verdict == "undecided" and self.doubt:  # (not settled: that is the doubt)
+            out.append(self.doubt)
+        if self.verdict == "undecided" and self.leaning:
+            out.append(f"looks {self.leaning}")
+        if self.maybe_transient():
+            out.append(f"may be transient: a chaotic transient of {LONGEST_TRANSIENT - 1} revolutions was "
+                       f"measured, this run has {self.revolutions}")
         return out
 
     def headline(self) -> str:
-        """The label with its doubts: ``chaotic (not settled)``; the sweep table's verdict."""
+        """The label with its doubts: ``undecided (not settled; looks chaotic)``; the sweep table's
+        verdict.  It opens with a class only where the indicators agree on it."""
         doubts = self.doubts()
         return self.label() + (f" ({'; '.join(doubts)})" if doubts else "")
 
     def summary(self) -> str:
         settle = self.settling_text()
-        return (f"{self.label()}" + (f", {settle}" if settle else "")
+        return (f"{self.headline()}" + (f", {settle}" if settle else "")
                 + f": K = {self.K:.2f}, λ = {self.lyapunov:.2f}/T, D2 = {self.dimension:.2f}, "
                 f"recurrence = {self.recurrence:.1e}, N = {self.n_points}" + (f" ({self.note})" if self.note else ""))
 
@@ -225,7 +270,8 @@ def classify(points, scale: Sequence[float] | None = None, *, tol_periodic: floa
     ``scale`` gives each column's spread over the whole run (a `PoincareSection` carries it),
     so that a period-1 orbit, whose section points coincide, is measured against the size of
     the motion and not against its own zero spread.  A run that has not settled is classified
-    on its last half and says so (``settled_at = None``)."""
+    on its last half and is "undecided" (``settled_at = None``, ``leaning`` what the last half
+    looks like).  An array's point k is taken as revolution k + 1."""
     revolution = None
     if isinstance(points, PoincareSection):
         sec = points
@@ -234,55 +280,68 @@ def classify(points, scale: Sequence[float] | None = None, *, tol_periodic: floa
     if points.ndim == 1:
         points = points[:, None]
     n_all = len(points)
+    last = int(revolution[-1]) if revolution is not None and n_all else n_all
     if n_all < MIN_POINTS:
         return Verdict("undetermined", None, float("nan"), float("nan"), float("nan"), float("nan"), n_all,
-                       False, f"fewer than {MIN_POINTS} section points: run longer", None, None, n_all)
-    start, _ = settling(points, scale, tol_periodic=tol_periodic, max_period=max_period)
+                       False, f"fewer than {MIN_POINTS} section points: run longer", None, None, n_all,
+                       revolutions=last)
+    start, period = settling(points, scale, tol_periodic=tol_periodic, max_period=max_period)
     settled = start is not None
     first = start if settled else n_all // 2
     rev = (int(revolution[first]) if revolution is not None else first + 1) if settled else None
-    v = _classify_part(points[first:], scale, tol_periodic, max_period, seed)
+    v = _classify_part(points[first:], scale, period, tol_periodic, max_period, seed)
     v.settled_at, v.settled_revolution, v.n_total = (first if settled else None), rev, n_all
-    if not settled:
-        last = int(revolution[-1]) if revolution is not None else n_all
+    v.settled_by, v.revolutions = ("orbit" if period else "statistics") if settled else "", last
+    if not settled:  # the class of a sequence that has not settled cannot be told
         v.note = "; ".join(filter(None, [f"not settled after {last} revolutions: last half classified", v.note]))
+        if v.verdict != "undecided":
+            v.verdict, v.leaning, v.period, v.agree = "undecided", v.label(), None, False
     return v
 
 
-def _classify_part(points, scale, tol_periodic, max_period, seed) -> Verdict:
+def _classify_part(points, scale, period, tol_periodic, max_period, seed) -> Verdict:
+    """The verdict on the settled part (or last half); ``period``: the orbit `settling` found."""
     x = normalise(points, scale)
     n = len(x)
     r = recurrence(x, max_period)
     best = float(np.min(r))
-    periodic = [p + 1 for p in range(len(r)) if r[p] < tol_periodic]
     # the 0-1 test on each coordinate that moves at the scale of the motion (a coordinate
     # whose section values agree within the periodicity tolerance is constant: K = 0 for it;
     # the test would only see integration noise)
     ks = [zero_one_test(x[:, i], seed=seed) if np.ptp(x[:, i]) > tol_periodic else 0.0 for i in range(x.shape[1])]
     K = float(np.mean(ks)) if ks else 0.0
-    if periodic:
-        # the points coincide: nearest-neighbour growth and dimension measure round-off only
-        p = periodic[0]
+    if period:
+        # the points coincide: nearest-neighbour growth and dimension measure round-off only; the
+        # recurrence decides (the 0-1 test can exceed 0.5 on a short periodic sequence)
         agree = bool(K < K_CHAOS or np.isnan(K))
-        return Verdict("periodic", p, K, float("nan"), 0.0, float(r[p - 1]), n, agree,
-                       "" if agree else "the 0-1 test disagrees")
+        return Verdict("periodic", period, K, float("nan"), 0.0, float(r[period - 1]), n, agree,
+                       "" if agree else f"the 0-1 test disagrees (K = {K:.2f}); the recurrence decides")
     # the geometric indicators on the points' own scale
     y = normalise(points)
     lyap = nearest_neighbour_growth(y)
     dim = correlation_dimension(y)
-    chaos_k = K >= K_CHAOS
-    chaos_l = lyap >= LYAPUNOV_CHAOS
+    chaos_k, chaos_l = K >= K_CHAOS, lyap >= LYAPUNOV_CHAOS
+    near = next((p + 1 for p in range(len(r)) if r[p] < NEAR_PERIODIC), None)  # the smallest such period
+    if near and (chaos_k or chaos_l):  # nearly repeating points: a blurred orbit, or chaos too small to tell
+        return _undecided("periodic" + (f" ({near}T)" if near > 1 else ""), K, lyap, dim, float(r[near - 1]), n,
+                          f"points repeat after {near} revolution{'s' if near > 1 else ''} within "
+                          f"{r[near - 1]:.1e} of their range, not {tol_periodic:g}",
+                          "tighten rtol: integration error may blur a periodic orbit")
     if chaos_k and chaos_l:
         return Verdict("chaotic", None, K, lyap, dim, best, n, True)
     if not chaos_k and not chaos_l:
-        curve = not (dim > DIMENSION_CURVE)
-        return Verdict("quasi-periodic", None, K, lyap, dim, best, n, curve,
-                       "" if curve else "points not on a curve (dimension)")
-    # K and λ disagree: the correlation dimension decides between a curve and a cloud
-    verdict = "quasi-periodic" if dim <= DIMENSION_CURVE else "chaotic"
-    return Verdict(verdict, None, K, lyap, dim, best, n, False,
-                   f"K {'≥' if chaos_k else '<'} {K_CHAOS} but λ {'≥' if chaos_l else '<'} {LYAPUNOV_CHAOS}; "
-                   f"dimension decides")
+        if not dim > DIMENSION_CURVE:
+            return Verdict("quasi-periodic", None, K, lyap, dim, best, n, True)
+        return _undecided("quasi-periodic", K, lyap, dim, best, n, f"K and λ regular, points not on a curve "
+                          f"(D2 = {dim:.2f} > {DIMENSION_CURVE:g})", "")
+    lean = "quasi-periodic" if dim <= DIMENSION_CURVE else "chaotic"
+    return _undecided(lean, K, lyap, dim, best, n,
+                      f"K = {K:.2f} {'≥' if chaos_k else '<'} {K_CHAOS:g} but λ = {lyap:.2f} "
+                      f"{'≥' if chaos_l else '<'} {LYAPUNOV_CHAOS:g}", f"D2 = {dim:.2f} leans {lean}")
+
+
+def _undecided(lean, K, lyap, dim, best, n, doubt, note) -> Verdict:
+    return Verdict("undecided", None, K, lyap, dim, best, n, False, note, leaning=lean, doubt=doubt)
 
 
 def analyze(results, signals: Sequence[str] | None = None, **section_options) -> tuple[PoincareSection, Verdict]:
@@ -293,24 +352,47 @@ def analyze(results, signals: Sequence[str] | None = None, **section_options) ->
 
 def report(sec: PoincareSection, verdict: Verdict) -> list[str]:
     """The verdict as `mbs analyze`, `mbs run --until-settled` and the sweep table give it: where the
-    motion settled (or that it did not, or that there are too few points), then the headline
-    (`Verdict.headline`, with its doubts) and the indicators it rests on."""
+    motion settled, with the window and thresholds that say so (or that it did not, or that there
+    are too few points), then the headline (`Verdict.headline`, with its doubts) and the indicators
+    it rests on, then, for chaos seen over fewer revolutions than a measured transient, why it may
+    end."""
     last = int(sec.revolution[-1]) if len(sec) else 0
-    if verdict.verdict == "undetermined":
-        where = (f"too few section points to classify: {verdict.n_points}, at least {MIN_POINTS} are needed "
-                 "(run longer, e.g. `--revolutions 60`)")
-    elif verdict.settled_revolution is not None:
-        where = (f"settled at revolution {verdict.settled_revolution} (of {last}); "
-                 f"classified on the {verdict.n_points} section points after it")
-    else:
-        where = (f"not settled after {last} revolutions: the last half classified "
-                 "(run longer, e.g. `mbs run --until-settled`)")
+    where = _where(verdict, last)
     if verdict.verdict == "undetermined":
         return [where, verdict.headline()]
     note = verdict.note if verdict.note and verdict.settled_revolution is not None else ""
-    return [where, f"{verdict.headline()}  K = {verdict.K:.3f}   λ = {verdict.lyapunov:.3f} per period   "
-                   f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}"
-                   + (f"   ({note})" if note else "")]
+    lines = [where, f"{verdict.headline()}  K = {verdict.K:.3f}   λ = {verdict.lyapunov:.3f} per period   "
+                    f"D2 = {verdict.dimension:.2f}   recurrence = {verdict.recurrence:.2e}"
+                    + (f"   ({note})" if note else "")]
+    if verdict.maybe_transient():
+        lines.append(f"chaos can be transient: on the clearance slider-crank of docs/replication.md it lasted "
+                     f"up to {LONGEST_TRANSIENT - 1} revolutions before the motion settled on a periodic orbit; "
+                     f"this run has {last}: run longer to tell (e.g. `mbs run --until-settled "
+                     f"--max-revolutions 2000`)")
+    return lines
+
+
+def _where(verdict: Verdict, last: int) -> str:
+    """The settling line of `report`: the revolution, the window of points and the thresholds."""
+    rel = "of the signals' range over the run"
+    w = stationary_window(verdict.n_total or verdict.n_points)
+    if verdict.verdict == "undetermined":
+        return (f"too few section points to classify: {verdict.n_points}, at least {MIN_POINTS} are needed "
+                "(run longer, e.g. `--revolutions 60`)")
+    if verdict.settled_revolution is None:
+        return (f"not settled after {last} revolutions: no periodic orbit (points repeating within "
+                f"{TOL_PERIODIC:g} {rel} for at least {MIN_SETTLED} points) and no stationary statistics "
+                f"(windows of {w} points keeping mean and spread within {STATIONARY_TOL:g}); the last half "
+                "classified (run longer, e.g. `mbs run --until-settled`)")
+    if verdict.on_orbit():
+        p = verdict.period or 1
+        every = "every revolution" if p == 1 else f"every {p} revolutions"
+        return (f"settled at revolution {verdict.settled_revolution} (of {last}): its last {verdict.n_points} "
+                f"section points repeat {every} within {TOL_PERIODIC:g} {rel} and stay within "
+                f"{SETTLED_SPREAD:g} of it; classified on them")
+    return (f"stationary from revolution {verdict.settled_revolution} (of {last}), not settled on an orbit: "
+            f"every window of {w} section points after it keeps the mean and spread of the last half within "
+            f"{STATIONARY_TOL:g} {rel}; classified on the {verdict.n_points} points after it")
 
 
 # ---------------------------------------------------------------- storage
@@ -376,13 +458,14 @@ def read_section(group, name: str = "poincare") -> tuple[PoincareSection, Verdic
         angle=nan_none(a.get("angle")), clock=str(a.get("clock", "")) or None,
         interp_error=json.loads(a.get("interp_error", "{}")), scale=json.loads(a.get("scale", "{}")),
         revolution=g["revolution"][()] if "revolution" in g else None)
-    verdict = Verdict(**json.loads(a["verdict"])) if "verdict" in a else None
+    known = Verdict.__dataclass_fields__
+    verdict = Verdict(**{k: v for k, v in json.loads(a["verdict"]).items() if k in known}) if "verdict" in a else None
     return sec, verdict
 
 
 # ---------------------------------------------------------------- figures
 VERDICT_COLOURS = {"periodic": "tab:blue", "quasi-periodic": "tab:green", "chaotic": "tab:red",
-                   "undetermined": "tab:gray"}
+                   "undecided": "tab:orange", "undetermined": "tab:gray"}
 
 
 def section_figure(sec: PoincareSection, verdict: Verdict | None = None, title: str = "", ax=None):

@@ -44,6 +44,7 @@ SLIDER_WORDS = ("slider", "piston", "block", "carriage", "cart", "ram", "crosshe
 TOL_PERIODIC = 1e-3  # recurrence residual / spread below which two section points coincide
 MAX_PERIOD = 16  # longest period looked for (in revolutions)
 MIN_SETTLED = 20  # fewest section points a settled part must have
+SETTLED_SPREAD = 1e-2  # a settled orbit's points: each of its p points stays within this (relative to the run's spread)
 STATIONARY_TOL = 0.15  # window mean/spread differences (in units of the run's spread) for stationarity
 
 
@@ -291,16 +292,36 @@ def normalise(points: np.ndarray, scale: Sequence[float] | None = None) -> np.nd
     return (points - points.mean(axis=0)) / s
 
 
-def periodic_from(x: np.ndarray, p: int, tol: float = TOL_PERIODIC) -> int | None:
-    """First index from which every point recurs after ``p`` iterations (``|x[k+p] − x[k]|
-    < tol`` for all later k) on a normalised sequence; None if the recurring tail is shorter
-    than `MIN_SETTLED` points or than 3p."""
+def periodic_from(x: np.ndarray, p: int, tol: float = TOL_PERIODIC, spread: float = SETTLED_SPREAD) -> int | None:
+    """First index from which the points are on a period-``p`` orbit, on a normalised sequence:
+    every later point recurs after ``p`` iterations (``|x[k+p] − x[k]| < tol``), and the later
+    points of each of the ``p`` phases stay within ``spread`` of each other (the diagonal of
+    their bounding box: a slow drift whose steps are below ``tol`` is no orbit).  None if that
+    window is shorter than `MIN_SETTLED` points or than 3p."""
     n = len(x)
     if n <= p:
         return None
     bad = np.nonzero(np.linalg.norm(x[p:] - x[:-p], axis=1) >= tol)[0]
     start = int(bad[-1]) + 1 if len(bad) else 0
+    wide = np.nonzero(phase_extent(x, p) >= spread)[0]
+    start = max(start, int(wide[-1]) + 1 if len(wide) else 0)
     return start if n - start >= max(MIN_SETTLED, 3 * p) else None
+
+
+def phase_extent(x: np.ndarray, p: int) -> np.ndarray:
+    """``e[i]``: the extent (bounding-box diagonal) of the points ``x[i], x[i+p], x[i+2p], …``
+    (point i and the later points of its phase)."""
+    e = np.zeros(len(x))
+    for r in range(min(p, len(x))):
+        tail = x[r::p][::-1]
+        hi, lo = np.maximum.accumulate(tail, axis=0), np.minimum.accumulate(tail, axis=0)
+        e[r::p] = np.linalg.norm(hi - lo, axis=1)[::-1]
+    return e
+
+
+def stationary_window(n: int) -> int:
+    """Points per window of the stationarity test on ``n`` points."""
+    return max(MIN_SETTLED, n // 10)
 
 
 def stationary_from(x: np.ndarray, tol: float = STATIONARY_TOL) -> int | None:
@@ -309,7 +330,7 @@ def stationary_from(x: np.ndarray, tol: float = STATIONARY_TOL) -> int | None:
     scale (windows of max(MIN_SETTLED, n/10) points), and whose two halves agree too.
     None when there is no such part or it is shorter than a quarter of the run."""
     n = len(x)
-    w = max(MIN_SETTLED, n // 10)
+    w = stationary_window(n)
     if n < 2 * w:
         return None
     ref = x[n // 2:]
@@ -332,8 +353,9 @@ def stationary_from(x: np.ndarray, tol: float = STATIONARY_TOL) -> int | None:
 def settling(points, scale: Sequence[float] | None = None, *, tol_periodic: float = TOL_PERIODIC,
              max_period: int = MAX_PERIOD) -> tuple[int | None, int | None]:
     """``(index, period)`` where the section points settle: the earliest index from which
-    they repeat with the smallest period p ≤ ``max_period`` (``period = p``), else the start
-    of the stationary part (``period = None``); ``(None, None)``: not settled."""
+    they are on an orbit of the smallest period p ≤ ``max_period`` (`periodic_from`;
+    ``period = p``), else the start of the stationary part (`stationary_from`; ``period =
+    None``: steady statistics, not an orbit); ``(None, None)``: not settled."""
     x = normalise(points, scale)
     for p in range(1, max_period + 1):
         s = periodic_from(x, p, tol_periodic)
