@@ -278,3 +278,62 @@ gravity (0, -{G} m/s^2)
     growing = [md for md in lin.modes() if md.kind == "growing"]
     assert len(growing) == 1 and growing[0].omega == pytest.approx(math.sqrt(m * G * L / (I + m * L * L)), rel=1e-8)
     assert not lin.stable
+
+
+def test_a_run_from_the_equilibrium_stays_there_and_a_small_vibration_rings_at_the_mode_frequency():
+    """From the equilibrium (`at_rest`) the time loop keeps the journal at rest: its velocity stays at
+    rounding level.  Lifted by 2 % of d0 and let go, it rings at w = sqrt(n K d0^(n-1) / m) (an
+    amplitude that small shifts the frequency by O(a^2)): the FFT peak (results/spectrum.py, flat-top
+    window, read between bins to 0.1 % of the amplitude) lies within one bin of w / 2 pi."""
+    from planar_mbs.results import spectrum
+
+    K, m, n = 1e9, 0.5, 1.5
+    model = journal(K, m, n)
+    eq = mbs.equilibrium(model)
+    rest = static.at_rest(model, eq)
+    res = mbs.simulate(rest, t_end="20 ms", output_step="1 ms", rtol=1e-10, atol=1e-14)
+    assert np.max(np.abs(res["journal.vy"])) < 1e-9
+    assert np.max(np.abs(res["journal.y"] - eq.q[1])) < 1e-13
+    d0 = (m * G / K) ** (1.0 / n)
+    rest.q0[1] += 0.02 * d0
+    res = mbs.simulate(rest, t_end="0.5 s", output_step="50 us", rtol=1e-10, atol=1e-14)
+    spec = spectrum.spectrum(res, "journal.y", "amplitude", window="flattop")
+    (f_peak, amp), = spec.peaks(1)
+    f = math.sqrt(n * K * d0 ** (n - 1) / m) / (2 * math.pi)
+    assert abs(f_peak - f) <= spec.resolution
+    assert amp == pytest.approx(0.02 * d0, rel=0.05)
+    (mode,) = mbs.linearize(model, eq).modes()
+    assert abs(f_peak - mode.frequency) <= spec.resolution
+
+
+def test_the_commands_print_write_and_refuse(tmp_path):
+    """`mbs static` and `mbs modes` print, write HDF5 and a figure; no equilibrium or one not unique is
+    exit 3 with its cause; `mbs run --from-static` starts at rest."""
+    import h5py
+    from typer.testing import CliRunner
+
+    from planar_mbs.cli.app import app
+
+    run = CliRunner()
+    model = tmp_path / "journal.mbs"
+    model.write_text(JOURNAL.format(K=1e9, m=0.5, n=1.5, g=G), encoding="utf-8")
+    r = run.invoke(app, ["static", str(model), "-o", str(tmp_path / "eq.h5")])
+    assert r.exit_code == 0, r.output
+    assert "penetration 2.88686e-06 m" in r.output and "stable" in r.output
+    r = run.invoke(app, ["modes", str(model), "-o", str(tmp_path / "m.h5"), "--plot", str(tmp_path / "m.png")])
+    assert r.exit_code == 0, r.output
+    assert "mode 1: f = 359.3" in r.output
+    with h5py.File(tmp_path / "m.h5") as f:
+        assert f["modes/frequency"][0] == pytest.approx(359.3, rel=1e-3)
+        assert f["static/gaps"][0] < 0 and "model_source" in f.attrs
+    assert (tmp_path / "m.png").stat().st_size > 0
+    r = run.invoke(app, ["static", str(model), "-o", str(model)])
+    assert r.exit_code == 2 and "model file" in r.output
+    free = tmp_path / "free.mbs"
+    free.write_text(model.read_text().replace("joint slide = translational(ground, journal, axis = (0, 1))", ""))
+    r = run.invoke(app, ["static", str(free)])
+    assert r.exit_code == 3 and "not unique" in r.output and "Traceback" not in r.output
+    r = run.invoke(app, ["run", str(model), "--from-static", "-q", "--t-end", "5ms", "-o", str(tmp_path / "r.h5")])
+    assert r.exit_code == 0 and "starting from the static equilibrium" in r.output, r.output
+    res = mbs.read_results(tmp_path / "r.h5")
+    assert np.max(np.abs(res["journal.vy"])) < 1e-9
