@@ -1,4 +1,4 @@
-"""The figures of docs/plots.md, the README and docs/tutorial.md, drawn by the commands those pages show.
+"""The figures of docs/plots.md, docs/studies.md, the README and docs/tutorial.md, drawn by the commands those pages show.
 
     .venv/bin/python docs/scripts/page_figures.py            # redraws them into docs/images
     .venv/bin/python docs/scripts/page_figures.py OUTDIR     # draws them into OUTDIR (tests/test_doc_figures.py)
@@ -29,6 +29,8 @@ SWEEP = ["sweep_a_grid_slider.ax.png", "sweep_a_poincare_grid_slider.vx_slider.a
 TUTORIAL_RUN = "mbs run four_bar.mbs"
 TUTORIAL_PLOT = "mbs plot results/four_bar.h5 rocker_link.phi motor.torque --against crank_link.phi"
 
+MODES_PLOT = "mbs modes docs/studies/resting_journal.mbs --set law=hertz --plot resting_journal_modes.png"
+
 A_5000 = ["a_5000_slider_velocity.png", "a_5000_slider_acceleration.png", "a_5000_contact_force.png",
           "a_5000_driver_torque.png", "a_5000_orbit_A.png", "a_5000_poincare_slider.vx_slider.ax.png"]
 AGAINST = "a_5000_slider.ax_A.contact_force_crank_speed.torque_vs_crank.phi.png"
@@ -41,6 +43,7 @@ PAGES = {
     "docs/tutorial.md": ([TUTORIAL_RUN, TUTORIAL_PLOT],
                          {"results/four_bar_plots/four_bar_rocker_link.phi_motor.torque_vs_crank_link.phi.png":
                           "tutorial_four_bar.png"}),
+    "docs/studies.md": ([MODES_PLOT], {"resting_journal_modes.png": "studies_resting_journal_modes.png"}),
 }
 
 
@@ -71,6 +74,7 @@ def draw(outdir: Path) -> list[Path]:
             work = Path(scratch)
             shutil.copytree(ROOT / "models", work / "models")
             shutil.copy(ROOT / "docs" / "tutorial" / "four_bar.mbs", work / "four_bar.mbs")
+            shutil.copytree(ROOT / "docs" / "studies", work / "docs" / "studies")
             (work / "docs" / "images").mkdir(parents=True)
             for command in commands:
                 mbs(command, work)

@@ -81,7 +81,8 @@ def _amplitude(model, q: np.ndarray, shape: np.ndarray, local) -> float:
 
 def mode_title(m) -> str:
     if m.kind == "oscillating":
-        return f"mode {m.index}: {m.frequency:.4g} Hz, ζ = {m.damping_ratio + 0.0:.3g}"
+        zeta = m.damping_ratio
+        return f"mode {m.index}: {m.frequency:.4g} Hz, ζ = " + ("0" if abs(zeta) < 1e-9 else f"{zeta:.3g}")
     return f"mode {m.index}: {m.kind}, |λ| = {m.omega:.3g} 1/s"
 
 

@@ -38,6 +38,7 @@ from .state_rhs import StateRhs, contact_memory, difference_step, velocity_step
 from .static import Equilibrium, equilibrium, write_equilibrium, write_file
 
 NEUTRAL_TOL = 1e-5  # |lambda| below this x the largest: a motion without restoring force
+ROUNDING_RATIO = 1e-9  # a damping ratio below this is the differences' rounding (printed as 0)
 STEP_RULE = ("central differences; minimal coordinates (lengths; angles times the half-size) stepped by "
              "h = (eps L l^2)^(1/3), l the length scale of the forces, L of the positions; minimal velocities "
              "by h_v = eps^(1/3) max(|z'|, size / 1 s)")
@@ -196,11 +197,17 @@ def report(modes: Modes, limit: int | None = None) -> list[str]:
     return lines
 
 
+def damping_words(zeta: float) -> str:
+    """A damping ratio as printed: below ROUNDING_RATIO it is the differences' rounding, shown as 0."""
+    return f"0 (|zeta| < {ROUNDING_RATIO:g})" if abs(zeta) < ROUNDING_RATIO else f"{zeta:.4g}"
+
+
 def _mode_words(m: Mode) -> str:
-    lam = f"lambda = {m.eigenvalue.real:.6g}{m.eigenvalue.imag:+.6g}i 1/s"
+    re = 0.0 if abs(m.eigenvalue.real) < ROUNDING_RATIO * m.omega else m.eigenvalue.real
+    lam = f"lambda = {re:.6g}{m.eigenvalue.imag:+.6g}i 1/s"
     if m.kind == "oscillating":
-        return (f"f = {m.frequency:.6g} Hz (omega_n = {m.omega:.6g} rad/s), damping ratio {m.damping_ratio:.4g}, "
-                f"damped {m.damped_frequency:.6g} Hz; {lam}")
+        return (f"f = {m.frequency:.6g} Hz (omega_n = {m.omega:.6g} rad/s), damping ratio "
+                f"{damping_words(m.damping_ratio)}, damped {m.damped_frequency:.6g} Hz; {lam}")
     if m.kind == "neutral":
         return f"no restoring force (|lambda| = {m.omega:.3g} 1/s)"
     rate = "decays" if m.kind == "decaying" else "grows (unstable)"

@@ -309,8 +309,9 @@ def report(eq: Equilibrium) -> list[str]:
              "  stable (the stiffness of the reduced system is positive definite)" if eq.stable() else
              "  unstable: a small displacement grows (the stiffness of the reduced system has a negative "
              "eigenvalue)", "pose (x [m], y [m], angle [deg]):"]
+    tiny = 1e-14 * model.size  # rounding: printed as 0
     for b, name in enumerate(model.body_names):
-        x, y, phi = eq.q[3 * b:3 * b + 3]
+        x, y, phi = (v if abs(v) > tiny else 0.0 for v in eq.q[3 * b:3 * b + 3])
         lines.append(f"  {name}: {x:.9g}, {y:.9g}, {np.degrees(phi):.9g}")
     for k, name in enumerate(model.clearance_names):
         gap = float(eq.gaps[k])
@@ -320,6 +321,8 @@ def report(eq: Equilibrium) -> list[str]:
     if reactions:
         lines.append("reactions (the force each joint and driver applies to each body: fx [N], fy [N], "
                      "moment about its centre of mass [N*m]):")
+    small = 1e-12 * max(force_scale(model, eq.forces), 1e-300)  # rounding: printed as 0
     for element, body, f in reactions:
-        lines.append(f"  {element} on {body}: {f[0] + 0.0:.6g}, {f[1] + 0.0:.6g}, {f[2] + 0.0:.6g}")
+        fx, fy, mz = (v if abs(v) > small * (1.0 if i < 2 else model.size / 2) else 0.0 for i, v in enumerate(f))
+        lines.append(f"  {element} on {body}: {fx:.6g}, {fy:.6g}, {mz:.6g}")
     return lines
