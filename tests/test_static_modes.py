@@ -337,3 +337,28 @@ def test_the_commands_print_write_and_refuse(tmp_path):
     assert r.exit_code == 0 and "starting from the static equilibrium" in r.output, r.output
     res = mbs.read_results(tmp_path / "r.h5")
     assert np.max(np.abs(res["journal.vy"])) < 1e-9
+
+
+def test_the_numbers_of_the_studies_page_are_the_programs():
+    """docs/studies.md shows `mbs static` and `mbs modes` on docs/studies/resting_journal.mbs: the
+    penetration, the journal's load, the frequencies and the damping ratio it states are what the
+    program gives today."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "studies.md").read_text(encoding="utf-8")
+    path = root / "docs" / "studies" / "resting_journal.mbs"
+    eq = mbs.equilibrium(mbs.load_model(path))
+    stated = float(re.search(r"clearance element A: penetration (\S+) m", text)[1])
+    assert -eq.gaps[0] == pytest.approx(stated, rel=1e-5)
+    load = float(re.search(r"B on slider: 0, -(\S+), 0", text)[1])
+    assert {n: f for n, b, f in eq.reactions()}["S"][1] > 0 and load == pytest.approx(
+        -[f for n, b, f in eq.reactions() if (n, b) == ("B", "slider")][0][1], rel=1e-5)
+    hertz = mbs.linearize(mbs.load_model(path, law="hertz")).modes()
+    shown = [float(f) for f in re.findall(r"mode \d: f = (\S+) Hz", text)]
+    assert shown == pytest.approx([m.frequency for m in hertz], rel=1e-5)
+    zeta = float(re.search(r"`--impact-velocity 0.1` its contact mode has\s+ζ = (\S+);", text)[1])
+    ln = mbs.linearize(mbs.load_model(path), impact_velocity=0.1).modes()
+    assert ln[1].damping_ratio == pytest.approx(zeta, rel=1e-3)
+    assert [m.kind for m in mbs.linearize(mbs.load_model(path)).modes()][1:] == ["decaying", "decaying"]
