@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
-from planar_mbs.run import modes as linear
 from planar_mbs.run import static
 
 G = 9.81
@@ -362,3 +361,18 @@ def test_the_numbers_of_the_studies_page_are_the_programs():
     ln = mbs.linearize(mbs.load_model(path), impact_velocity=0.1).modes()
     assert ln[1].damping_ratio == pytest.approx(zeta, rel=1e-3)
     assert [m.kind for m in mbs.linearize(mbs.load_model(path)).modes()][1:] == ["decaying", "decaying"]
+
+
+def test_a_resting_contact_damps_its_mode_by_the_hysteresis_of_its_law():
+    """Lankarani-Nikravesh, F = K d^n (1 + chi d'/v), chi = 3 (1 - ce^2) / 4, v the impact velocity: about
+    the rest d0 the contact is a spring n K d0^(n-1) and a dashpot chi K d0^n / v = chi W / v, so
+    zeta = chi W / (v 2 sqrt(n K d0^(n-1) m)); the frequency is the elastic one."""
+    K, m, n, ce, v = 1e9, 0.5, 1.5, 0.8, 0.05
+    text = JOURNAL.format(K=K, m=m, n=n, g=G).replace("law = hertz", f"law = lankarani_nikravesh  restitution = {ce}")
+    model = mbs.compile_text(text, path="journal_ln.mbs")
+    (mode,) = mbs.linearize(model, impact_velocity=v).modes()
+    d0 = (m * G / K) ** (1.0 / n)
+    k = n * K * d0 ** (n - 1)
+    chi = 3 * (1 - ce * ce) / 4
+    assert mode.damping_ratio == pytest.approx(chi * m * G / v / (2 * math.sqrt(k * m)), rel=1e-6)
+    assert mode.omega == pytest.approx(math.sqrt(k / m), rel=1e-6)

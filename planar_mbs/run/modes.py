@@ -24,8 +24,6 @@ so that its largest component (angles times the half-size) is 1.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -165,7 +163,8 @@ def linearize(model: Model, state=None, t: float | None = None, contact: np.ndar
         eq = equilibrium(model, t=0.0 if t is None else t, impact_velocity=impact_velocity) if state is None \
             else state
         q, qd, t = eq.q, np.zeros_like(eq.q), eq.t
-        contact = eq.contact if contact is None else contact
+        if contact is None:
+            contact = eq.contact if impact_velocity is None else contact_memory(model, impact_velocity)
         hold = True if hold_drivers is None else hold_drivers
     else:
         t = 0.0 if t is None else float(t)
