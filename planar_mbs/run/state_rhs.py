@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -32,6 +33,7 @@ from ..mechanism.kinematics import start_gaps
 from ..mechanism.model import (CFG_ALPHA, CFG_BETA, CP_CLEARANCE, CP_R_JOURNAL, CT_IMPACT_VELOCITY, CT_MODE,
                                N_CONTACT_STATE, N_STATS, TOUCHING, Model)
 from .checks import failure_message
+from .first_compile import cache_is_cold
 
 if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
     from .. import kernel
@@ -41,6 +43,8 @@ else:  # each loaded on its first use (see the comments: not on the light paths)
     kcontact = lazy("..kernel.contact", __package__)
 
 EPS = float(np.finfo(np.float64).eps)
+COLD_NOTE = ("note: compiling the right-hand side for Python calls (numba, once: later studies load it from "
+             "the cache; about a minute)")
 
 
 def contact_memory(model: Model, impact_velocity: float | None = None) -> np.ndarray:
@@ -63,6 +67,8 @@ class StateRhs:
         self.stats = np.zeros(N_STATS, dtype=np.int64)
         self.contact = contact_memory(model) if contact is None else np.array(contact, dtype=np.float64)
         self.calls = 0
+        if cache_is_cold(kernel.accelerations):  # a first study waits a minute: say why at once
+            print(COLD_NOTE, file=sys.stderr, flush=True)
 
     def __call__(self, q: np.ndarray, qd: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(Qe, q'', multipliers) at (q, q', t), copies; SimulationError where the kernel fails."""
