@@ -376,3 +376,38 @@ def test_a_resting_contact_damps_its_mode_by_the_hysteresis_of_its_law():
     chi = 3 * (1 - ce * ce) / 4
     assert mode.damping_ratio == pytest.approx(chi * m * G / v / (2 * math.sqrt(k * m)), rel=1e-6)
     assert mode.omega == pytest.approx(math.sqrt(k / m), rel=1e-6)
+
+
+def test_modes_about_the_assembled_state_and_a_driver_held_at_a_later_time(tmp_path):
+    """`--at assembled`: about the pose as assembled (here a pendulum released at theta0 from the
+    vertical, not at rest: theta'' = -w0^2 sin theta, so A = [[0, 1], [-w0^2 cos theta0, 0]] and the
+    eigenvalues are +- i w0 sqrt(cos theta0)).  `--time`: a crank driven at speed w is held where it is
+    at that time, theta0 + w t."""
+    from typer.testing import CliRunner
+
+    from planar_mbs.cli.app import app
+
+    m, I, L, th0 = 1.0, 0.01, 0.2, 0.5
+    text = f"""
+body bob {{ mass = {m} kg  inertia = {I} kg*m^2  position = ({L * math.sin(th0)}, {-L * math.cos(th0)})  angle = {th0} }}
+joint pin = revolute(ground (0, 0), bob (0, {L}))
+gravity (0, -{G} m/s^2)
+"""
+    model = tmp_path / "released.mbs"
+    model.write_text(text, encoding="utf-8")
+    w0 = math.sqrt(m * G * L / (I + m * L * L))
+    (mode,) = mbs.linearize(mbs.load_model(model), "assembled").modes()
+    assert mode.omega == pytest.approx(w0 * math.sqrt(math.cos(th0)), rel=1e-8)
+    r = CliRunner().invoke(app, ["modes", str(model), "--at", "assembled"])
+    assert r.exit_code == 0 and f"omega_n = {mode.omega:.6g} rad/s" in r.output, r.output
+    crank = tmp_path / "crank.mbs"
+    crank.write_text("""
+body crank { mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (0.025, 0) }
+joint O = revolute(ground (0, 0), crank (-0.025, 0))
+driver spin = rotation(crank, speed = 60 rpm)
+gravity (0, -9.81 m/s^2)
+""", encoding="utf-8")
+    eq = mbs.equilibrium(mbs.load_model(crank), t=0.125)
+    assert eq.q[2] == pytest.approx(2 * math.pi * 0.125, abs=1e-12)
+    r = CliRunner().invoke(app, ["static", str(crank), "--time", "125ms"])
+    assert r.exit_code == 0 and "crank: " in r.output and ", 45\n" in r.output, r.output
