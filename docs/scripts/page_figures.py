@@ -1,4 +1,4 @@
-"""The figures of docs/plots.md, docs/studies.md, the README and docs/tutorial.md, drawn by the commands those pages show.
+"""The figures of docs/plots.md, the README and docs/tutorial.md, drawn by the commands those pages show.
 
     .venv/bin/python docs/scripts/page_figures.py            # redraws them into docs/images
     .venv/bin/python docs/scripts/page_figures.py OUTDIR     # draws them into OUTDIR (tests/test_doc_figures.py)
