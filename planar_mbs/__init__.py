@@ -12,6 +12,9 @@ The Python API mirrors the command line (docs/python_api.md)::
     sim = mbs.Simulation(model)                  # step by step, for notebooks and controllers
     sim.step("1 ms"); sim.run_until("10 ms", callback=...)
 
+    eq = mbs.equilibrium(model)                  # where it rests: pose, residuals, reactions
+    lin = mbs.linearize(model)                   # modes about it: lin.modes(), lin.state_matrix
+
 Heavy modules (numba kernels, h5py) load on first use, so `import planar_mbs`
 and `mbs --help` stay fast.
 """
@@ -22,7 +25,8 @@ from typing import TYPE_CHECKING
 from .lazy import lazy
 from .version import __version__
 
-__all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results", "__version__"]
+__all__ = ["load_model", "compile_text", "simulate", "Simulation", "read_results", "equilibrium", "linearize",
+           "__version__"]
 
 # Each loads on first use (lark, numpy, numba, h5py): `import planar_mbs` loads none of them.
 _re = lazy("re")
@@ -32,12 +36,16 @@ if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph 
     from .language import parse as _parse
     from .run import simulation as _simulation
     from .results import hdf5 as _hdf5
+    from .run import static as _static
+    from .run import modes as _modes
 else:  # each loaded on its first use (see the comments: not on the light paths)
     _errors = lazy(".errors", __package__)
     _compile = lazy(".mechanism.compile", __package__)
     _parse = lazy(".language.parse", __package__)
     _simulation = lazy(".run.simulation", __package__)
     _hdf5 = lazy(".results.hdf5", __package__)
+    _static = lazy(".run.static", __package__)
+    _modes = lazy(".run.modes", __package__)
 
 
 def _python_error(err, overrides: dict, func: str):
@@ -96,6 +104,23 @@ def simulate(model, output=None, progress=None, signals=None, **settings):
 def read_results(path):
     """Load an HDF5 results file written by `simulate` or `mbs run`."""
     return _hdf5.read_results(path)
+
+
+def equilibrium(model, t=0.0, start=None, impact_velocity=None):
+    """The static equilibrium of a compiled model (`planar_mbs.run.static.Equilibrium`): at rest under
+    its loads, springs, gravity and contact forces, the drivers held at their values at time ``t``,
+    found by Newton's method on the constraint manifold from the assembled pose (or ``start``, a pose
+    q).  ``eq.q``, ``eq.multipliers``, ``eq.reactions()``, ``eq.gaps``, ``eq.stable()``;
+    ``planar_mbs.run.static.at_rest(model, eq)`` is the model started from it.  Raises
+    `planar_mbs.run.static.StaticError` (a `SimulationError`) when there is none or it is not unique."""
+    return _static.equilibrium(model, t=float(t), start=start, impact_velocity=impact_velocity)
+
+
+def linearize(model, state=None, t=None, impact_velocity=None, hold_drivers=None):
+    """The motion linearised in its minimal coordinates (`planar_mbs.run.modes.Modes`): the state
+    matrix, eigenvalues and modes (``lin.modes()``: frequency, damping ratio, shape) about ``state``:
+    None (the static equilibrium, found first), an equilibrium, ``"assembled"`` or a pair (q, q')."""
+    return _modes.linearize(model, state, t=t, impact_velocity=impact_velocity, hold_drivers=hold_drivers)
 
 
 def __getattr__(name):  # Simulation loads the numba kernels: only on first use

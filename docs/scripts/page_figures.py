@@ -33,6 +33,8 @@ BALANCE = "motor_motor.torque_motor.power_system.input_work_A.dissipated_system.
 TUTORIAL_RUN = "mbs run four_bar.mbs"
 TUTORIAL_PLOT = "mbs plot results/four_bar.h5 rocker_link.phi motor.torque --against crank_link.phi"
 
+MODES_PLOT = "mbs modes docs/studies/resting_journal.mbs --set law=hertz --plot resting_journal_modes.png"
+
 A_5000 = ["a_5000_slider_velocity.png", "a_5000_slider_acceleration.png", "a_5000_contact_force.png",
           "a_5000_driver_torque.png", "a_5000_orbit_A.png", "a_5000_poincare_slider.vx_slider.ax.png"]
 AGAINST = "a_5000_slider.ax_A.contact_force_crank_speed.torque_vs_crank.phi.png"
@@ -46,6 +48,7 @@ PAGES = {
     "docs/tutorial.md": ([TUTORIAL_RUN, TUTORIAL_PLOT],
                          {"results/four_bar_plots/four_bar_rocker_link.phi_motor.torque_vs_crank_link.phi.png":
                           "tutorial_four_bar.png"}),
+    "docs/studies.md": ([MODES_PLOT], {"resting_journal_modes.png": "studies_resting_journal_modes.png"}),
 }
 
 
@@ -76,6 +79,7 @@ def draw(outdir: Path) -> list[Path]:
             work = Path(scratch)
             shutil.copytree(ROOT / "models", work / "models")
             shutil.copy(ROOT / "docs" / "tutorial" / "four_bar.mbs", work / "four_bar.mbs")
+            shutil.copytree(ROOT / "docs" / "studies", work / "docs" / "studies")
             (work / "docs" / "images").mkdir(parents=True)
             for command in commands:
                 mbs(command, work)

@@ -140,8 +140,9 @@ run = app.command(cls=ReadableCommand)(_run_command())
 from .plot_commands import plot, view  # noqa: E402  (light: imports only typer)
 from .sweep_commands import analyze, route, sweep, sweep_merge, sweep_replay  # noqa: E402  (light: typer)
 from .study_options import sweep_stats  # noqa: E402  (light: typer)
+from .static_options import modes, static  # noqa: E402  (light: typer)
 
-for _command in (plot, view, sweep, analyze):
+for _command in (plot, view, sweep, analyze, static, modes):
     app.command(cls=ReadableCommand)(_command)
 app.command("sweep-replay", hidden=True, cls=TwoWordCommand)(sweep_replay)
 app.command("sweep-merge", hidden=True, cls=TwoWordCommand)(sweep_merge)

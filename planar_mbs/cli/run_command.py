@@ -50,8 +50,10 @@ scan = lazy("planar_mbs.sweep.scan")
 rerun_log = lazy("planar_mbs.outputs.rerun_log")
 if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
     from . import plot_commands
+    from . import static_command
 else:  # each loaded on its first use (see the comments: not on the light paths)
     plot_commands = lazy(".plot_commands", __package__)
+    static_command = lazy(".static_command", __package__)  # the kernels: only with --from-static
 rich_progress = lazy("rich.progress")
 rich_utils = lazy("typer.rich_utils")
 
@@ -62,7 +64,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               step: str | None = None, quiet: bool = False, rerun: Path | None = None, magnify: float = 10.0,
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
               until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None,
-              overwrite: bool = False) -> int:
+              from_static: bool = False, overwrite: bool = False) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as in `run_options.RUN_OPTIONS`);
     the exit code."""
     o = SimpleNamespace(**locals(), out=output, m=None)  # the options, and what `_prepare` adds to them
@@ -91,6 +93,8 @@ def _prepare(o: SimpleNamespace) -> None:
     sets = parse_sets(o.set_ or [])
     o.out = o.output or output_names.default_output(o.model, sets)
     o.m = m = compiler.load_model(o.model, sets)
+    if o.from_static:
+        o.m = m = static_command.start_at_rest(m)
     o.changes = _changes(o, m)
     o.signals = _kept(m, o.keep, o.rerun, o.until_settled)
     o.rerun_signals = check_choice(o.rerun_signals, ("envelope", "full"), "--rerun-signals")

@@ -77,6 +77,9 @@ RUN_OPTIONS = (
     Opt("keep", ("--keep",), "str", "Comma-separated signals to store (slider.vx); an entity name (slider) keeps "
         "all its signals.  Fewer signals make smaller files and cheaper output rows (no accelerations computed "
         "unless kept).", show_default="all"),
+    Opt("from_static", ("--from-static",), "flag", "Start from the static equilibrium (`mbs static`) instead of "
+        "the assembled pose: at rest, every clearance joint where its load puts it; the drivers then move.",
+        default=False),
     Opt("overwrite", ("--overwrite",), "flag", "Replace the output even when it is not the results of a run (a "
         "sweep file, any other file); never the model or its includes.", default=False),
 )
