@@ -75,6 +75,16 @@ def plot(
     kind: KindOpt = "amplitude",
     window_name: WindowOpt = None,
     resolution: ResolutionOpt = None,
+    title: Annotated[Optional[str], typer.Option(
+        "--title", help="Title of every figure drawn.", show_default="the model and the parameters that fit one line")]
+    = None,
+    xlabel: Annotated[Optional[str], typer.Option(
+        "--xlabel", help="Label of the x axis.", show_default="the quantity in words, with its unit")] = None,
+    ylabel: Annotated[Optional[str], typer.Option(
+        "--ylabel", help="Label of the y axis (of every panel).", show_default="the quantity in words, with its unit")]
+    = None,
+    size: Annotated[Optional[str], typer.Option(
+        "--size", help="Figure size WIDTHxHEIGHT in inches (8x4).", show_default="each figure's own")] = None,
 ) -> None:
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
@@ -83,7 +93,7 @@ def plot(
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
     mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
-    mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
+    mbs plot a.h5 --orbit A --from 0.2s --to 0.25s · mbs plot a.h5 slider.vx --title "800 rpm" --size 6x3
     """
     skip = transient if skip is None else skip
     try:
@@ -101,7 +111,8 @@ def plot(
             if spectrum else None
         check_output(output or file.parent / f"{file.stem}_plots", "--output", [("the results file", file)],
                      folder=True)
-        extra = {"spectra": spectrum or [], "spectrum_options": _with_clock(spectra, body)}
+        extra = {"spectra": spectrum or [], "spectrum_options": _with_clock(spectra, body),
+                 "style": figures.check_style(dict(title=title, xlabel=xlabel, ylabel=ylabel, size=size))}
         if ":/" in str(results):  # one case of a sweep: plot it like a run
             written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes,
                                  extra)
