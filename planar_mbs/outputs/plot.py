@@ -869,7 +869,8 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
                     label=v if v not in seen else None)
             seen.add(v)
     ax.set_xlabel(f"{param}" + (f" [{pretty_unit(unit)}]" if unit else ""))
-    ax.set_ylabel(axis_label(name, y_unit) + " at the Poincaré section" if name else "the Poincaré section")
+    words = axis_label(name, "") + " at the Poincaré section" if name else "the Poincaré section"
+    ax.set_ylabel(f"{words} [{pretty_unit(y_unit)}]" if y_unit and pretty_unit(y_unit) else words)
     if title:
         ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8, markerscale=4)
