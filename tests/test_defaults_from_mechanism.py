@@ -19,7 +19,7 @@ from planar_mbs.outputs import plot as P
 from planar_mbs.results import views as V
 from planar_mbs.results.analysis import read_section
 from planar_mbs.results.hdf5 import Results
-from planar_mbs.results.section import default_signals, output_body, poincare_section, slider_body
+from planar_mbs.results import section as S
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,14 +93,14 @@ def test_a_vertical_slider_is_sectioned_along_its_axis(vertical):
     model, out = vertical
     res = read_results(out)
     assert np.ptp(res["slider.vx"]) < 1e-9 * np.ptp(res["slider.vy"])
-    assert default_signals(res, model) == ("slider.vy", "slider.ay")
-    assert default_signals(res) == ("slider.vy", "slider.ay")  # the file's recorded mechanism
+    assert S.default_signals(res, model) == ("slider.vy", "slider.ay")
+    assert S.default_signals(res) == ("slider.vy", "slider.ay")  # the file's recorded mechanism
     del res.attrs["mechanism"]
-    assert default_signals(res) == ("slider.vy", "slider.ay")  # a file without it: the motion decides
+    assert S.default_signals(res) == ("slider.vy", "slider.ay")  # a file without it: the motion decides
     assert dict(P.default_panels(read_results(out))) == {
         "slider_velocity": ["slider.vy"], "slider_acceleration": ["slider.ay"], "driver_torque": ["spin.torque"]}
     # the section points are vy at every whole crank revolution t = k T after the first
-    sec = poincare_section(read_results(out))
+    sec = S.poincare_section(read_results(out))
     T = 60.0 / 1200.0
     np.testing.assert_allclose(sec.time, T * np.arange(2, 5), rtol=1e-9)
     np.testing.assert_allclose(sec.points["slider.vy"], np.interp(sec.time, res.time, res["slider.vy"]),
@@ -123,12 +123,12 @@ def test_two_outside_circles_get_no_journal_orbit(tmp_path):
     model = compile_text(ROLLER, str(tmp_path / "roller.mbs"))
     out = tmp_path / "roller.h5"
     simulate(model, output=out)
-    res = read_results(out)
-    assert res.attrs["mechanism"]["contacts"] == {"roll": "circle_on_circle"}
-    assert not V.is_journal(None, "roll", res) and not V.is_journal(model, "roll")
     names = {p.name for p in P.plot_file(out, outdir=tmp_path / "figs")}
     assert not any("orbit" in n for n in names), names
     assert "roller_poincare_follower.vy_follower.ay.png" in names  # the follower rides along y
+    res = read_results(out)
+    assert res.attrs["mechanism"]["contacts"] == {"roll": "circle_on_circle"}
+    assert not V.is_journal(None, "roll", res) and not V.is_journal(model, "roll")
 
 
 @pytest.fixture(scope="module")
@@ -147,15 +147,15 @@ def test_analyze_sections_the_output_link_of_a_four_bar(four_bar):
     assert r.exit_code == 0, r.output
     assert "rocker_link.phi, rocker_link.omega" in r.output
     res = read_results(four_bar)
-    assert slider_body(res) is None and output_body(res) == "rocker_link"
-    sec = poincare_section(res)
+    assert S.slider_body(res) is None and S.output_body(res) == "rocker_link"
+    sec = S.poincare_section(res)
     T = 60.0 / 1000.0
     np.testing.assert_allclose(sec.time, T * np.arange(2, 2 + len(sec)), rtol=1e-9)
     for name in ("rocker_link.phi", "rocker_link.omega"):
         np.testing.assert_allclose(sec.points[name], np.interp(sec.time, res.time, res[name]),
                                    atol=1e-9 * np.ptp(res[name]))
     del res.attrs["mechanism"]  # without the recorded mechanism: the link that rotates about a fixed point
-    assert output_body(res) == "rocker_link"
+    assert S.output_body(res) == "rocker_link"
 
 
 def test_default_figures_of_a_four_bar_show_its_output_link(four_bar, tmp_path):
