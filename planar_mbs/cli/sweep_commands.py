@@ -104,7 +104,7 @@ def _section_options(poincare, period, angle, transient, clock, no_section) -> O
 
 PoincareOpt = Annotated[Optional[str], typer.Option(
     "--poincare", "-p", help="Signals of the Poincaré section X:Y.",
-    show_default="the slider's vx:ax")]
+    show_default="the slider's velocity:acceleration along its axis, else the output link's phi:omega")]
 PeriodOpt = Annotated[Optional[str], typer.Option(
     "--period", help="A stroboscopic section every PERIOD (with units).",
     show_default="once per revolution of the clock body")]

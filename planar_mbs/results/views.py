@@ -27,9 +27,18 @@ JOURNAL_PAIRS = (catalog.PAIRS[PairKind.CIRCLE_IN_CIRCLE].name, catalog.PAIRS[Pa
 
 
 class PlotError(MbsError):
-    """Bad usage of `mbs plot` / `mbs view` (unknown signal, not a results file): exit code 2."""
+    """Bad usage of `mbs plot` / `mbs view` (unknown signal, not a results file): exit code 2.  A hint
+    line is never empty: one left with nothing after ``hint:`` says where the names are listed."""
 
     exit_code = 2
+
+    def __init__(self, message: str = ""):
+        lines = str(message).split("\n")
+        lines = [EMPTY_HINT if line.strip() == "hint:" else line for line in lines]
+        super().__init__("\n".join(lines))
+
+
+EMPTY_HINT = "hint: `mbs plot FILE --list` prints the signals the results hold (BODY.phi: a body's angle)"
 
 
 def entities(results: "Results") -> dict[str, set[str]]:
