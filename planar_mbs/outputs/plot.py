@@ -657,7 +657,7 @@ def plot_file(
     if sweep:
         panels = parse_panels(signals)
         pair = parse_pair(poincare_pair) if poincare_pair else None
-        return _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, Written(style))
+        return _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, Written(style), notes)
     try:
         results = read_results(path)
     except (KeyError, OSError) as exc:
@@ -751,7 +751,7 @@ def _default_pair(results: "Results", model, body, skip, notes) -> tuple[str, st
     return plane if len(poincare(results, *plane, body, skip, model).t) else None
 
 
-def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
+def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written, notes=None):
     """The figures of a sweep file: a grid per signal kept and the Poincaré maps from the kept signals
     when asked (or when they hold the clock); with no signal named, the sections the sweep stored,
     drawn as a bifurcation diagram (`stored_bifurcation_figures`), which need no `--keep`."""
@@ -774,6 +774,11 @@ def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
         panels = [names[:1] for _, names in default_panels(first)]
         clock = body or turning_body(first)  # its angle not kept: the stored sections below instead
         pair = _default_pair(first, None, body, skip, None) if clock and f"{clock}.phi" in first else None
+        if clock and f"{clock}.phi" not in first and notes is not None:
+            kept = sorted({n.rpartition(".")[0] for n in first.signals})
+            notes.append(f"the cases keep no angle of `{clock}`, which clocks the Poincaré section: its stored "
+                         f"sections are drawn instead of maps of the kept signals (`--keep {','.join(kept + [clock])}` "
+                         "keeps it)")
     for panel in panels:
         for name in panel:
             for _, res in cases:
