@@ -197,10 +197,11 @@ def test_a_sweep_keeping_no_clock_draws_its_stored_sections(vertical_model, tmp_
     assert "0 points" not in r.output and "s_bifurcation_slider.vy.png" in r.output, r.output
     said = " ".join(r.output.split())  # the note as printed, wrapped to the terminal
     assert "no angle of `crank`" in said and "--keep rod,slider,crank" in said, r.output
-    r = runner.invoke(app, ["plot", str(out), "-p", "slider.vy:slider.ay", "-o", str(tmp_path / "figs")])
-    assert r.exit_code == 2 and "no angle of `crank`" in r.output, r.output
-    hint = r.output.split("hint: ", 1)[1].strip()
-    assert hint and "--keep rod,slider,crank" in hint, r.output
+    for clock in ([], ["--clock", "crank"]):  # the clock named or not: the same reason, a hint with text
+        r = runner.invoke(app, ["plot", str(out), "-p", "slider.vy:slider.ay", *clock, "-o", str(tmp_path / "figs")])
+        assert r.exit_code == 2 and "no angle of `crank`" in r.output, r.output
+        hint = r.output.split("hint: ", 1)[1].strip()
+        assert hint and "--keep rod,slider,crank" in hint, r.output
 
 
 def test_hints_are_never_empty():

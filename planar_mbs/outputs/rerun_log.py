@@ -792,7 +792,8 @@ def _log_poincare(rr, rec, results, model, pair, skip, info: RecordingInfo) -> N
             pair = default_signals(results, model)  # the slider along its axis, else the output link
         except AnalysisError:
             return
-    if not turning_body(results, model):
+    clock = turning_body(results, model)
+    if not clock or f"{clock}.phi" not in results:  # e.g. a sweep's case that kept no angle of its clock
         return
     ps = poincare(results, pair[0], pair[1], None, skip, model)
     if not len(ps.t):
