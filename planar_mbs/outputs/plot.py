@@ -685,9 +685,9 @@ def plot_results(
     spectrum_options: dict | None = None,
     style: dict | None = None,
 ) -> list[Path]:
-    """The figures of one run (already loaded); file names start with `stem`; ``style`` as `plot_file`.  ``t_from`` / ``t_to``
-    (s) cut every figure to a time window; warnings (a too-coarse orbit) go to `notes`.  ``spectra``:
-    a spectrum figure of each signal named (`spectrum_figure`; ``spectrum_options`` as
+    """The figures of one run (already loaded); file names start with `stem`; ``style`` as `plot_file`.
+    ``t_from`` / ``t_to`` (s) cut every figure to a time window; warnings (a too-coarse orbit) go to
+    `notes`.  ``spectra``: a spectrum figure of each signal named (`spectrum_figure`; ``spectrum_options`` as
     `planar_mbs.results.spectrum.spectrum` takes them, over the same window)."""
     if fmt not in FORMATS:
         raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
