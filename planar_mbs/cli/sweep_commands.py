@@ -103,8 +103,8 @@ def _section_options(poincare, period, angle, transient, clock, no_section) -> O
 
 
 PoincareOpt = Annotated[Optional[str], typer.Option(
-    "--poincare", "-p", help="Signals of the Poincaré section X:Y.",
-    show_default="the slider's velocity:acceleration along its axis, else the output link's phi:omega")]
+    "--poincare", "-p", help="Signals of the Poincaré section X:Y: by default along the slider's axis (vy:ay "
+    "on a vertical guide), without a slider the output link's phi:omega.", show_default="the slider's vx:ax")]
 PeriodOpt = Annotated[Optional[str], typer.Option(
     "--period", help="A stroboscopic section every PERIOD (with units).",
     show_default="once per revolution of the clock body")]
