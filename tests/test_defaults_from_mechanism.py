@@ -129,6 +129,8 @@ def test_two_outside_circles_get_no_journal_orbit(tmp_path):
     res = read_results(out)
     assert res.attrs["mechanism"]["contacts"] == {"roll": "circle_on_circle"}
     assert not V.is_journal(None, "roll", res) and not V.is_journal(model, "roll")
+    r = runner.invoke(app, ["plot", str(out), "--orbit", "roll", "-o", str(tmp_path / "figs")])  # asked for
+    assert r.exit_code == 2 and "not a journal" in r.output and "roll.penetration" in r.output, r.output
 
 
 @pytest.fixture(scope="module")

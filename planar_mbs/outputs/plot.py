@@ -33,7 +33,7 @@ from ..files import replace_atomically
 from ..lazy import lazy
 from ..results.analysis import VERDICT_COLOURS, read_section
 from ..results.hdf5 import HDF5_SIGNATURE, SIGNALS, open_results, read_results
-from ..results.section import AnalysisError, crossings, default_signals, output_body, slider_signals
+from ..results.section import AnalysisError, crossings, default_signals, facts, output_body, slider_signals
 from ..results.views import (
     PlotError,
     PoincareSet,
@@ -730,6 +730,11 @@ def plot_results(
             raise PlotError(f"error: `{joint}` is not a clearance joint of this run"
                             + (f"\nhint: {hint}" if hint else f"\nhint: clearance joints: "
                                f"{', '.join(clearance_names(results)) or 'none'}"))
+        if not is_journal(model, joint, results):
+            pair = (facts(results, model) or {}).get("contacts", {}).get(joint, "contact")
+            raise PlotError(f"error: `{joint}` is a {pair} contact, not a journal in a bearing: it has no orbit "
+                            f"inside a clearance circle\nhint: draw its signals instead, e.g. "
+                            f"`mbs plot FILE {joint}.e {joint}.penetration`")
         _save(orbit_figure(results, joint), outdir / f"{stem}_orbit_{_slug(joint)}.{fmt}", written)
         warning = orbit_resolution_warning(results, joint)
         if warning and notes is not None:
