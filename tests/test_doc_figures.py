@@ -44,16 +44,17 @@ def test_every_figure_of_the_pages_is_what_the_program_draws(drawn):
         assert diff is None, f"docs/images/{path.name} is stale: run docs/scripts/page_figures.py\n{diff}"
 
 
-def test_a_sweep_without_the_kept_signals_says_what_to_keep(tmp_path, monkeypatch):
-    """docs/plots.md: the sweep figures need the cases' signals, and `mbs plot sweep.h5` without them says
-    what to keep (exit 2), where it printed "nothing to plot" (exit 0); with only the slider's signals
-    kept, a Poincaré map asks for the clock body's angle instead of naming a body `None`."""
+def test_a_sweep_without_the_kept_signals_draws_its_stored_sections(tmp_path, monkeypatch):
+    """docs/plots.md: without the cases' signals (no --keep) or without the clock body's angle among them,
+    `mbs plot sweep.h5` draws the sections the sweep stored as a bifurcation diagram (exit 0); a Poincaré
+    map asked of kept signals that lack the clock's angle says what to keep (exit 2), never naming a body
+    `None` or giving an empty hint."""
     from typer.testing import CliRunner
 
     from planar_mbs.cli.app import app
 
     text = (ROOT / "docs" / "plots.md").read_text(encoding="utf-8")
-    assert "`--keep slider,crank`" in text
+    assert "`--keep slider,crank`" in text and "sections the sweep stored" in text
     monkeypatch.chdir(tmp_path)
     model = str(ROOT / "models" / "slider_crank_clearance_a.mbs")
     run = CliRunner()
@@ -61,6 +62,7 @@ def test_a_sweep_without_the_kept_signals_says_what_to_keep(tmp_path, monkeypatc
         r = run.invoke(app, ["sweep", model, "-P", "speed=2500rpm,5000rpm", "-n", "3", "-q", "-o", out, *keep])
         assert r.exit_code == 0, r.output
         r = run.invoke(app, ["plot", out])
-        assert r.exit_code == 2 and "--keep slider,crank" in r.output, r.output
+        assert r.exit_code == 0 and f"{out[:-3]}_bifurcation_slider.vx.png" in r.output, r.output
     r = run.invoke(app, ["plot", "some.h5", "-p", "slider.vx:slider.ax"])
-    assert r.exit_code == 2 and "None" not in r.output and "--clock" in r.output, r.output
+    assert r.exit_code == 2 and "None" not in r.output and "--keep slider,crank" in r.output, r.output
+    assert r.output.split("hint:", 1)[1].strip(), r.output

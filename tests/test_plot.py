@@ -64,7 +64,7 @@ def test_series_figure_plots_the_signals_with_their_labels(results):
 def test_series_against_the_crank_angle_overlays_revolutions(results):
     fig = P.series_figure(results, [["slider.x"]], against="crank.phi")
     (ax,) = fig.axes
-    assert ax.get_xlabel() == "crank.phi [deg, mod 360]"
+    assert ax.get_xlabel() == "crank angle [deg, mod 360]"
     (line,) = _lines(ax)
     x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
     keep = ~np.isnan(x)
@@ -76,7 +76,7 @@ def test_series_against_the_crank_angle_overlays_revolutions(results):
 def test_orbit_figure_draws_the_journal_path_inside_the_clearance_circle(results):
     fig = P.orbit_figure(results, "A")
     (ax,) = fig.axes
-    assert (ax.get_xlabel(), ax.get_ylabel()) == ("A.ex [mm]", "A.ey [mm]")
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("A eccentricity x [mm]", "A eccentricity y [mm]")
     path, start, circle = _lines(ax)
     np.testing.assert_allclose(path.get_xdata(), results["A.ex"] * 1e3)
     np.testing.assert_allclose(path.get_ydata(), results["A.ey"] * 1e3)
@@ -93,11 +93,11 @@ def test_sweep_figures_show_each_case_and_the_section_of_each_speed(tmp_path):
     visible = [ax for ax in grid.axes if ax.get_visible()]
     assert len(visible) == 3
     for ax, (_, res), rpm in zip(visible, cases, rpms):
-        assert f"{rpm:g}" in ax.get_title() and ax.get_ylabel() == "slider.vx [m/s]"
+        assert f"{rpm:g}" in ax.get_title() and ax.get_ylabel() == "slider velocity x [m/s]"
         np.testing.assert_array_equal(_lines(ax)[0].get_ydata(), res["slider.vx"])
     fig = P.bifurcation_figure(cases, "slider.vx")
     (ax,) = fig.axes
-    assert ax.get_xlabel() == "speed [rpm]" and ax.get_ylabel() == "slider.vx [m/s]"
+    assert ax.get_xlabel() == "speed [rpm]" and ax.get_ylabel() == "slider velocity x [m/s]"
     for line, (_, res), rpm in zip(_lines(ax), cases, rpms):
         xs, ys = np.asarray(line.get_xdata()), np.asarray(line.get_ydata())
         assert len(ys) >= 3 and np.all(xs == rpm)

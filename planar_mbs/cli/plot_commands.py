@@ -38,6 +38,23 @@ ResultsArg = Annotated[Path, typer.Argument(help="HDF5 results file written by `
                                             "one case of a sweep: FILE.h5:/cases/3).", show_default=False)]
 
 
+OrbitOpt = Annotated[Optional[list[str]], typer.Option(
+    "--orbit", help="Journal orbit of this clearance joint inside its clearance circle. Repeatable.",
+    show_default=False)]
+PlotFromOpt = Annotated[Optional[str], typer.Option(
+    "--from", help="Start of the time window drawn, with units (0.2s).", show_default="the start of the run")]
+PlotToOpt = Annotated[Optional[str], typer.Option(
+    "--to", help="End of the time window drawn, with units (250ms).", show_default="the end of the run")]
+TitleOpt = Annotated[Optional[str], typer.Option(
+    "--title", help="Title of every figure drawn.", show_default="the model and the parameters that fit one line")]
+XLabelOpt = Annotated[Optional[str], typer.Option(
+    "--xlabel", help="Label of the x axis.", show_default="the quantity in words, with its unit")]
+YLabelOpt = Annotated[Optional[str], typer.Option(
+    "--ylabel", help="Label of the y axis (of every panel).", show_default="the quantity in words, with its unit")]
+SizeOpt = Annotated[Optional[str], typer.Option(
+    "--size", help="Figure size WIDTHxHEIGHT in inches (8x4).", show_default="each figure's own")]
+
+
 def plot(
     results: ResultsArg,
     signals: Annotated[Optional[list[str]], typer.Argument(
@@ -49,9 +66,7 @@ def plot(
     poincare: Annotated[Optional[str], typer.Option(
         "--poincare", "-p", help="Poincaré map X:Y, sampled once per revolution of the driven body "
                                  "(e.g. slider.vx:slider.ax).", show_default=False)] = None,
-    orbit: Annotated[Optional[list[str]], typer.Option(
-        "--orbit", help="Journal orbit of this clearance joint inside its clearance circle. Repeatable.",
-        show_default=False)] = None,
+    orbit: OrbitOpt = None,
     output: Annotated[Optional[Path], typer.Option(
         "--output", "-o", help="Directory for the figures.",
         show_default="<results>_plots/ next to the results file")] = None,
@@ -64,17 +79,18 @@ def plot(
         "--clock", help="Body whose revolutions clock the Poincaré section.",
         show_default="the body that turns most, i.e. the driven crank")] = None,
     list_: Annotated[bool, typer.Option("--list", "-l", help="List the signals in the file and exit.")] = False,
-    t_from: Annotated[Optional[str], typer.Option(
-        "--from", help="Start of the time window drawn, with units (0.2s).", show_default="the start of the run")]
-    = None,
-    t_to: Annotated[Optional[str], typer.Option(
-        "--to", help="End of the time window drawn, with units (250ms).", show_default="the end of the run")] = None,
+    t_from: PlotFromOpt = None,
+    t_to: PlotToOpt = None,
     spectrum: Annotated[Optional[list[str]], typer.Option(
         "--spectrum", help="A spectrum figure of this signal over the --from/--to window. Repeatable.",
         show_default="none")] = None,
     kind: KindOpt = "amplitude",
     window_name: WindowOpt = None,
     resolution: ResolutionOpt = None,
+    title: TitleOpt = None,
+    xlabel: XLabelOpt = None,
+    ylabel: YLabelOpt = None,
+    size: SizeOpt = None,
 ) -> None:
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
@@ -83,7 +99,7 @@ def plot(
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
     mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
-    mbs plot a.h5 --orbit A --from 0.2s --to 0.25s
+    mbs plot a.h5 --orbit A --from 0.2s --to 0.25s · mbs plot a.h5 slider.vx --title "800 rpm" --size 6x3
     """
     skip = transient if skip is None else skip
     try:
@@ -101,7 +117,8 @@ def plot(
             if spectrum else None
         check_output(output or file.parent / f"{file.stem}_plots", "--output", [("the results file", file)],
                      folder=True)
-        extra = {"spectra": spectrum or [], "spectrum_options": _with_clock(spectra, body)}
+        extra = {"spectra": spectrum or [], "spectrum_options": _with_clock(spectra, body),
+                 "style": figures.check_style(dict(title=title, xlabel=xlabel, ylabel=ylabel, size=size))}
         if ":/" in str(results):  # one case of a sweep: plot it like a run
             written = _plot_case(results, signals, against, poincare, orbit, output, fmt, skip, body, window, notes,
                                  extra)

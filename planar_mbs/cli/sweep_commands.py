@@ -103,8 +103,8 @@ def _section_options(poincare, period, angle, transient, clock, no_section) -> O
 
 
 PoincareOpt = Annotated[Optional[str], typer.Option(
-    "--poincare", "-p", help="Signals of the Poincaré section X:Y.",
-    show_default="the slider's vx:ax")]
+    "--poincare", "-p", help="Signals of the Poincaré section X:Y: by default along the slider's axis (vy:ay "
+    "on a vertical guide), without a slider the output link's phi:omega.", show_default="the slider's vx:ax")]
 PeriodOpt = Annotated[Optional[str], typer.Option(
     "--period", help="A stroboscopic section every PERIOD (with units).",
     show_default="once per revolution of the clock body")]
@@ -227,7 +227,8 @@ def sweep(
         raise typer.Exit(128 + _interruptible.signum(err))
     finally:
         server.remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
-    study_command.report(summary, output) if study else _report_sweep(summary, [a.name for a in axes])
+    study_command.report(summary, output) if study else _report_sweep(summary, [a.name for a in axes],
+                                                                      section is not None)
 
 
 def _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs) -> dict:
@@ -246,9 +247,12 @@ def _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, job
     return settings
 
 
-def _report_sweep(summary, names: list[str]) -> None:
-    """The table of cases, each failure in a sentence, the counts; exit 3 when a case failed."""
+def _report_sweep(summary, names: list[str], section: bool = True) -> None:
+    """The table of cases, each failure in a sentence, why verdicts are blank, the counts; exit 3 when
+    a case failed."""
     _print_table(summary.rows, names)
+    if section:
+        _why_no_verdict(summary.rows)
     for r in summary.rows:
         if r["index"] in summary.failed and r.get("message"):
             vals = ", ".join(f"{k}={v}" for k, v in r["values"].items())
@@ -262,6 +266,28 @@ def _report_sweep(summary, names: list[str]) -> None:
                      f"({summary.wall_time:.1f} s)")
     if summary.failed or earlier:
         raise typer.Exit(ExitCode.SIMULATION_FAILED)
+
+
+NO_SECTION = "; no Poincaré section: "
+
+
+def _why_no_verdict(rows) -> None:
+    """Say why finished cases have blank verdict columns (their section could not be taken) and how to
+    get one: the section's reason, then a hint that is never empty."""
+    blank = [r for r in rows if r["status"] != "failed" and not r.get("verdict")]
+    if not blank:
+        return
+    reason = str(blank[0].get("message") or "").partition(NO_SECTION)[2] or "the case stored no Poincaré section"
+    if "`-p" in reason:
+        hint = "sweep again with the section's signals named, " + reason[reason.index("`-p"):].split(";")[0]
+    elif "period" in reason:
+        hint = "sweep again with `--period T` (a stroboscopic section) or `--clock BODY`"
+    else:
+        hint = "sweep again naming the section's signals (`-p X:Y`) and its clock (`--clock BODY`)"
+    cases = ", ".join(str(r["index"]) for r in blank[:10]) + (", …" if len(blank) > 10 else "")
+    err = _console(stderr=True)
+    err.print(f"no verdict for case {cases} (blank columns): {reason}", markup=False, soft_wrap=True)
+    err.print(f"hint: {hint}", markup=False, soft_wrap=True)
 
 
 class _interruptible:

@@ -33,7 +33,7 @@ from ..files import replace_atomically
 from ..lazy import lazy
 from ..results.analysis import VERDICT_COLOURS, read_section
 from ..results.hdf5 import HDF5_SIGNATURE, SIGNALS, open_results, read_results
-from ..results.section import crossings
+from ..results.section import AnalysisError, crossings, default_signals, facts, output_body, slider_signals
 from ..results.views import (
     PlotError,
     PoincareSet,
@@ -98,13 +98,18 @@ def orbit_resolution_warning(results: "Results", joint: str) -> str | None:
 
 
 def default_panels(results: "Results", model: "Model | None" = None) -> list[tuple[str, list[str]]]:
-    """Muvengei et al.'s figures from the signals present: slider velocity, slider acceleration,
-    clearance-joint forces, driver torques (or forces)."""
+    """Muvengei et al.'s figures from the signals present: slider velocity, slider acceleration (along
+    its axis: `slider_signals`), or without a slider the output link's angle and angular velocity
+    (`output_body`), then clearance-joint forces, driver torques (or forces)."""
     panels: list[tuple[str, list[str]]] = []
     slider = slider_body(results, model)
+    out = None if slider else output_body(results, model)
     if slider:
-        panels.append((f"{slider}_velocity", [f"{slider}.vx"]))
-        panels.append((f"{slider}_acceleration", [f"{slider}.ax"]))
+        v, a = slider_signals(results, model, slider)
+        panels += [(f"{slider}_velocity", [v]), (f"{slider}_acceleration", [a])]
+    elif out:
+        panels += [(f"{out}_angle", [f"{out}.phi"]), (f"{out}_angular_velocity", [f"{out}.omega"])]
+    panels = [(f, names) for f, names in panels if all(n in results for n in names)]
     forces = [f"{c}.contact_force" for c in clearance_names(results) if f"{c}.contact_force" in results]
     if forces:
         panels.append(("contact_force", forces))
@@ -138,6 +143,14 @@ def label(name: str, unit: str) -> str:
     return f"{name} [{u}]" if u else name
 
 
+def axis_label(name: str, unit: str) -> str:
+    """An axis label in words with its unit, on one line: ``slider velocity x [m/s]`` (the entity and
+    its quantity in words; a quantity without words keeps the signal's name)."""
+    entity, _, quantity = name.rpartition(".")
+    words = QUANTITY_WORDS.get(quantity)
+    return label(f"{entity} {words}" if words and entity else name, unit)
+
+
 def words_label(name: str, unit: str) -> str:
     """A y label in words with the signal's name under it: ``slider velocity x`` / ``(slider.vx) [m/s]``
     (two lines, so that it fits beside a panel of a few inches)."""
@@ -162,9 +175,9 @@ def axis_values(results: "Results", name: str | None) -> tuple[np.ndarray, str]:
             deg = np.mod(deg, 360.0)
             breaks = np.nonzero(np.abs(np.diff(deg)) > 180)[0] + 1
             deg = np.insert(deg.astype(float), breaks, np.nan)
-            return deg, f"{name} [deg, mod 360]"
-        return deg, f"{name} [deg]"
-    return v, label(name, unit)
+            return deg, axis_label(name, "deg, mod 360")
+        return deg, axis_label(name, "deg")
+    return v, axis_label(name, unit)
 
 
 def _with_breaks(x: np.ndarray, y: np.ndarray, n_time: int) -> np.ndarray:
@@ -199,19 +212,31 @@ def _figure(width: float = 8.0, height: float = 4.0):
 
 
 def _title(results: "Results", width: float = 8.0) -> str:
-    """The run's title (model, parameters, state), wrapped to fit a figure `width` inches wide."""
+    """The run's title, short: the model file and the parameters that fit on one line of a figure
+    `width` inches wide (a sweep case's own values first; "…" for those left out: the results file and
+    `mbs plot --list` hold them all), then an incomplete run or a time window on a second line."""
+    chars = int(width * 10)  # ~10 characters per inch at 10 pt
     params = results.attrs.get("parameters") or {}
-    model = Path(str(results.attrs.get("model_path", "") or "")).name
-    bits = [model] if model else []
-    if isinstance(params, dict) and params:
-        bits.append(", ".join(f"{k} = {v}" for k, v in params.items()))
+    case = results.attrs.get("case_values") or {}
+    values = {**(case if isinstance(case, dict) else {}), **(params if isinstance(params, dict) else {})}
+    head = Path(str(results.attrs.get("model_path", "") or "")).name
+    for i, (k, v) in enumerate(values.items()):
+        piece = ("" if not head else " · " if i == 0 else ", ") + f"{k} = {v}"
+        if len(head) + len(piece) > chars - 3:
+            head += " …" if i == 0 else ", …"
+            break
+        head += piece
+    state = []
     if not results.complete:
-        bits.append(f"incomplete: {results.attrs.get('message', '')}")
+        state.append(f"incomplete: {results.attrs.get('message', '')}")
     if results.attrs.get("window"):
         t0, t1 = results.attrs["window"]
-        bits.append(f"t = {t0:.6g} … {t1:.6g} s")
-    bits = [b.replace("$", r"\$") for b in bits]  # a `$` in a file name or value is text, not mathtext
-    return wrap_pairs(bits, int(width * 10))  # ~10 characters per inch at 10 pt
+        state.append(f"t = {t0:.6g} … {t1:.6g} s")
+    second = " · ".join(state)
+    if len(second) > chars:
+        second = second[:chars - 1] + "…"
+    text = "\n".join(line for line in (head, second) if line)
+    return text.replace("$", r"\$")  # a `$` in a file name or value is text, not mathtext
 
 
 def wrap_pairs(bits: Sequence[str], width: int) -> str:
@@ -311,8 +336,8 @@ def poincare_figure(results: "Results", x: str, y: str, body: str | None = None,
         ax = fig.subplots()
         fig.suptitle(_title(results, 5.5), fontsize="medium")
     ax.plot(ps.x, ps.y, "o", ms=2.5, color="C3")
-    ax.set_xlabel(label(x, results.units.get(x, "")))
-    ax.set_ylabel(label(y, results.units.get(y, "")))
+    ax.set_xlabel(axis_label(x, results.units.get(x, "")))
+    ax.set_ylabel(axis_label(y, results.units.get(y, "")))
     ax.set_title(f"Poincaré map: {len(ps.t)} points, once per revolution\nof {ps.body} (first {skip} skipped)",
                  fontsize="small")
     ax.grid(True, lw=0.3, alpha=0.6)
@@ -334,8 +359,8 @@ def orbit_figure(results: "Results", joint: str):
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
     ax.set_aspect("equal")
-    ax.set_xlabel(f"{joint}.ex [mm]")
-    ax.set_ylabel(f"{joint}.ey [mm]")
+    ax.set_xlabel(axis_label(f"{joint}.ex", "mm"))
+    ax.set_ylabel(axis_label(f"{joint}.ey", "mm"))
     ax.set_title(f"journal orbit in clearance joint {joint}", fontsize="small")
     ax.legend(loc="upper right", fontsize="x-small")
     ax.grid(True, lw=0.3, alpha=0.6)
@@ -439,7 +464,7 @@ def sweep_grid_figure(cases, name: str, against: str | None = None):
         ax.plot(xs, ys, lw=0.6)
         ax.set_title(wrap_pairs([case_label(res, keys, k)], SUBPLOT_CHARS), fontsize="small")
         ax.set_xlabel(xlabel, fontsize="small")
-        ax.set_ylabel(label(name, res.units.get(name, "")), fontsize="small")
+        ax.set_ylabel(axis_label(name, res.units.get(name, "")), fontsize="small")
         ax.grid(True, lw=0.3, alpha=0.6)
     for ax in axes[len(cases):]:
         ax.set_visible(False)
@@ -456,8 +481,8 @@ def poincare_grid_figure(cases, x: str, y: str, body: str | None = None, skip: i
         ps = poincare(res, x, y, body, skip)
         ax.plot(ps.x, ps.y, "o", ms=2.5, color="C3")
         ax.set_title(wrap_pairs([case_label(res, keys, k), f"{len(ps.t)} points"], SUBPLOT_CHARS), fontsize="small")
-        ax.set_xlabel(label(x, res.units.get(x, "")), fontsize="small")
-        ax.set_ylabel(label(y, res.units.get(y, "")), fontsize="small")
+        ax.set_xlabel(axis_label(x, res.units.get(x, "")), fontsize="small")
+        ax.set_ylabel(axis_label(y, res.units.get(y, "")), fontsize="small")
         ax.grid(True, lw=0.3, alpha=0.6)
     for ax in axes[len(cases):]:
         ax.set_visible(False)
@@ -482,7 +507,7 @@ def bifurcation_figure(cases, name: str, body: str | None = None, skip: int = 1)
         ax.plot(np.full(len(ps.x), p), ps.x, "o", ms=1.5, color="k")
     unit = values[0][1]
     ax.set_xlabel(f"{key} [{unit}]" if unit else key)
-    ax.set_ylabel(label(name, cases[0][1].units.get(name, "")))
+    ax.set_ylabel(axis_label(name, cases[0][1].units.get(name, "")))
     ax.set_title(f"bifurcation diagram: {name} once per revolution (first {skip} skipped)", fontsize="small")
     ax.grid(True, lw=0.3, alpha=0.6)
     return fig
@@ -495,11 +520,68 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")[:80] or "figure"
 
 
+class Written(list):
+    """The figure files written, and the `style` every figure is given before it is saved."""
+
+    def __init__(self, style: dict | None = None):
+        super().__init__()
+        self.style = check_style(style)
+
+
+STYLE_KEYS = ("title", "xlabel", "ylabel", "size")
+
+
+def check_style(style: dict | None) -> dict:
+    """The figure options of `mbs plot` (``--title``, ``--xlabel``, ``--ylabel``, ``--size W,H`` in
+    inches), checked: unknown keys and sizes that are not two positive numbers are a `PlotError`."""
+    style = {k: v for k, v in (style or {}).items() if v is not None}
+    unknown = set(style) - set(STYLE_KEYS)
+    if unknown:
+        raise PlotError(f"error: unknown figure option {', '.join(sorted(unknown))}\nhint: "
+                        f"the figure options are {', '.join(STYLE_KEYS)}")
+    if "size" in style:
+        size = style["size"]
+        if isinstance(size, str):
+            parts = re.split(r"\s*[x,×]\s*", size.strip().lower().removesuffix("in").strip())
+            try:
+                size = tuple(float(p) for p in parts)
+            except ValueError:
+                size = ()
+        if len(size) != 2 or not all(math.isfinite(v) and 0.5 <= v <= 100 for v in size):
+            raise PlotError(f"error: `--size {style['size']}` is not a figure size\nhint: width and height in "
+                            "inches, each from 0.5 to 100, e.g. `--size 8x4`")
+        style["size"] = (float(size[0]), float(size[1]))
+    return style
+
+
+def restyle(fig, style: dict) -> None:
+    """Give a figure the asked title (the figure's title, else its one axes' title), axis labels (the
+    x label of the bottom axes, the y label of every axes) and size."""
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    if "title" in style:
+        text = str(style["title"]).replace("$", r"\$")
+        if fig._suptitle is not None or len(axes) != 1:
+            fig.suptitle(text, fontsize="medium")
+        else:
+            axes[0].set_title(text, fontsize="medium")
+    if "xlabel" in style and axes:
+        bottom = min(ax.get_position().y0 for ax in axes)
+        for ax in axes:
+            if ax.get_position().y0 <= bottom + 1e-9 or len(axes) == 1:
+                ax.set_xlabel(style["xlabel"])
+    for ax in axes if "ylabel" in style else ():
+        ax.set_ylabel(style["ylabel"])
+    if "size" in style:
+        fig.set_size_inches(*style["size"])
+
+
 def _save(fig, path: Path, written: list[Path]) -> None:
-    """Save a figure; never over a folder, a FIFO or device, or a file that holds HDF5 data.  The
-    figure is written beside `path` and moved over it once whole, so a full disk or a kill leaves
-    the previous figure (or none), never half a file in its place."""
+    """Save a figure (given the style of `written` when it is a `Written`); never over a folder, a
+    FIFO or device, or a file that holds HDF5 data.  The figure is written beside `path` and moved
+    over it once whole, so a full disk or a kill leaves the previous figure (or none), never half a
+    file in its place."""
     tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
+    restyle(fig, getattr(written, "style", {}))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         if os.path.lexists(path):
@@ -548,8 +630,10 @@ def plot_file(
     notes: list[str] | None = None,
     spectra: Sequence[str] = (),
     spectrum_options: dict | None = None,
+    style: dict | None = None,
 ) -> list[Path]:
-    """Draw the figures `mbs plot` makes and return the files written.
+    """Draw the figures `mbs plot` makes and return the files written.  ``style``: the title, axis
+    labels and size every figure is given (`check_style`).
 
     With no `signals`, `poincare_pair` or `orbit`, draw the default set (see
     `default_panels`, plus each clearance joint's orbit and the slider's
@@ -573,13 +657,13 @@ def plot_file(
     if sweep:
         panels = parse_panels(signals)
         pair = parse_pair(poincare_pair) if poincare_pair else None
-        return _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, [])
+        return _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, Written(style), notes)
     try:
         results = read_results(path)
     except (KeyError, OSError) as exc:
         raise PlotError(f"error: {path} is not a results file written by `mbs run` ({exc})") from None
     return plot_results(results, stem, signals, against, poincare_pair, outdir, fmt, skip, body, orbit, model,
-                        t_from, t_to, notes, spectra, spectrum_options)
+                        t_from, t_to, notes, spectra, spectrum_options, style)
 
 
 def plot_results(
@@ -599,17 +683,18 @@ def plot_results(
     notes: list[str] | None = None,
     spectra: Sequence[str] = (),
     spectrum_options: dict | None = None,
+    style: dict | None = None,
 ) -> list[Path]:
-    """The figures of one run (already loaded); file names start with `stem`.  ``t_from`` / ``t_to``
-    (s) cut every figure to a time window; warnings (a too-coarse orbit) go to `notes`.  ``spectra``:
-    a spectrum figure of each signal named (`spectrum_figure`; ``spectrum_options`` as
+    """The figures of one run (already loaded); file names start with `stem`; ``style`` as `plot_file`.
+    ``t_from`` / ``t_to`` (s) cut every figure to a time window; warnings (a too-coarse orbit) go to
+    `notes`.  ``spectra``: a spectrum figure of each signal named (`spectrum_figure`; ``spectrum_options`` as
     `planar_mbs.results.spectrum.spectrum` takes them, over the same window)."""
     if fmt not in FORMATS:
         raise PlotError(f"error: unknown format `{fmt}`\nhint: choose one of {', '.join(FORMATS)}")
     outdir = Path(outdir)
     panels = parse_panels(signals)
     pair = parse_pair(poincare_pair) if poincare_pair else None
-    written: list[Path] = []
+    written = Written(style)
     if len(results.time) == 0:
         raise PlotError("error: the results hold no samples")
     full = results
@@ -630,15 +715,8 @@ def plot_results(
         if startup is not None and notes is not None:
             notes.append(f"a long run: the start-up (to t = {startup:.3g} s, shaded) is off the y scale of the "
                          "time plots; `--from`/`--to` draws a window")
-        orbit = [c for c in clearance_names(results) if is_journal(model, c)]
-        slider = slider_body(results, model)
-        if slider is None and notes is not None:
-            notes.append("no slider in this mechanism: no slider figures and no Poincaré map; name the signals "
-                         "to draw (`mbs plot FILE BODY.omega`) and the map's (`-p X:Y`)")
-        if slider and (body or turning_body(results, model)):
-            p = poincare(full, f"{slider}.vx", f"{slider}.ax", body, skip, model)
-            if len(p.t):
-                pair = (p.x_name, p.y_name)
+        orbit = [c for c in clearance_names(results) if is_journal(model, c, results)]
+        pair = _default_pair(full, model, body, skip, notes)
     if panels:
         check_signals(results, [n for p in panels for n in p])
         name = "_".join("+".join(p) for p in panels) + (f"_vs_{against}" if against else "")
@@ -652,6 +730,11 @@ def plot_results(
             raise PlotError(f"error: `{joint}` is not a clearance joint of this run"
                             + (f"\nhint: {hint}" if hint else f"\nhint: clearance joints: "
                                f"{', '.join(clearance_names(results)) or 'none'}"))
+        if not is_journal(model, joint, results):
+            pair = (facts(results, model) or {}).get("contacts", {}).get(joint, "contact")
+            raise PlotError(f"error: `{joint}` is a {pair} contact, not a journal in a bearing: it has no orbit "
+                            f"inside a clearance circle\nhint: draw its signals instead, e.g. "
+                            f"`mbs plot FILE {joint}.e {joint}.penetration`")
         _save(orbit_figure(results, joint), outdir / f"{stem}_orbit_{_slug(joint)}.{fmt}", written)
         warning = orbit_resolution_warning(results, joint)
         if warning and notes is not None:
@@ -659,21 +742,48 @@ def plot_results(
     return written
 
 
-def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
+def _default_pair(results: "Results", model, body, skip, notes) -> tuple[str, str] | None:
+    """The default Poincaré map's signals (`default_signals`: the slider along its axis, else the output
+    link), None with a note saying why when there is none or the run gives it no point."""
+    try:
+        plane = default_signals(results, model)
+    except AnalysisError as err:
+        if notes is not None:
+            notes.append(f"no Poincaré map: {err}")
+        return None
+    if not (body or turning_body(results, model)):
+        return None
+    return plane if len(poincare(results, *plane, body, skip, model).t) else None
+
+
+def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written, notes=None):
+    """The figures of a sweep file: a grid per signal kept and the Poincaré maps from the kept signals
+    when asked (or when they hold the clock); with no signal named, the sections the sweep stored,
+    drawn as a bifurcation diagram (`stored_bifurcation_figures`), which need no `--keep`."""
+    stem = path.stem
+    defaults = not panels and pair is None
+    if defaults and not _cases_keep_signals(path):
+        figures = stored_bifurcation_figures(path)
+        if not figures:
+            raise PlotError(f"error: the cases of {path} hold no signals and no Poincaré sections to draw\n"
+                            "hint: sweep with a section (without --no-section; `-p X:Y` names its signals) or "
+                            "keep signals (`--keep slider,crank`, `--keep all`)")
+        for name, fig in figures:
+            _save(fig, outdir / f"{stem}_bifurcation_{_slug(name)}.{fmt}", written)
+        return written
     cases = sweep_cases(path)
     if not cases:
         raise PlotError(f"error: {path} holds no cases")
-    stem = path.stem
     first = cases[0][1]
-    if not panels and pair is None:
+    if defaults:
         panels = [names[:1] for _, names in default_panels(first)]
-        slider = slider_body(first)
-        if slider:
-            pair = (f"{slider}.vx", f"{slider}.ax")
-    if not panels and pair is None:
-        raise PlotError(f"error: no slider signals in the cases of {path} for the default figures\n"
-                        "hint: name the signals (`mbs plot SWEEP.h5 slider.ax`), or keep whole bodies "
-                        "(`mbs sweep --keep slider,crank`)")
+        clock = body or turning_body(first)  # its angle not kept: the stored sections below instead
+        pair = _default_pair(first, None, body, skip, None) if clock and f"{clock}.phi" in first else None
+        if clock and f"{clock}.phi" not in first and notes is not None:
+            kept = sorted({n.rpartition(".")[0] for n in first.signals})
+            notes.append(f"the cases keep no angle of `{clock}`, which clocks the Poincaré section: its stored "
+                         f"sections are drawn instead of maps of the kept signals (`--keep {','.join(kept + [clock])}` "
+                         "keeps it)")
     for panel in panels:
         for name in panel:
             for _, res in cases:
@@ -685,7 +795,53 @@ def _plot_sweep(path, panels, against, pair, outdir, fmt, skip, body, written):
         fig = bifurcation_figure(cases, pair[0], body, skip)
         if fig is not None:
             _save(fig, outdir / f"{stem}_bifurcation_{_slug(pair[0])}.{fmt}", written)
+    elif defaults:
+        for name, fig in stored_bifurcation_figures(path):
+            _save(fig, outdir / f"{stem}_bifurcation_{_slug(name)}.{fmt}", written)
+    if not written:
+        raise PlotError(f"error: nothing to draw from the cases of {path}: no signal kept makes a default figure "
+                        "and the cases store no Poincaré section\nhint: name signals the cases keep "
+                        f"(`mbs plot --list {path}`), or sweep again with `--keep slider,crank`")
     return written
+
+
+def _cases_keep_signals(path) -> bool:
+    with open_results(path) as f:
+        cases = f.get("cases")
+        return cases is not None and any("signals" in cases[k] for k in cases)
+
+
+def _section_unit(group, name: str) -> str:
+    """The unit of section signal `name` from a case's summary statistics (every signal's unit)."""
+    g = group.get("summary")
+    if g is None or "name" not in g or "unit" not in g:
+        return ""
+    text = lambda v: v.decode() if isinstance(v, bytes) else str(v)  # noqa: E731
+    units = dict(zip((text(n) for n in g["name"][()]), (text(u) for u in g["unit"][()])))
+    return units.get(name, "")
+
+
+def stored_bifurcation_figures(sweep_path) -> list[tuple[str, object]]:
+    """``(signal, figure)``: each signal of the stored sections against each numeric parameter the
+    sweep varies (`verdict_bifurcation_figure`); [] when the cases store no section."""
+    rows = scan.read_case_table(sweep_path)
+    params = [k for k in (rows[0]["values"] if rows else {})
+              if len({r["values"].get(k) for r in rows}) > 1
+              and all(scan.parameter_number(r["values"].get(k, "")) is not None for r in rows)]
+    names: list[str] = []
+    with open_results(sweep_path) as f:
+        for row in rows:
+            g = f.get(f"cases/{row['index']}")
+            if g is not None and "poincare" in g:
+                names = read_section(g)[0].names
+                break
+    out = []
+    for param in params[:2]:
+        others = [k for k in params if k != param]
+        title = f"all values of {', '.join(others)}" if others else ""
+        out += [(name if len(params) == 1 else f"{name}_vs_{param}",
+                 verdict_bifurcation_figure(sweep_path, param, name, title=title)) for name in names]
+    return out
 
 
 def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None, *, scale: float = 1.0,
@@ -705,7 +861,7 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
     fig = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(8, 4))
-    seen = set()
+    seen, y_unit, name = set(), "", signal
     with open_results(sweep_path) as f:
         for row in table:
             if where and any(row["values"].get(k) != v for k, v in where.items()):
@@ -715,14 +871,16 @@ def verdict_bifurcation_figure(sweep_path, param: str, signal: str | None = None
                 continue
             sec, verdict = read_section(g)
             name = signal or sec.names[0]
+            y_unit = y_unit or _section_unit(g, name)
             text = row["values"][param]
             p = (scan.parameter_number(text)[0] if same_unit else scan.parameter_si(text)) * scale
             v = verdict.verdict if verdict else "undetermined"
             ax.plot(np.full(len(sec), p), sec.points[name], ".", ms=2, color=VERDICT_COLOURS[v],
                     label=v if v not in seen else None)
             seen.add(v)
-    ax.set_xlabel(f"{param}" + (f" [{unit}]" if unit else ""))
-    ax.set_ylabel(f"{signal or 'section'} at the Poincaré section")
+    ax.set_xlabel(f"{param}" + (f" [{pretty_unit(unit)}]" if unit else ""))
+    words = axis_label(name, "") + " at the Poincaré section" if name else "the Poincaré section"
+    ax.set_ylabel(f"{words} [{pretty_unit(y_unit)}]" if y_unit and pretty_unit(y_unit) else words)
     if title:
         ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8, markerscale=4)

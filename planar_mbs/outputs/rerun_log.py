@@ -55,6 +55,7 @@ from ..errors import MbsError
 from ..files import replace_atomically
 from ..lazy import lazy
 from ..mechanism.model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, PairKind
+from ..results.section import AnalysisError, default_signals, slider_signals
 from ..results.views import (
     PlotError,
     clearance_names,
@@ -787,11 +788,12 @@ def _log_contacts(rr, rec, results, info: RecordingInfo) -> None:
 
 def _log_poincare(rr, rec, results, model, pair, skip, info: RecordingInfo) -> None:
     if pair is None:
-        slider = slider_body(results, model)
-        if not slider or f"{slider}.vx" not in results or f"{slider}.ax" not in results:
+        try:
+            pair = default_signals(results, model)  # the slider along its axis, else the output link
+        except AnalysisError:
             return
-        pair = (f"{slider}.vx", f"{slider}.ax")
-    if not turning_body(results, model):
+    clock = turning_body(results, model)
+    if not clock or f"{clock}.phi" not in results:  # e.g. a sweep's case that kept no angle of its clock
         return
     ps = poincare(results, pair[0], pair[1], None, skip, model)
     if not len(ps.t):
@@ -821,8 +823,8 @@ def _blueprint(results, model, pair):
     slider = slider_body(results, model)
     series = []
     if slider:
-        series += [rrb.TimeSeriesView(origin=f"/signals/{slider}", contents=[f"$origin/{q}"], name=f"{slider}.{q}")
-                   for q in ("vx", "ax") if f"{slider}.{q}" in results]
+        series += [rrb.TimeSeriesView(origin=f"/signals/{slider}", contents=[f"$origin/{n.rpartition('.')[2]}"],
+                                      name=n) for n in slider_signals(results, model, slider) if n in results]
     for c in clearance_names(results):
         series.append(rrb.TimeSeriesView(origin=f"/signals/{c}", contents=["$origin/contact_force"],
                                          name=f"{c}.contact_force"))

@@ -9,7 +9,8 @@ shared by `ResultsWriter`, `write_results`, `read_results` and `FileResults`)::
     attributes of /: format_version, model_source, model_path, model_key, model_includes (JSON:
         absolute path -> text of every included file), parameters (JSON), version,
         complete (bool), status, message, wall_time, n_steps, n_rejected,
-        n_rhs, n_contact_events, n_outputs, settings (JSON)
+        n_rhs, n_contact_events, n_outputs, settings (JSON), mechanism (JSON: the slider and its
+        axis, the clock body, the output link, each contact's geometry: `section.mechanism_facts`)
 
 `ResultsWriter` appends chunks while the run goes and flushes after each, so a
 crash or Ctrl-C keeps what was computed.  Before each write it reserves the disk
@@ -317,7 +318,8 @@ TIME = "time"  # dataset of the output times
 SIGNALS = "signals"  # group of the signals: SIGNALS/<entity>, one compound dataset per entity
 UNIT = "unit"  # attribute of the time dataset (and of every dataset in files of the earlier layout)
 UNITS = "units"  # attribute of an entity's dataset: the unit of each field
-JSON_ATTRS = ("parameters", "settings", "warnings", "model_includes", "model_tables", "assembly_changes")  # JSON
+JSON_ATTRS = ("parameters", "settings", "warnings", "model_includes", "model_tables", "assembly_changes",
+              "mechanism")  # JSON
 
 
 def entity_path(entity: str) -> str:
@@ -783,7 +785,7 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,199}")
 MAX_SIGNALS = 100_000
 _JSON_ATTRS = {"parameters": dict, "settings": dict, "warnings": list, "model_includes": dict,
-               "model_tables": dict, "assembly_changes": list}
+               "model_tables": dict, "assembly_changes": list, "mechanism": dict}
 
 
 def memory_budget() -> int:

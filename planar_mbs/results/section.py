@@ -25,6 +25,19 @@ Rules (docs/plots.md and docs/sweeps.md describe them for users):
   located frictionless revolute clearance joints"); the slider is the body a
   translational joint (a joint marked `slider` in the catalog) ties to ground, else the
   one body that moves without turning, else a body named like a slider (`slider_body`).
+  Its velocity and acceleration are taken along its joint's axis: ``vy``/``ay`` for a
+  slider that moves along y (a vertical cam follower), ``vx``/``ax`` along x; on an inclined
+  axis the component nearer to it (the slider moves along its axis only, so that component
+  is the speed along the axis times a constant factor: the same section, scaled)
+  (`slider_signals`).
+* **The output link.** A mechanism without a slider (a four-bar) is sectioned by its output
+  link: the body other than the clock that a joint pivots on ground (the last such body of the
+  model), its angle against its angular velocity (``phi``, ``omega``; ``omega``, ``alpha`` when
+  it turns full revolutions itself) (`output_body`).  Without the model, a body whose motion is
+  a rotation about a fixed point.
+* **What the results record.**  A run stores these facts of its mechanism in its results
+  (attribute ``mechanism``, `mechanism_facts`), so that plots and `mbs analyze` choose as the
+  model would without compiling it.
 
 numpy only.
 """
@@ -38,7 +51,7 @@ import numpy as np
 
 from .. import catalog
 from ..errors import MbsError
-from ..mechanism.model import DriverType, MotionType
+from ..mechanism.model import CP_KIND, DriverType, MotionType
 
 SLIDER_WORDS = ("slider", "piston", "block", "carriage", "cart", "ram", "crosshead")
 TOL_PERIODIC = 1e-3  # recurrence residual / spread below which two section points coincide
@@ -73,12 +86,18 @@ def _bodies(results) -> list[str]:
 
 def clock_body(results, model=None) -> str | None:
     """The body whose revolutions clock the section: the body of the model's first absolute
-    rotation driver, else the body whose angle turns most over the run (None: no angle)."""
+    rotation driver (from the model, or as the results recorded it: `mechanism_facts`), else the
+    body whose angle turns most over the run (None: no angle)."""
     if model is not None:
         k = model.kernel
         for d in range(model.ndriver):
             if int(k.driver_type[d]) == DriverType.ANGLE and int(k.driver_body[d, 0]) < 0:
                 return model.body_names[int(k.driver_body[d, 1])]
+        if results is None:
+            return None
+    stored = getattr(results, "attrs", {}).get("mechanism") if model is None else None
+    if isinstance(stored, dict) and stored.get("clock"):
+        return str(stored["clock"])
     best, turn = None, -1.0
     for b in _bodies(results):
         phi = results[f"{b}.phi"]
@@ -88,19 +107,56 @@ def clock_body(results, model=None) -> str | None:
     return best
 
 
+def mechanism_facts(model) -> dict:
+    """What the figures and sections choose by, read from the model once and stored with its
+    results (attribute ``mechanism``): the slider and its axis in the global frame, the clock
+    body, the output link and the contact geometry of each clearance element (catalog.PAIRS)."""
+    k = model.kernel
+    slider, axis = None, None
+    for j in range(model.njoint):
+        if catalog.JOINTS[int(k.joint_type[j])].slider:
+            i1, i2 = (int(b) for b in k.joint_body[j])
+            if i1 < 0 <= i2 or i2 < 0 <= i1:
+                slider = model.body_names[max(i1, i2)]
+                phi = 0.0 if i1 < 0 else float(np.asarray(model.q0, float)[3 * i1 + 2])
+                ux, uy = (float(u) for u in k.joint_axis[j])
+                c, s = math.cos(phi), math.sin(phi)
+                axis = [c * ux - s * uy, s * ux + c * uy]
+                break
+    clock = clock_body(None, model)
+    return {"slider": slider, "slider_axis": axis, "clock": clock, "output": _pivoted_output(model, clock),
+            "contacts": {n: catalog.PAIRS[int(k.clearance_param[c, CP_KIND])].name
+                         for c, n in enumerate(model.clearance_names)}}
+
+
+def facts(results, model=None) -> dict | None:
+    """`mechanism_facts` of the model when given, else as the results recorded them (None: a file
+    written before they were)."""
+    if model is not None:
+        return mechanism_facts(model)
+    stored = getattr(results, "attrs", {}).get("mechanism") if results is not None else None
+    return stored if isinstance(stored, dict) else None
+
+
+def _pivoted_output(model, clock) -> str | None:
+    """The last body of the model, other than the clock, that a joint or a clearance element ties
+    to ground by a pin (the rocker of a four-bar); None when there is none."""
+    k = model.kernel
+    pairs = [tuple(int(b) for b in k.joint_body[j]) for j in range(model.njoint)
+             if not catalog.JOINTS[int(k.joint_type[j])].slider]
+    pairs += [tuple(int(b) for b in k.clearance_body[c]) for c in range(model.nclearance)]
+    found = [max(a, b) for a, b in pairs if (a < 0) != (b < 0) and model.body_names[max(a, b)] != clock]
+    return model.body_names[max(found)] if found else None
+
+
 def slider_body(results, model=None) -> str | None:
     """The body shown as "the slider": the body a joint marked `slider` in the catalog (the
-    translational one) ties to ground (from the model when given); else the one body that
-    moves without turning; else a body named like a slider; else None (a mechanism without a
-    slider: figures and sections ask for signals, rather than showing another body's motion as
-    the slider's)."""
-    if model is not None:
-        k = model.kernel
-        for j in range(model.njoint):
-            if catalog.JOINTS[int(k.joint_type[j])].slider:
-                i1, i2 = (int(b) for b in k.joint_body[j])
-                if i1 < 0 <= i2 or i2 < 0 <= i1:
-                    return model.body_names[max(i1, i2)]
+    translational one) ties to ground (from the model, or as the results recorded it); else the
+    one body that moves without turning; else a body named like a slider; else None (a mechanism
+    without a slider: the output link is sectioned instead, `output_body`)."""
+    known = facts(results, model)
+    if known and known.get("slider"):
+        return str(known["slider"])
     bodies = _bodies(results) if results is not None else list(model.body_names if model else [])
     if not bodies:
         return None
@@ -115,18 +171,79 @@ def slider_body(results, model=None) -> str | None:
     return named[0] if named else None
 
 
+def slider_signals(results, model=None, body: str | None = None) -> tuple[str, str]:
+    """``(velocity, acceleration)`` of the slider along its axis: ``(<b>.vy, <b>.ay)`` when its joint's
+    axis is nearer y than x, else ``(<b>.vx, <b>.ax)``; without a recorded axis, along the
+    coordinate in which the body moves more in the results."""
+    body = body or slider_body(results, model)
+    known = facts(results, model)
+    axis = known.get("slider_axis") if known and known.get("slider") == body else None
+    if axis is not None:
+        along_y = abs(float(axis[1])) > abs(float(axis[0]))
+    elif results is not None and f"{body}.x" in results and f"{body}.y" in results:
+        along_y = float(np.ptp(results[f"{body}.y"])) > float(np.ptp(results[f"{body}.x"]))
+    else:
+        along_y = False
+    c = "y" if along_y else "x"
+    return f"{body}.v{c}", f"{body}.a{c}"
+
+
+def _turns(results, body) -> bool:
+    return results is not None and f"{body}.phi" in results and float(np.ptp(results[f"{body}.phi"])) > 2 * math.pi
+
+
+def _pivots_on_ground(results, body, tol: float = 1e-6) -> bool:
+    """Is the body's motion in the results a rotation about a fixed point, (x, y) = c + R(phi) d?
+    (Least squares for c and d; the residual relative to the motion's size.)"""
+    names = [f"{body}.{q}" for q in ("x", "y", "phi")]
+    if any(n not in results for n in names):
+        return False
+    x, y, phi = (np.asarray(results[n], float) for n in names)
+    if np.ptp(phi) < 1e-3 or len(x) < 4:
+        return False
+    c, s, one, zero = np.cos(phi), np.sin(phi), np.ones_like(phi), np.zeros_like(phi)
+    a = np.block([[one[:, None], zero[:, None], c[:, None], -s[:, None]],
+                  [zero[:, None], one[:, None], s[:, None], c[:, None]]])
+    rhs = np.concatenate([x, y])
+    sol, *_ = np.linalg.lstsq(a, rhs, rcond=None)
+    size = max(float(np.hypot(sol[2], sol[3])), 1e-12)
+    return float(np.max(np.abs(a @ sol - rhs))) <= tol * size
+
+
+def output_body(results, model=None) -> str | None:
+    """The output link sectioned when there is no slider (module docstring): from the model or as
+    the results recorded it, else the last body of the results, other than the clock, whose motion
+    is a rotation about a fixed point."""
+    known = facts(results, model)
+    if known is not None:
+        return known.get("output") or None
+    if results is None:
+        return None
+    clock = clock_body(results)
+    found = [b for b in _bodies(results) if b != clock and _pivots_on_ground(results, b)]
+    return found[-1] if found else None
+
+
 def default_signals(results, model=None) -> tuple[str, str]:
-    """The default section plane, ``(<slider>.vx, <slider>.ax)``; `AnalysisError` naming
-    ``-p X:Y`` when the results hold no such signals."""
+    """The default section plane: the slider's velocity and acceleration along its axis
+    (`slider_signals`), else the output link's angle and angular velocity (`output_body`);
+    `AnalysisError` naming ``-p X:Y`` when the results hold neither."""
     body = slider_body(results, model)
-    names = (f"{body}.vx", f"{body}.ax")
-    if body is None or (results is not None and any(n not in results for n in names)):
-        bodies = _bodies(results) if results is not None else list(model.body_names if model else [])
-        other = next((b for b in reversed(bodies) if b != clock_body(results, model)), "crank")
-        what = f"no slider signals ({', '.join(names)})" if body else "no slider in this mechanism"
-        raise AnalysisError(f"{what} to take the Poincaré section of; name two signals with `-p X:Y` "
-                            f"(e.g. `-p {other}.omega:{other}.alpha`)")
-    return names
+    names = slider_signals(results, model, body) if body else None
+    if body is None:
+        out = output_body(results, model)
+        if out is not None:
+            names = (f"{out}.omega", f"{out}.alpha") if _turns(results, out) else (f"{out}.phi", f"{out}.omega")
+            if results is None or all(n in results for n in names):
+                return names
+    if names is not None and (results is None or all(n in results for n in names)):
+        return names
+    bodies = _bodies(results) if results is not None else list(model.body_names if model else [])
+    other = next((b for b in reversed(bodies) if b != clock_body(results, model)), "crank")
+    what = (f"no slider signals ({', '.join(names)})" if body else
+            "no slider in this mechanism (and no output link pivoted on ground)")
+    raise AnalysisError(f"{what} to take the Poincaré section of; name two signals with `-p X:Y` "
+                        f"(e.g. `-p {other}.omega:{other}.alpha`)")
 
 
 # ---------------------------------------------------------------- when

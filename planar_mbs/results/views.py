@@ -15,17 +15,30 @@ import numpy as np
 from ..errors import MbsError, did_you_mean
 from ..mechanism.model import CP_KIND, PairKind
 from .hdf5 import Results
-from .section import AnalysisError, clock_body, crossings, poincare_section
+from .. import catalog
+from .section import AnalysisError, clock_body, crossings, facts, poincare_section
 from .section import slider_body as _slider
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanism.model import Model
 
 
+JOURNAL_PAIRS = (catalog.PAIRS[PairKind.CIRCLE_IN_CIRCLE].name, catalog.PAIRS[PairKind.LUBRICATED].name)
+
+
 class PlotError(MbsError):
-    """Bad usage of `mbs plot` / `mbs view` (unknown signal, not a results file): exit code 2."""
+    """Bad usage of `mbs plot` / `mbs view` (unknown signal, not a results file): exit code 2.  A hint
+    line is never empty: one left with nothing after ``hint:`` says where the names are listed."""
 
     exit_code = 2
+
+    def __init__(self, message: str = ""):
+        lines = str(message).split("\n")
+        lines = [EMPTY_HINT if line.strip() == "hint:" else line for line in lines]
+        super().__init__("\n".join(lines))
+
+
+EMPTY_HINT = "hint: `mbs plot FILE --list` prints the signals the results hold (BODY.phi: a body's angle)"
 
 
 def entities(results: "Results") -> dict[str, set[str]]:
@@ -49,13 +62,16 @@ def clearance_names(results: "Results") -> list[str]:
     return sorted(e for e, q in entities(results).items() if {"ex", "ey", "penetration"} <= q)
 
 
-def is_journal(model, name: str) -> bool:
+def is_journal(model, name: str, results: "Results | None" = None) -> bool:
     """Is clearance element `name` a journal in a bearing (whose orbit is a figure), rather than a contact
-    between outlines or a corner of a translational clearance joint?  True when the model is unknown."""
-    if model is None or name not in model.clearance_names:
-        return True
-    kind = int(model.kernel.clearance_param[model.clearance_names.index(name), CP_KIND])
-    return kind in (PairKind.CIRCLE_IN_CIRCLE, PairKind.LUBRICATED)
+    between outlines or a corner of a translational clearance joint?  From the model, else from the
+    contact geometry the results recorded (`section.mechanism_facts`); True when neither says."""
+    if model is not None and name in model.clearance_names:
+        kind = int(model.kernel.clearance_param[model.clearance_names.index(name), CP_KIND])
+        return kind in (PairKind.CIRCLE_IN_CIRCLE, PairKind.LUBRICATED)
+    known = facts(results) if model is None else None
+    pair = (known.get("contacts") or {}).get(name) if known else None
+    return pair is None or pair in JOURNAL_PAIRS
 
 
 def check_signals(results: "Results", names: Sequence[str]) -> None:
@@ -110,13 +126,32 @@ def poincare(results: "Results", x: str, y: str, body: str | None = None, skip: 
         raise PlotError("error: no body angle in the results to clock the Poincaré section\nhint: keep the "
                         "driven body's angle (`--keep slider,crank`) or name a body with `--clock`")
     if f"{body}.phi" not in results:
-        raise PlotError(f"error: no body `{body}` to clock the Poincaré section\n"
-                        f"hint: {did_you_mean(str(body), body_names(results))}")
+        raise PlotError(f"error: {clock_missing(results, body)}")
     try:
         sec = poincare_section(results, (x, y) if x != y else (x,), clock=body, transient=skip, model=model)
     except AnalysisError as err:
         raise PlotError(f"error: {err}") from None
     return PoincareSet(sec.points[x], sec.points[y], sec.time, x, y, body, skip)
+
+
+def clock_missing(results: "Results", body: str) -> str:
+    """Why the section cannot be clocked by `body` in these results, and what to do (never an empty hint)."""
+    bodies = body_names(results)
+    if body in _model_bodies(results):
+        kept = sorted({n.rpartition(".")[0] for n in results.signals})
+        return (f"the results keep no angle of `{body}`, the body whose revolutions clock the Poincaré "
+                f"section\nhint: keep it too (`--keep {','.join(kept + [body])}`), or draw the sections the "
+                "sweep stored (`mbs plot SWEEP.h5` with no signals)")
+    hint = did_you_mean(str(body), bodies)
+    return (f"no body `{body}` to clock the Poincaré section\nhint: "
+            + (hint or (f"bodies with an angle here: {', '.join(bodies)}" if bodies else
+                        "these results keep no body angle: keep the driven body (`--keep BODY`)")))
+
+
+def _model_bodies(results: "Results") -> list[str]:
+    """The bodies named in the results' recorded mechanism (the slider, clock and output link)."""
+    known = facts(results) or {}
+    return [str(known[k]) for k in ("slider", "clock", "output") if known.get(k)]
 
 
 def clearance_radius(results: "Results", joint: str) -> float:

@@ -48,7 +48,7 @@ from .output_size import MAX_ROWS, estimate
 from .settings_check import check_arguments, check_memory, check_settings, check_stop, given_settings as _given, \
     seconds_value
 from ..results.hdf5 import DiskFull, FileResults, Results, ResultsWriter
-from ..results.section import driver_period
+from ..results.section import driver_period, mechanism_facts
 from ..results.signals import signal_table, skip_bits
 
 RTOL_FLOOR = 10 * float(np.finfo(np.float64).eps)  # smallest rtol (Hairer's codes: rtol > 10 uround)
@@ -287,6 +287,7 @@ def _header(model: Model, settings: Settings) -> dict:
         "parameters": model.parameters,
         "version": __version__,
         "settings": {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)},
+        "mechanism": mechanism_facts(model),  # what plots and sections choose by, without the model
     }
 
 

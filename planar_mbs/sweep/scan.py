@@ -382,8 +382,9 @@ def case_settings(model, spec: CaseSpec) -> dict:
 
 
 def default_section_signals(model) -> tuple[str, str] | None:
-    """The default Poincaré plane, slider velocity against slider acceleration
-    (`planar_mbs.results.section.default_signals`, the rule plots and `mbs analyze` use)."""
+    """The default Poincaré plane: the slider's velocity against its acceleration along its axis, else
+    the output link's angle against its angular velocity (`planar_mbs.results.section.default_signals`,
+    the rule plots and `mbs analyze` use)."""
     try:
         return default_signals(None, model)
     except AnalysisError:
