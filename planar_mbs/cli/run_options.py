@@ -77,6 +77,10 @@ RUN_OPTIONS = (
     Opt("keep", ("--keep",), "str", "Comma-separated signals to store (slider.vx); an entity name (slider) keeps "
         "all its signals.  Fewer signals make smaller files and cheaper output rows (no accelerations computed "
         "unless kept).", show_default="all"),
+    Opt("allow_unphysical", ("--allow-unphysical",), "flag", "Keep results that are not physical (a journal "
+        "sunk deeper than its clearance: a contact too soft for it) as a finished run, exit 0, instead of exit 3; "
+        "the warning stays and the file records allow_unphysical (the ideal-limit study of docs/contact.md).",
+        default=False),
     Opt("overwrite", ("--overwrite",), "flag", "Replace the output even when it is not the results of a run (a "
         "sweep file, any other file); never the model or its includes.", default=False),
 )
