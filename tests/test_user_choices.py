@@ -13,6 +13,7 @@ import planar_mbs as mbs
 from planar_mbs.cli.app import app
 from planar_mbs.errors import ModelError, SimulationError
 from planar_mbs.mechanism.compile import compile_text
+from planar_mbs.mechanism.kinematics import assemble, assembly_changes
 from planar_mbs.sweep.scan import Axis, replay_case, run_sweep
 
 runner = CliRunner()
@@ -77,3 +78,105 @@ def test_allow_unphysical_in_a_sweep(tmp_path):
     assert out.exit_code == 0, out.output
     replayed = replay_case(tmp_path / "c.h5", 0)  # the file remembers the choice
     assert replayed.complete and replayed.attrs["allow_unphysical"] is True
+
+
+# ----------------------------------------------------------------------------- translational clearance start
+# A slider-crank whose slider sits in a translational clearance guide (0.1 mm wider than the block); the crank is
+# not driven but turns at a stated 100 rad/s, the slider is stated tilted and turning.  At the collinear pose
+# (crank angle 0) the crank pin A moves at (0, r w) and the slider centre B, pinned to the rod, at (0, vy): the
+# rod turns at (vy - r w) / l and its centre moves at (0, (r w + vy) / 2) -- a state that closes every joint.
+R_CRANK, L_ROD, W_CRANK = 0.05, 0.12, 100.0
+
+
+def slider_in_guide(slider: str, guide: str = "", vy: float = 0.0) -> str:
+    w_rod = (vy - R_CRANK * W_CRANK) / L_ROD
+    return f"""
+body crank  {{ mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (25 mm, 0)  omega = {W_CRANK} rad/s
+              velocity = (0, {R_CRANK * W_CRANK / 2} m/s) }}
+body rod    {{ mass = 0.21 kg  inertia = 2.5e-4 kg*m^2  position = (110 mm, 0)  omega = {w_rod!r} rad/s
+              velocity = (0, {(R_CRANK * W_CRANK + vy) / 2!r} m/s) }}
+body slider {{ mass = 0.14 kg  inertia = 1e-4 kg*m^2  position = (170 mm, 0)  {slider} }}
+joint O = revolute(ground (0, 0), crank (-25 mm, 0))
+joint A = revolute(crank (25 mm, 0), rod (-60 mm, 0))
+joint B = revolute(rod (60 mm, 0), slider (0, 0))
+joint S = clearance_translational(ground (0, 0), slider (0, 0), axis = (1, 0)) {{
+    clearance = 0.1 mm  length = 30 mm  width = 15 mm  stiffness = 1e9 N/m^1.5  law = hertz  {guide}
+}}
+simulate {{ t_end = 1 ms }}
+"""
+
+
+def test_translational_clearance_keeps_the_stated_tilt_and_velocities():
+    """The block is free to turn and to move across its guide: its stated angle (0.1 deg) and angular
+    velocity (5 rad/s) and a velocity across the guide that the rod's motion agrees with are kept, and so
+    is the crank's stated speed; the assembly says it changed nothing."""
+    vy = 0.01
+    model = compile_text(slider_in_guide(f"angle = 0.1 deg  omega = 5 rad/s  velocity = (0, {vy} m/s)", vy=vy))
+    q, qd = assemble(model)
+    assert q[8] == pytest.approx(math.radians(0.1), abs=1e-12)  # the slider's angle
+    assert qd[8] == pytest.approx(5.0, abs=1e-9) and qd[7] == pytest.approx(vy, abs=1e-12)
+    assert qd[2] == pytest.approx(W_CRANK, abs=1e-9)  # the crank's stated speed
+    assert assembly_changes(model, q, qd) == []
+
+
+def test_translational_clearance_initial_state_fields():
+    """`offset`, `tilt`, `relative_velocity` and `tilt_rate` place the block in its guide: y = offset (the
+    guide's left normal is +y), angle = tilt, vy = relative_velocity, omega = tilt_rate."""
+    model = compile_text(slider_in_guide("", "offset = 0.01 mm  tilt = 0.1 deg  relative_velocity = 0.01 m/s  "
+                                             "tilt_rate = 5 rad/s", vy=0.01))
+    q, qd = assemble(model)
+    assert q[7] == pytest.approx(1e-5, abs=1e-12) and q[8] == pytest.approx(math.radians(0.1), abs=1e-12)
+    assert qd[7] == pytest.approx(0.01, abs=1e-12) and qd[8] == pytest.approx(5.0, abs=1e-9)
+    # the offset tilts the rod by 1e-5 m / l: the stated rod velocities are off by that order, and the
+    # minimum-norm correction moves the crank's speed by far less
+    assert qd[2] == pytest.approx(W_CRANK, rel=1e-6)
+    with pytest.raises(ModelError, match="corner beyond its guide"):  # 0.5 deg: a corner 0.13 mm across
+        compile_text(slider_in_guide("", "tilt = 0.5 deg"))
+
+
+# ----------------------------------------------------------------------------- messages that point where
+CRANK = """
+param speed = 5000 rpm
+param clearance = 0.3 mm
+body crank { mass = 0.3 kg  inertia = 1e-5 kg*m^2  position = (25 mm, 0) }
+joint O = clearance_revolute(ground (0, 0), crank (-25 mm, 0)) {
+    clearance = clearance  bearing_radius = 5 mm  stiffness = 1e10 N/m^1.5  law = hertz
+}
+driver d = rotation(crank, speed = speed)
+simulate { t_end = 2 rev / speed }
+"""
+
+
+def test_a_set_without_unit_is_reported_at_the_set():
+    """`--set speed=900`: reported at the `--set` (not at `t_end`, where `rev / 900` is no time) and naming
+    the unit the model's `speed` has."""
+    with pytest.raises(ModelError) as info:
+        compile_text(CRANK, "crank.mbs", {"speed": "900"})
+    e = info.value
+    assert e.file == "--set" and e.source_line == "speed=900" and e.column == len("speed=") + 1
+    assert "`--set speed=900`" in e.message and "--set speed=900rpm" in e.hint
+    with pytest.raises(ModelError) as py:  # the same, worded for Python
+        mbs.compile_text(CRANK, "crank.mbs", speed="900")
+    assert "--set" not in str(py.value) and 'speed="900rpm"' in str(py.value)
+    assert compile_text(CRANK, "crank.mbs", {"speed": "900 rpm"}).parameters["speed"] == "900 rpm"
+
+
+def test_a_value_of_the_wrong_sign_is_shown_with_its_origin():
+    """A negative clearance from a `--set`: the message gives the value and the `--set` it came from, the
+    caret is under the field, the example is the value with the right sign, in its unit."""
+    with pytest.raises(ModelError) as info:
+        compile_text(CRANK, "crank.mbs", {"clearance": "-0.1 mm"})
+    e = info.value
+    assert "must be positive, got -0.1 mm (from `--set clearance=-0.1 mm`)" in e.message
+    assert (e.line, e.column, e.width) == (6, 5, len("clearance")) and "`clearance = 0.1 mm`" in e.hint
+
+
+@pytest.mark.parametrize("load, example", [
+    ("torque = 2 + 1 N*m", "`2 N*m`"),
+    ("fx = 3 + crank.vx * 1 kg/s", "`3 N`"),
+    ("torque = 2 + crank.omega * 1 N*m*s", "`2 N*m`"),
+])
+def test_the_unit_hint_shows_a_real_unit(load, example):
+    with pytest.raises(ModelError) as info:
+        compile_text(CRANK + f"force f = expression(crank, {load})\n")
+    assert example in info.value.hint and "..." not in info.value.hint

@@ -312,13 +312,26 @@ class Fields:
             return default
         f = self.items[name]
         value = scalar_si(self.ev, f.value, dim, name)
-        if positive and not value > 0:
-            raise f.value.pos.error(f"`{name}` of {self.label} must be positive, got {f.value.pos.text}",
-                                    hint=f"give a value greater than zero, e.g. `{name} = {dim.example}`")
-        if nonneg and value < 0:
-            raise f.value.pos.error(f"`{name}` of {self.label} must not be negative, got {f.value.pos.text}",
-                                    hint=f"give zero or a positive value, e.g. `{name} = {dim.example}`")
+        if (positive and not value > 0) or (nonneg and value < 0):
+            raise self._sign_error(f, name, dim, positive)
         return value
+
+    def _sign_error(self, f: Field, name: str, dim: U.Dim, positive: bool) -> ModelError:
+        """`clearance` of ... must be positive, got -0.1 mm: the value (and where it came from when the
+        field names a param, e.g. a `--set`), at the field, with an example of the right sign."""
+        s = self.ev.number(self.ev.value(f.value), f.value)
+        shown = U.format_quantity(s.q)
+        if f.value.pos.text.strip() != shown:
+            origin = f.value.pos.text
+            if isinstance(f.value, Name) and f.value.name in self.ev.overrides:
+                origin = f"`--set {f.value.name}={self.ev.overrides[f.value.name].pos.text}`"
+            else:
+                origin = f"`{origin}`"
+            shown += f" (from {origin})"
+        flipped = U.format_quantity(abs(s.q)) if s.q.magnitude < 0 else dim.example
+        example = f"{name} = {flipped}"
+        rule, word = ("must be positive", "greater than zero") if positive else ("must not be negative", "zero or more")
+        return f.pos.error(f"`{name}` of {self.label} {rule}, got {shown}", hint=f"give a value {word}, e.g. `{example}`")
 
     def vector(self, name: str, dim: U.Dim, default=_REQUIRED) -> tuple[float, float]:
         if name not in self.items:

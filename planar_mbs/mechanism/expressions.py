@@ -296,8 +296,9 @@ class Programs:
         if a.plain != b.plain:
             dim = b if a.plain else a
             if dim.dim:
-                example = {U.VELOCITY.dimensionality: "0 m/s", U.FORCE.dimensionality: "0 N",
-                           U.LENGTH.dimensionality: "0 m", U.TIME.dimensionality: "0 s"}.get(dim.dim, "0 ...")
+                number = a if a.plain else b  # the number written without a unit
+                value = f"{number.value:g}" if number.const else "0"
+                example = f"{value} {U.example_unit(dim.dim)}"
                 raise pos.error(f"cannot {what} a plain number and {U.describe(dim.dim)} (`{pos.text}`)",
                                 hint=f"give the number a unit, e.g. `{example}`")
         if a.dim != b.dim:
