@@ -13,7 +13,8 @@ import planar_mbs as mbs
 from planar_mbs.cli.app import app
 from planar_mbs.errors import ModelError, SimulationError
 from planar_mbs.mechanism.compile import compile_text
-from planar_mbs.mechanism.kinematics import assemble, assembly_changes
+from planar_mbs.mechanism.kinematics import assemble, assembly_changes, assembly_warnings
+from planar_mbs.mechanism.model import CP_R_BEARING
 from planar_mbs.sweep.scan import Axis, replay_case, run_sweep
 
 runner = CliRunner()
@@ -180,3 +181,74 @@ def test_the_unit_hint_shows_a_real_unit(load, example):
     with pytest.raises(ModelError) as info:
         compile_text(CRANK + f"force f = expression(crank, {load})\n")
     assert example in info.value.hint and "..." not in info.value.hint
+
+
+# ----------------------------------------------------------------------------- one rule for numbers without unit
+PIN = """
+body b {{ mass = 1 kg  inertia = 1e-3 kg*m^2  position = {position} }}
+joint j = clearance_revolute(ground (0, 0), b (0, 0)) {{
+    clearance = 0.1 mm  bearing_radius = {radius}  stiffness = 1e9 N/m^1.5  law = hertz
+}}
+force push = expression(b, fx = {fx})
+"""
+
+
+def test_a_number_without_unit_is_taken_in_si_and_warned_about():
+    """`bearing_radius = 4` is 4 m, as an expression's plain `2` is 2 N: both said, with the unit taken and
+    the unit to write; zero and numbers with units say nothing."""
+    m = compile_text(PIN.format(position="(0, 0)", radius="4", fx="2"), "pin.mbs")
+    assert m.kernel.clearance_param[0, CP_R_BEARING] == 4.0  # taken in SI
+    radius, force = m.warnings
+    assert radius.startswith("pin.mbs:4:") and "warning: `bearing_radius = 4` has no unit: taken as 4 m" in radius
+    assert "`4 mm`" in radius and "^" in radius
+    assert "`2` has no unit: taken as 2 N" in force
+    vector = compile_text(PIN.format(position="(57, 53)", radius="4 mm", fx="2 N"), "pin.mbs").warnings
+    assert len(vector) == 1 and "`position = (57, 53)` has no unit: taken as (57 m, 53 m)" in vector[0]
+    assert compile_text(PIN.format(position="(0, 0.1 m)", radius="4 mm", fx="0")).warnings == []
+
+
+def test_the_command_line_prints_the_unit_warnings(tmp_path):
+    path = tmp_path / "pin.mbs"
+    path.write_text(PIN.format(position="(0, 0)", radius="4", fx="2 N"))
+    res = runner.invoke(app, ["check", str(path)])
+    assert res.exit_code == 0 and "warning: `bearing_radius = 4` has no unit: taken as 4 m" in res.output
+
+
+# ----------------------------------------------------------------------------- what the assembly moved
+# A crank-rocker sketched at crank angle 60 deg: crank 20 mm, coupler 80 mm, rocker 60 mm, frame 70 mm (the
+# coupler's and rocker's poses solved to 3 digits, so the assembly corrects them by micrometres).
+FOUR_BAR = """
+body crank   { mass = 0.05 kg  inertia = 2e-6 kg*m^2   position = (5 mm, 8.66 mm)  angle = 60 deg }
+body coupler { mass = 0.2 kg   inertia = 1e-4 kg*m^2   position = {coupler}  angle = 31.79 deg }
+body rocker  { mass = 0.15 kg  inertia = 4.5e-5 kg*m^2  position = (74 mm, 29.73 mm)  angle = 82.34 deg }
+joint O2 = revolute(ground (0, 0), crank (-10 mm, 0))
+joint A  = revolute(crank (10 mm, 0), coupler (-40 mm, 0))
+joint B  = revolute(coupler (40 mm, 0), rocker ({b} mm, 0))
+joint O4 = revolute(ground (70 mm, 0), rocker ({o4} mm, 0))
+driver d = rotation(crank, speed = 300 rpm)
+simulate { t_end = 10 ms  output_step = 1 ms }
+"""
+
+
+def four_bar(coupler="(44 mm, 38.39 mm)", b="30", o4="-30"):
+    return compile_text(FOUR_BAR.replace("{coupler}", coupler).replace("{b}", b).replace("{o4}", o4))
+
+
+def test_the_assembly_warns_when_it_moves_a_body_far_or_turns_it_onto_another_branch():
+    """The sketch as drawn: no warning.  The coupler at (57, 53) (metres: millimetres were meant) is moved
+    by 77.8 m, far beyond half the mechanism's size (80 mm: twice the coupler's half length); the rocker
+    with its ends swapped closes the loop only with a body turned far from its drawn angle."""
+    fine = four_bar()
+    assert assembly_warnings(fine, assemble(fine)[0]) == []
+    far = four_bar(coupler="(57, 53)")
+    q, _ = assemble(far)
+    moved = float(np.hypot(q[3] - 57, q[4] - 53))
+    (warning,) = assembly_warnings(far, q)
+    assert "`coupler`" in warning and f"{moved:.3g} m" in warning and "80 mm" in warning
+    swapped = four_bar(b="-30", o4="30")
+    q, _ = assemble(swapped)
+    turned = np.degrees(np.abs(q[2::3] - swapped.q0[2::3]))
+    warnings = assembly_warnings(swapped, q)
+    assert turned.max() > 45 and any("turned" in w and f"{turned.max():.3g}°" in w for w in warnings)
+    res = mbs.simulate(far)  # and the run says it too
+    assert any("`coupler`" in w for w in res.attrs["warnings"])

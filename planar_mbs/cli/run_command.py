@@ -34,7 +34,7 @@ from .common import (
     positive_time,
 )
 from .common import console as _console
-from .common import internal_error, print_assembly
+from .common import internal_error, print_assembly, print_model_warnings
 
 # Loaded once `announce_if_cold` has said that the solver compiles (lark, numpy, h5py come with the
 # model), or only by the option that needs them (rerun, typer, the sweep's scan, rich's progress bar).
@@ -91,6 +91,7 @@ def _prepare(o: SimpleNamespace) -> None:
     sets = parse_sets(o.set_ or [])
     o.out = o.output or output_names.default_output(o.model, sets)
     o.m = m = compiler.load_model(o.model, sets)
+    print_model_warnings(m)
     o.changes = _changes(o, m)
     o.signals = _kept(m, o.keep, o.rerun, o.until_settled)
     o.rerun_signals = check_choice(o.rerun_signals, ("envelope", "full"), "--rerun-signals")

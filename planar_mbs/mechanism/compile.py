@@ -493,8 +493,11 @@ class _BodyPass:
             if not point:
                 raise e.pos.error(f"{what} takes bodies without points", hint=f"write just `{e.name}`")
             if len(e.args) == 2:
-                return body, (scalar_si(self.ev, e.args[0], U.LENGTH, "x"),
-                              scalar_si(self.ev, e.args[1], U.LENGTH, "y"))
+                xy = (scalar_si(self.ev, e.args[0], U.LENGTH, "x", note=False),
+                      scalar_si(self.ev, e.args[1], U.LENGTH, "y", note=False))
+                if any(self.ev.number(self.ev.value(a), a).plain and v != 0 for a, v in zip(e.args, xy)):
+                    self.ev.note_plain(e, list(xy), U.LENGTH)
+                return body, xy
             if len(e.args) == 1:
                 return body, vector_si(self.ev, e.args[0], U.LENGTH, "point")
             if not e.args:
@@ -1206,7 +1209,7 @@ class _CheckPass:
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
             source_key=self.spec.key, source_includes=dict(self.spec.includes),
             source_files=list(self.spec.include_files), source_tables=dict(self.programs.table_files),
-            clearance_start=self.clearance_start,
+            clearance_start=self.clearance_start, warnings=list(self.ev.warnings),
         )
 
 

@@ -94,6 +94,8 @@ class Programs:
         if not node.plain and node.dim != dim.dimensionality:
             raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} (`{e.pos.text}`)",
                               hint=f"write {dim.words} with a matching unit, e.g. `{dim.example}`")
+        if node.plain:  # the rule of fields: taken in SI, with a warning (`Evaluator.note_plain`)
+            self.ev.note_plain(e, [node.value] if node.const else None, dim)
         if node.fault is not None:
             pos, message = node.fault
             raise pos.error(f"{message} at the initial state (t = 0) in {label}",
@@ -116,6 +118,8 @@ class Programs:
             if not node.plain and node.dim != dim.dimensionality:
                 raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} "
                                   f"(`{e.pos.text}`)", hint=f"e.g. `{dim.example}`")
+            if node.plain:
+                self.ev.note_plain(e, [node.value], dim)
             del self.code[start:], self.consts[consts:]
             return node.value, None
         del self.code[start:], self.consts[consts:]

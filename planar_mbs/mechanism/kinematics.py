@@ -400,6 +400,36 @@ def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | 
     return out
 
 
+MOVE_FRACTION = 0.5  # a body the assembly moves by more than this x the mechanism's size: warned about
+TURN_LIMIT = np.radians(45.0)  # ... or turns by more than this: another branch of a loop than the sketch
+
+
+def assembly_warnings(model: Model, q: np.ndarray) -> list[str]:
+    """What the assembly did that a sketch does not explain: a body moved by more than `MOVE_FRACTION`
+    of the mechanism's size (`Model.size`: a position in the wrong unit, a typo) or turned by more than
+    `TURN_LIMIT` (the loop closed on another branch than the one drawn: a link with its ends swapped),
+    each naming the body and the move."""
+    size = model.size
+    out = []
+    d = (np.asarray(q, dtype=np.float64) - np.asarray(model.q0, dtype=np.float64)).reshape(-1, 3)
+    for b, name in enumerate(model.body_names):
+        shift, turn = float(np.hypot(d[b, 0], d[b, 1])), float(abs(d[b, 2]))
+        if shift > MOVE_FRACTION * size:
+            out.append(f"assembly moved `{name}` by {_length(shift)}, more than {MOVE_FRACTION:g} x the "
+                       f"mechanism's size ({_length(size)}): its stated `position` is far from where its joints "
+                       "put it (a unit or a typo?); the run starts from the assembled pose")
+        if turn > TURN_LIMIT:
+            out.append(f"assembly turned `{name}` by {np.degrees(turn):.3g}°, more than "
+                       f"{np.degrees(TURN_LIMIT):.3g}°: the joints closed on another configuration than the one "
+                       "drawn (a link with its ends swapped, a loop flipped?); check its `angle`, `position` and "
+                       "joint points")
+    return out
+
+
+def _length(x: float) -> str:
+    return f"{x * 1e3:.3g} mm" if x < 1.0 else f"{x:.3g} m"
+
+
 def _change(d: np.ndarray, tol: np.ndarray, what: str) -> str:
     """A body's change (|dx|, |dy|, |dφ|) in one unit per kind: the displacement in mm and the turn
     in degrees (a pose), or m/s and rad/s (a velocity); a part within its tolerance is left out."""

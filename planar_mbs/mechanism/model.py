@@ -405,6 +405,9 @@ class Model:
     # (offset, tilt, relative_velocity, tilt_rate), NaN where not given) on the first pair of a translational
     # clearance joint (kinematics.slide_joints); ("none",) no rows
     clearance_assembly: list = field(default_factory=list)
+    # what the compiler took but warns about (a number without a unit taken in SI), each rendered as
+    # `file:line:col: warning: ...` with its line and hint; `mbs check` and `mbs run` print them
+    warnings: list = field(default_factory=list)
 
     @property
     def nbody(self) -> int:

@@ -28,7 +28,7 @@ from .. import catalog
 from ..version import __version__
 from ..errors import ModelError, SimulationError, did_you_mean
 from ..language.units import parse_quantity
-from ..mechanism.kinematics import assemble, assembly_changes
+from ..mechanism.kinematics import assemble, assembly_changes, assembly_warnings
 from ..mechanism.model import (
     CFG_SKIP,
     ST_CONTACT_EVENTS,
@@ -284,6 +284,8 @@ def _header(model: Model, settings: Settings, allow_unphysical: bool = False) ->
     """The attributes a results file starts with: the model's text, parameters and the settings
     (and ``allow_unphysical`` where the run keeps results that are not physical)."""
     extra = {"allow_unphysical": True} if allow_unphysical else {}
+    if model.warnings:  # what the compiler took but warned about (a number without a unit)
+        extra["model_warnings"] = list(model.warnings)
     return {**extra,
         "model_source": model.source_text,
         "model_path": model.source_path,
@@ -353,6 +355,7 @@ class _Run:
         self.model, self.settings, self.allow_unphysical = model, settings, bool(allow_unphysical)
         q, qd = assemble(model)
         self.changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
+        self.assembly_warnings = assembly_warnings(model, q)  # a body moved or turned far: said with the run's
         cfg = settings.cfg(model.size)
         self.table, self.cols = signal_selection(model, signals, cfg)
         self.driver = Driver(model, settings, np.concatenate([q, qd]), cfg)
@@ -401,6 +404,7 @@ class _Run:
         self.message = self._message()
         status = "disk_full" if self.disk_full else "interrupted" if self.interrupted else Status(d.status).name.lower()
         unphysical, warnings = end_warnings(self.model, self.settings, d.data.ws, d.track)
+        warnings = self.assembly_warnings + warnings
         run_attrs = {"complete": self.complete, "status": status, "message": self.message, "t_reached": self.t_kept,
                      **_statistics(d), "warnings": warnings, "assembly_changes": self.changes}
         if d.absurd and not self.interrupted and not self.disk_full:
@@ -465,6 +469,7 @@ class Simulation:
         self.model = model
         self.t_end = self.settings.t_end
         q, qd = assemble(model)
+        self._assembly_warnings = assembly_warnings(model, q)  # as `simulate`'s
         self._loads = Loads(model)  # set_load: this run's own copy of the force elements' values
         cfg = self.settings.cfg(model.size)
         self._table, self._cols = signal_selection(model, signals, cfg)
@@ -556,6 +561,7 @@ class Simulation:
         times, rows = self._rows()
         done = self.t >= self.t_end and not self._failure
         unphysical, warnings = end_warnings(self.model, self.settings, self._driver.data.ws, self._driver.track)
+        warnings = self._assembly_warnings + warnings
         status = "done" if done else ("failed" if self._failure else "running")
         message = self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s")
         if done and unphysical and self.allow_unphysical:  # as `simulate`: kept, as the user chose
