@@ -221,10 +221,9 @@ def sweep(
         workers = None if scheduler else jobs or os.cpu_count() or 1  # a cluster's: unknown here
         with _interruptible(), _SweepProgress(quiet, workers) as bar, _cluster(scheduler) as executor:
             summary = study_command.start(study, model, axes, output, sets=_sets(set_ or []), settings=settings,
-                                revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
-                                jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
-                                progress=bar.update, worker_timeout=worker_timeout, force=force,
-                                allow_unphysical=allow_unphysical)
+                                revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section, jobs=jobs,
+                                executor=executor, overwrite=overwrite, retry_failed=retry_failed, force=force,
+                                progress=bar.update, worker_timeout=worker_timeout, allow_unphysical=allow_unphysical)
     except MbsError as err:
         _fail(err)
     except KeyboardInterrupt as err:

@@ -122,7 +122,8 @@ def _guide_frame(q: np.ndarray, a: tuple):
         rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
         ends.append((q[3 * b:3 * b + 2] if b >= 0 else np.zeros(2)) + rot @ np.asarray(p, dtype=np.float64))
     phi_i = q[3 * bi + 2] if bi >= 0 else 0.0
-    n = np.array([-np.sin(phi_i) * a[5][0] - np.cos(phi_i) * a[5][1], np.cos(phi_i) * a[5][0] - np.sin(phi_i) * a[5][1]])
+    c, s = np.cos(phi_i), np.sin(phi_i)
+    n = np.array([-s * a[5][0] - c * a[5][1], c * a[5][0] - s * a[5][1]])  # A_i (-u_y, u_x)
     return ends[0], ends[1], n
 
 
