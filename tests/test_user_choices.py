@@ -201,7 +201,7 @@ def test_a_number_without_unit_is_taken_in_si_and_warned_about():
     radius, force = m.warnings
     assert radius.startswith("pin.mbs:4:") and "warning: `bearing_radius = 4` has no unit: taken as 4 m" in radius
     assert "`4 mm`" in radius and "^" in radius
-    assert "`2` has no unit: taken as 2 N" in force
+    assert "`2` (force `push` (expression)'s `fx`) has no unit: taken as 2 N" in force
     vector = compile_text(PIN.format(position="(57, 53)", radius="4 mm", fx="2 N"), "pin.mbs").warnings
     assert len(vector) == 1 and "`position = (57, 53)` has no unit: taken as (57 m, 53 m)" in vector[0]
     assert compile_text(PIN.format(position="(0, 0.1 m)", radius="4 mm", fx="0")).warnings == []

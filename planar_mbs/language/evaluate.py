@@ -78,7 +78,7 @@ class Evaluator:
         self._stack: list[str] = []
         self.warnings: list[str] = []  # numbers without a unit taken in SI (`note_plain`), rendered, once each
 
-    def note_plain(self, e: Expr, values: list | None, dim: U.Dim, field: str = "") -> None:
+    def note_plain(self, e: Expr, values: list | None, dim: U.Dim, field: str = "", label: str = "") -> None:
         """The one rule for a number written without a unit where `dim` (a dimension) is expected, in a
         field as in an expression: it is taken in SI, and a warning names the unit taken and shows the
         unit to write.  Zero needs no unit; a plain number in a sum with a unit is an error instead
@@ -87,7 +87,7 @@ class Evaluator:
             return
         si = dim.si.replace("**", "^").replace("radian", "rad")
         unit = U.example_unit(dim.dimensionality)
-        what = f"`{field} = {e.pos.text}`" if field else f"`{e.pos.text}`"
+        what = f"`{field} = {e.pos.text}`" if field else f"`{e.pos.text}`" + (f" ({label})" if label else "")
         if values is None:  # an expression of the state: its value is not known here
             message, hint = f"{what} has no unit: taken in {si}", f"give it its unit, e.g. `({e.pos.text}) * 1 {si}`"
         else:

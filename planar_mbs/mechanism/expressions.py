@@ -95,7 +95,7 @@ class Programs:
             raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} (`{e.pos.text}`)",
                               hint=f"write {dim.words} with a matching unit, e.g. `{dim.example}`")
         if node.plain:  # the rule of fields: taken in SI, with a warning (`Evaluator.note_plain`)
-            self.ev.note_plain(e, [node.value] if node.const else None, dim)
+            self.ev.note_plain(e, [node.value] if node.const else None, dim, label=label)
         if node.fault is not None:
             pos, message = node.fault
             raise pos.error(f"{message} at the initial state (t = 0) in {label}",
@@ -119,7 +119,7 @@ class Programs:
                 raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} "
                                   f"(`{e.pos.text}`)", hint=f"e.g. `{dim.example}`")
             if node.plain:
-                self.ev.note_plain(e, [node.value], dim)
+                self.ev.note_plain(e, [node.value], dim, label=label)
             del self.code[start:], self.consts[consts:]
             return node.value, None
         del self.code[start:], self.consts[consts:]
