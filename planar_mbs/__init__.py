@@ -52,14 +52,15 @@ def _python_error(err, overrides: dict, func: str):
     """A `--set`-worded override error re-worded for a Python keyword argument."""
     if not isinstance(err, _errors.ModelError) or err.file != "--set":
         return err
-    m = _re.search(r"`--set (\w+)(?:=\.\.\.)?`", err.message)
+    m = _re.search(r"`--set (\w+)(?:=[^`]*)?`", err.message)
     name = m.group(1) if m else next((k for k, v in overrides.items()
                                       if err.source_line and str(v).strip() == err.source_line.strip()), None)
-    message = _re.sub(r"^`--set (\w+)(?:=\.\.\.)?`: ", "", err.message)
+    message = _re.sub(r"^`--set (\w+)(?:=[^`]*)?`: ", "", err.message)
     message = _re.sub(r"`--set (\w+)(?:=\.\.\.)?`", r"`\1=`", message)
     place = f"{func}({name}=...)" if name else f"{func}(...)"
     shown = f" (`{name}={overrides[name]!r}`)" if name in overrides and m is None else ""
     hint = err.hint if err.hint != "docs/language.md describes every statement, field and unit" else ""
+    hint = _re.sub(r"`--set (\w+)=([^`]*)`", r'`\1="\2"`', hint)  # `--set speed=900rpm` -> `speed="900rpm"`
     return _errors.ModelError(message + shown, place, hint=hint)
 
 

@@ -251,7 +251,14 @@ ELEMENTS: tuple[ElementSpec, ...] = (
                 "surface on its side",
                 {"axis": "guide direction (ux, uy) in the guide's frame", "clearance": "guide width - block width",
                  "length": "block length along the axis", "width": "block width",
-                 "corner_radius": "radius of the block's rounded corners (default 0)"},
+                 "corner_radius": "radius of the block's rounded corners (default 0)",
+                 "offset": "initial offset of the block's centre across the guide, along its left normal "
+                           "(default: centred when the joint closes a loop, else as the pose states)",
+                 "tilt": "initial angle of the block relative to the guide (default: as the bodies' angles state)",
+                 "relative_velocity": "initial velocity of the block's centre across the guide, along its left "
+                                      "normal (default: as the bodies' velocities state)",
+                 "tilt_rate": "initial angular velocity of the block relative to the guide (default: as the "
+                              "bodies' velocities state)"},
                 "Flores, Ambrosio, Claro & Lankarani, Kinematics and Dynamics of Multibody Systems with "
                 "Imperfect Joints (2008), ch. 5",
                 "clearance_translational(guide (p), block (p), axis = (1, 0)) { ... }"),

@@ -78,6 +78,14 @@ class ModelError(MbsError):
         return self.render()
 
 
+def as_warning(err: ModelError) -> str:
+    """A `ModelError`'s text worded as a warning (``file:line:col: warning: ...``, its line, caret and
+    hint): what the model says was taken, but may not be what was meant."""
+    text = err.render()
+    where = text.index("error: ")
+    return text[:where] + "warning: " + text[where + len("error: "):]
+
+
 class SimulationError(MbsError):
     """The time loop stopped before t_end; results up to `time` are kept."""
 

@@ -119,8 +119,13 @@ def test_overrides_speed_clearance_law():
     assert m.parameters["speed"] == "2500rpm" and m.parameters["law"] == "hertz"
 
 
-def test_override_plain_value_taken_in_si():
-    m = load_model(MODELS / "slider_crank_clearance_a.mbs", {"clearance": "0.0001"})
+def test_override_without_the_unit_of_the_param_is_refused():
+    """The model's `clearance` is 0.3 mm: `--set clearance=0.0001` (no unit) names the unit instead of
+    taking 0.1 mm, or 0.1 m, silently; zero needs no unit."""
+    with pytest.raises(ModelError) as e:
+        load_model(MODELS / "slider_crank_clearance_a.mbs", {"clearance": "0.0001"})
+    assert e.value.file == "--set" and "has no unit" in e.value.message and "clearance=0.0001mm" in e.value.hint
+    m = load_model(MODELS / "slider_crank_clearance_a.mbs", {"clearance": "0.1 mm", "restitution": "0.5"})
     assert m.kernel.clearance_param[0, CP_CLEARANCE] == pytest.approx(1e-4)
 
 

@@ -12,11 +12,12 @@ from rich.table import Table
 from planar_mbs import catalog
 from planar_mbs.errors import MbsError
 from planar_mbs.mechanism.compile import load_model  # errors worded for --set
-from planar_mbs.mechanism.kinematics import assemble, assembly_changes, constraint_report, start_gaps
+from planar_mbs.mechanism.kinematics import (assemble, assembly_changes, assembly_warnings, constraint_report,
+                                             start_gaps)
 from planar_mbs.mechanism.model import CP_CLEARANCE, CP_STIFFNESS
 from planar_mbs.run.output_size import MAX_ROWS, estimate
 
-from .common import console, fail_code, parse_sets, print_assembly
+from .common import console, fail_code, parse_sets, print_assembly, print_model_warnings
 
 
 def check_model(model, sets: list[str]) -> int:
@@ -26,9 +27,12 @@ def check_model(model, sets: list[str]) -> int:
         q, qd = assemble(m)
     except MbsError as err:
         return fail_code(err)
+    print_model_warnings(m)
     _print_model(m, {**constraint_report(m, q), "gaps": start_gaps(m, q)})
     _print_output_size(m)
     print_assembly(assembly_changes(m, q, qd))
+    for warning in assembly_warnings(m, q):
+        console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
     return 0
 
 

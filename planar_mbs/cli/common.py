@@ -316,6 +316,12 @@ def model_files(path) -> list:
     return [Path(path), *spec.include_files]
 
 
+def print_model_warnings(model) -> None:
+    """What the compiler took but warns about (`Model.warnings`: a number without a unit), on stderr."""
+    for text in getattr(model, "warnings", None) or []:
+        console(stderr=True).print(text, markup=False, style="yellow", soft_wrap=True)
+
+
 def print_assembly(changes) -> None:
     """What the assembly changed in the stated initial state (beyond the tolerance): `mbs check` and
     `mbs run` print it."""

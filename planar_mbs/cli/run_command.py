@@ -34,7 +34,7 @@ from .common import (
     positive_time,
 )
 from .common import console as _console
-from .common import internal_error, print_assembly
+from .common import internal_error, print_assembly, print_model_warnings
 
 # Loaded once `announce_if_cold` has said that the solver compiles (lark, numpy, h5py come with the
 # model), or only by the option that needs them (rerun, typer, the sweep's scan, rich's progress bar).
@@ -64,7 +64,7 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               step: str | None = None, quiet: bool = False, rerun: Path | None = None, magnify: float = 10.0,
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
               until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None,
-              from_static: bool = False, overwrite: bool = False) -> int:
+              from_static: bool = False, overwrite: bool = False, allow_unphysical: bool = False) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as in `run_options.RUN_OPTIONS`);
     the exit code."""
     o = SimpleNamespace(**locals(), out=output, m=None)  # the options, and what `_prepare` adds to them
@@ -93,6 +93,7 @@ def _prepare(o: SimpleNamespace) -> None:
     sets = parse_sets(o.set_ or [])
     o.out = o.output or output_names.default_output(o.model, sets)
     o.m = m = compiler.load_model(o.model, sets)
+    print_model_warnings(m)
     if o.from_static:
         o.m = m = static_command.start_at_rest(m)
     o.changes = _changes(o, m)
@@ -150,7 +151,7 @@ def _execute(o: SimpleNamespace):
         return _run_until_settled(o)
     with _Progress(o.quiet) as progress:
         return simulation.simulate(o.m, output=o.out, progress=progress.update, max_rows=math.inf, signals=o.signals,
-                        overwrite=o.overwrite, **o.changes)
+                        overwrite=o.overwrite, allow_unphysical=o.allow_unphysical, **o.changes)
 
 
 def _failed(o: SimpleNamespace, err) -> int:
@@ -160,7 +161,8 @@ def _failed(o: SimpleNamespace, err) -> int:
         _record(o, err.results)  # a recording that could not be written is said, then the failure
     if err.results is not None and err.results.attrs.get("status") == "not_physical":
         _console(stderr=True).print(f"error: {err.message}\nthe results to t = {err.time:.6g} s are kept in "
-                                    f"{o.out}, marked incomplete (status not_physical)", markup=False)
+                                    f"{o.out}, marked incomplete (status not_physical); --allow-unphysical "
+                                    "keeps such results as finished", markup=False)
     elif err.results is not None:
         _console(stderr=True).print(f"simulation failed: {err.message}\n"
                                     f"results up to t = {err.time:.6g} s kept in {o.out} (marked incomplete)",
@@ -247,7 +249,7 @@ def _run_until_settled(o: SimpleNamespace):
     changes = {k: v for k, v in o.changes.items() if k != "t_end" and v is not None}
     with _Progress(o.quiet, "revolution", "revolution {task.fields[t]:.0f}") as progress:
         run = study.run_until_settled(o.m, o.out, o.max_revolutions, lambda done, total: progress.update(done, total),
-                                overwrite=o.overwrite, **changes)
+                                overwrite=o.overwrite, allow_unphysical=o.allow_unphysical, **changes)
     stop = ("stopped: the section settled on a periodic orbit" if run.settled_at is not None
             else "no periodic orbit found (--max-revolutions)")
     _console().print(f"{run.revolutions} revolutions run; {stop}", markup=False)

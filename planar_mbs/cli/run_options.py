@@ -80,6 +80,10 @@ RUN_OPTIONS = (
     Opt("from_static", ("--from-static",), "flag", "Start from the static equilibrium (`mbs static`) instead of "
         "the assembled pose: at rest, every clearance joint where its load puts it; the drivers then move.",
         default=False),
+    Opt("allow_unphysical", ("--allow-unphysical",), "flag", "Keep results that are not physical (a journal "
+        "sunk deeper than its clearance: a contact too soft for it) as a finished run, exit 0, instead of exit 3; "
+        "the warning stays and the file records allow_unphysical (the ideal-limit study of docs/contact.md).",
+        default=False),
     Opt("overwrite", ("--overwrite",), "flag", "Replace the output even when it is not the results of a run (a "
         "sweep file, any other file); never the model or its includes.", default=False),
 )

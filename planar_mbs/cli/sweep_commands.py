@@ -147,6 +147,10 @@ WorkerTimeoutOpt = Annotated[float, typer.Option(
 SweepForceOpt = Annotated[bool, typer.Option(
     "--force", help="Run even when a case asks for more than 10^8 output rows or the cases do not fit on the "
     "free disk space (the sweep stops cleanly if the disk fills).")]
+SweepUnphysicalOpt = Annotated[bool, typer.Option(
+    "--allow-unphysical", help="Keep a case whose results are not physical (a journal sunk deeper than its "
+    "clearance) as finished instead of failed; the warning stays and the file records allow_unphysical "
+    "(the ideal-limit study of docs/contact.md).")]
 
 
 def sweep(
@@ -192,6 +196,7 @@ def sweep(
     worker_timeout: WorkerTimeoutOpt = 60.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     force: SweepForceOpt = False,
+    allow_unphysical: SweepUnphysicalOpt = False,
 ) -> None:
     """Run a model for every combination of parameter values, in parallel, into one HDF5 file.
 
@@ -216,9 +221,9 @@ def sweep(
         workers = None if scheduler else jobs or os.cpu_count() or 1  # a cluster's: unknown here
         with _interruptible(), _SweepProgress(quiet, workers) as bar, _cluster(scheduler) as executor:
             summary = study_command.start(study, model, axes, output, sets=_sets(set_ or []), settings=settings,
-                                revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section,
-                                jobs=jobs, executor=executor, overwrite=overwrite, retry_failed=retry_failed,
-                                progress=bar.update, worker_timeout=worker_timeout, force=force)
+                                revolutions=revolutions, per_rev=per_rev, keep=keep_list, section=section, jobs=jobs,
+                                executor=executor, overwrite=overwrite, retry_failed=retry_failed, force=force,
+                                progress=bar.update, worker_timeout=worker_timeout, allow_unphysical=allow_unphysical)
     except MbsError as err:
         _fail(err)
     except KeyboardInterrupt as err:

@@ -12,7 +12,7 @@ import math
 from dataclasses import dataclass
 
 from . import units as U
-from ..errors import ModelError, did_you_mean
+from ..errors import ModelError, as_warning, did_you_mean
 from .spec import (
     BinOp,
     Call,
@@ -76,6 +76,32 @@ class Evaluator:
         self.call_names = call_names  # every name that may be called in a model (the rest are unknown functions)
         self.values: dict[str, object] = {}
         self._stack: list[str] = []
+        self.warnings: list[str] = []  # numbers without a unit taken in SI (`note_plain`), rendered, once each
+
+    def note_plain(self, e: Expr, values: list | None, dim: U.Dim, field: str = "", label: str = "") -> None:
+        """The one rule for a number written without a unit where `dim` (a dimension) is expected, in a
+        field as in an expression: it is taken in SI, and a warning names the unit taken and shows the
+        unit to write.  Zero needs no unit; a plain number in a sum with a unit is an error instead
+        (`_arith`, `expressions.Programs`)."""
+        if not dim.dimensionality or (values is not None and all(v == 0 for v in values)):
+            return
+        si = dim.si.replace("**", "^").replace("radian", "rad")
+        unit = U.example_unit(dim.dimensionality)
+        what = f"`{field} = {e.pos.text}`" if field else f"`{e.pos.text}`" + (f" ({label})" if label else "")
+        if values is None:  # an expression of the state: its value is not known here
+            message, hint = f"{what} has no unit: taken in {si}", f"give it its unit, e.g. `({e.pos.text}) * 1 {si}`"
+        else:
+            def written(u):
+                text = ", ".join(f"{v:g} {u}" if v else "0" for v in values)
+                return f"({text})" if len(values) > 1 else text
+
+            taken = ", ".join(f"{v:g} {si}" for v in values)
+            message = f"{what} has no unit: taken as " + (f"({taken})" if len(values) > 1 else taken)
+            hint = (f"write `{written(si)}` if that is meant, or the unit meant, e.g. `{written(unit)}`" if unit != si
+                    else f"write `{written(si)}` if that is meant, or the unit meant")
+        text = as_warning(e.pos.error(message, hint=hint))
+        if text not in self.warnings:
+            self.warnings.append(text)
 
     # params
     def param(self, name: str):
@@ -312,13 +338,26 @@ class Fields:
             return default
         f = self.items[name]
         value = scalar_si(self.ev, f.value, dim, name)
-        if positive and not value > 0:
-            raise f.value.pos.error(f"`{name}` of {self.label} must be positive, got {f.value.pos.text}",
-                                    hint=f"give a value greater than zero, e.g. `{name} = {dim.example}`")
-        if nonneg and value < 0:
-            raise f.value.pos.error(f"`{name}` of {self.label} must not be negative, got {f.value.pos.text}",
-                                    hint=f"give zero or a positive value, e.g. `{name} = {dim.example}`")
+        if (positive and not value > 0) or (nonneg and value < 0):
+            raise self._sign_error(f, name, dim, positive)
         return value
+
+    def _sign_error(self, f: Field, name: str, dim: U.Dim, positive: bool) -> ModelError:
+        """`clearance` of ... must be positive, got -0.1 mm: the value (and where it came from when the
+        field names a param, e.g. a `--set`), at the field, with an example of the right sign."""
+        s = self.ev.number(self.ev.value(f.value), f.value)
+        shown = U.format_quantity(s.q)
+        if f.value.pos.text.strip() != shown:
+            origin = f.value.pos.text
+            if isinstance(f.value, Name) and f.value.name in self.ev.overrides:
+                origin = f"`--set {f.value.name}={self.ev.overrides[f.value.name].pos.text}`"
+            else:
+                origin = f"`{origin}`"
+            shown += f" (from {origin})"
+        flipped = U.format_quantity(abs(s.q)) if s.q.magnitude < 0 else dim.example
+        example = f"{name} = {flipped}"
+        rule, word = ("must be positive", "greater than zero") if positive else ("must not be negative", "zero or more")
+        return f.pos.error(f"`{name}` of {self.label} {rule}, got {shown}", hint=f"give a value {word}, e.g. `{example}`")
 
     def vector(self, name: str, dim: U.Dim, default=_REQUIRED) -> tuple[float, float]:
         if name not in self.items:
@@ -339,12 +378,15 @@ class Fields:
         return f.value if f else None
 
 
-def scalar_si(ev: Evaluator, e: Expr, dim: U.Dim, field: str = "") -> float:
+def scalar_si(ev: Evaluator, e: Expr, dim: U.Dim, field: str = "", note: bool = True) -> float:
     s = ev.number(ev.value(e), e)
     try:
-        return U.to_si(s.q, s.plain, dim, e.pos.text, field)
+        value = U.to_si(s.q, s.plain, dim, e.pos.text, field)
     except U.UnitError as err:
         raise e.pos.error(err.message, err.hint) from None
+    if s.plain and note:
+        ev.note_plain(e, [value], dim, field)
+    return value
 
 
 def vector_si(ev: Evaluator, e: Expr, dim: U.Dim, field: str = "") -> tuple[float, float]:
@@ -359,6 +401,9 @@ def vector_si(ev: Evaluator, e: Expr, dim: U.Dim, field: str = "") -> tuple[floa
             out.append(U.to_si(s.q, s.plain, dim, e.pos.text))
         except U.UnitError as err:
             raise e.pos.error(err.message, err.hint) from None
+    plain = [x for s, x in zip(v.items, out) if s.plain]
+    if plain and any(plain):
+        ev.note_plain(e, out, dim, field)
     return out[0], out[1]
 
 

@@ -321,6 +321,20 @@ def describe(dimensionality) -> str:
     return f"a quantity of dimension {dimensionality}"
 
 
+def example_unit(dimensionality) -> str:
+    """A unit of that dimension to show in a hint: the one of the common quantities (`mm` for a length,
+    `rpm` for an angular velocity, `N` for a force), else the SI base units (`kg*m/s^3`)."""
+    for d in (ANGULAR_VELOCITY, *_DESCRIBE):
+        if d.dimensionality == dimensionality and d is not NUMBER:
+            return d.example.split(" ", 1)[1]
+    order = (1, 0, 2, 3, 4, 5, 6)  # kg*m^2/s^3
+    names = [("m", "kg", "s", "A", "K", "mol", "cd")[i] for i in order]
+    exps = [dimensionality[i] for i in order]
+    num = [n + (f"^{e:g}" if e != 1 else "") for n, e in zip(names, exps) if e > 0]
+    den = [n + (f"^{-e:g}" if e != -1 else "") for n, e in zip(names, exps) if e < 0]
+    return ("*".join(num) or "1") + "".join("/" + d for d in den)
+
+
 def format_quantity(q) -> str:
     """`5000 rpm`, `0.3 mm`, `0.9`: a value with its units, short."""
     mag = f"{q.magnitude:.15g}"

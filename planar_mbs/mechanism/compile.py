@@ -273,15 +273,27 @@ class _SymbolPasses:
             return {Scalar: "number", Vec: "vector", Symbol: "name"}.get(type(v), "value")
 
         where = f"line {st.pos.line}"
+        text = expr.pos.text
+
+        def error(message: str, hint: str) -> ModelError:  # at the value of `--set NAME=VALUE`, shown whole
+            return ModelError(message, "--set", 1, len(name) + 2, hint=hint, source_line=f"{name}={text}",
+                              width=len(text))
+
         if kind(old) != kind(new):
-            raise expr.pos.error(f"`--set {name}`: the model's `{name}` is a {kind(old)} ({where}), "
-                                 f"the override gives a {kind(new)}",
-                                 hint=f"the model has `param {name} = {st.value.pos.text}`")
+            raise error(f"`--set {name}={text}`: the model's `{name}` is a {kind(old)} ({where}), "
+                        f"the override gives a {kind(new)}", hint=f"the model has `param {name} = {st.value.pos.text}`")
+        if isinstance(old, Scalar) and not old.plain and old.q.dimensionality and new.plain \
+                and new.q.magnitude != 0:  # a number without the unit the model's value has
+            unit = U.format_quantity(old.q).split(" ", 1)[1]
+            raise error(f"`--set {name}={text}`: `{name}` is {U.describe(old.q.dimensionality)}, and {text} "
+                        "has no unit", hint=f"give it a unit, e.g. `--set {name}={text}{unit}` (the model has "
+                                            f"`param {name} = {st.value.pos.text}`, {where})")
         if isinstance(old, Scalar) and not old.plain and not new.plain \
                 and old.q.dimensionality != new.q.dimensionality:
-            raise expr.pos.error(f"`--set {name}`: {U.describe(old.q.dimensionality)} was expected, "
-                                 f"got {U.describe(new.q.dimensionality)} ({expr.pos.text})",
-                                 hint=f"the model has `param {name} = {st.value.pos.text}`")
+            raise error(f"`--set {name}={text}`: {U.describe(old.q.dimensionality)} was expected, "
+                        f"got {U.describe(new.q.dimensionality)} ({text})",
+                        hint=f"the model has `param {name} = {st.value.pos.text}`")
+
 
 class _LayoutPasses:
     """Passes 3-6: number the elements, size and allocate the arrays, fill them kind by kind."""
@@ -481,8 +493,11 @@ class _BodyPass:
             if not point:
                 raise e.pos.error(f"{what} takes bodies without points", hint=f"write just `{e.name}`")
             if len(e.args) == 2:
-                return body, (scalar_si(self.ev, e.args[0], U.LENGTH, "x"),
-                              scalar_si(self.ev, e.args[1], U.LENGTH, "y"))
+                xy = (scalar_si(self.ev, e.args[0], U.LENGTH, "x", note=False),
+                      scalar_si(self.ev, e.args[1], U.LENGTH, "y", note=False))
+                if any(self.ev.number(self.ev.value(a), a).plain and v != 0 for a, v in zip(e.args, xy)):
+                    self.ev.note_plain(e, list(xy), U.LENGTH)
+                return body, xy
             if len(e.args) == 1:
                 return body, vector_si(self.ev, e.args[0], U.LENGTH, "point")
             if not e.args:
@@ -703,6 +718,7 @@ class _ClearancePass:
         if not 2 * rc < min(length, width):
             raise f.expr("corner_radius").pos.error("the corners' radius must be less than half the block's sides")
         law, K, n, ce, sigma, c = self._contact_law(f, st, label, rc, (bi, bj))
+        start = self._translational_start(f, cl, length, width, rc)
         phi0 = 0.0  # the block's sides lie along `axis` in its own frame too: aligned at equal angles
         ab = ax
         ng, nb = np.array([-ax[1], ax[0]]), np.array([-ab[1], ab[0]])
@@ -713,7 +729,31 @@ class _ClearancePass:
             self._fill_pair(k + i, int(PairKind.CIRCLE_ON_LINE), (bi, bj), (line, corner), law, K, n, ce, sigma, c, f,
                             CP_CLEARANCE=cl, CP_R_JOURNAL=rc, CP_NX=-sn * ng[0], CP_NY=-sn * ng[1], CP_LENGTH=length)
             self.clearance_assembly.append(
-                ("translational", bi, bj, tuple(pi), tuple(pj), tuple(ax), phi0, st.name) if i == 0 else ("none",))
+                ("translational", bi, bj, tuple(pi), tuple(pj), tuple(ax), phi0, st.name, start) if i == 0
+                else ("none",))
+
+    @staticmethod
+    def _translational_start(f: Fields, cl: float, length: float, width: float, rc: float) -> tuple:
+        """The block's initial (offset, tilt, relative_velocity, tilt_rate) as written, NaN where not
+        given (`kinematics.assemble` keeps what the pose and the velocities state there); refused where
+        a corner would start beyond its guide surface."""
+        nan = math.nan
+        offset = f.scalar("offset", U.LENGTH, nan)
+        tilt = f.scalar("tilt", U.ANGLE, nan)
+        start = (offset, tilt, f.scalar("relative_velocity", U.VELOCITY, nan),
+                 f.scalar("tilt_rate", U.ANGULAR_VELOCITY, nan))
+        if f.has("offset") or f.has("tilt"):
+            o, th = np.nan_to_num(offset), np.nan_to_num(tilt)
+            reach = abs(o) + abs((0.5 * length - rc) * math.sin(th)) + abs((0.5 * width - rc) * math.cos(th))
+            room = 0.5 * (width + cl) - rc
+            if reach > room * (1 + 1e-9):
+                where = f.expr("offset" if f.has("offset") else "tilt")
+                raise where.pos.error(
+                    f"the block starts with a corner beyond its guide surface: offset {o * 1e3:g} mm and tilt "
+                    f"{math.degrees(th):g} deg reach {reach * 1e3:g} mm from the guide's middle, the surface is at "
+                    f"{room * 1e3:g} mm", hint=f"the block starts inside its guide: |offset| <= {cl / 2 * 1e3:g} mm "
+                    "when it is not tilted, less when it is")
+        return start
 
     def _fill_contact(self, k: int, st: Statement):
         """Contact between two bodies' outlines: a circle (or point) on a line, two circles from outside,
@@ -1169,7 +1209,7 @@ class _CheckPass:
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
             source_key=self.spec.key, source_includes=dict(self.spec.includes),
             source_files=list(self.spec.include_files), source_tables=dict(self.programs.table_files),
-            clearance_start=self.clearance_start,
+            clearance_start=self.clearance_start, warnings=list(self.ev.warnings),
         )
 
 

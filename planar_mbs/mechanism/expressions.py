@@ -94,6 +94,8 @@ class Programs:
         if not node.plain and node.dim != dim.dimensionality:
             raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} (`{e.pos.text}`)",
                               hint=f"write {dim.words} with a matching unit, e.g. `{dim.example}`")
+        if node.plain:  # the rule of fields: taken in SI, with a warning (`Evaluator.note_plain`)
+            self.ev.note_plain(e, [node.value] if node.const else None, dim, label=label)
         if node.fault is not None:
             pos, message = node.fault
             raise pos.error(f"{message} at the initial state (t = 0) in {label}",
@@ -116,6 +118,8 @@ class Programs:
             if not node.plain and node.dim != dim.dimensionality:
                 raise e.pos.error(f"{dim.words} was expected for {label}, got {U.describe(node.dim)} "
                                   f"(`{e.pos.text}`)", hint=f"e.g. `{dim.example}`")
+            if node.plain:
+                self.ev.note_plain(e, [node.value], dim, label=label)
             del self.code[start:], self.consts[consts:]
             return node.value, None
         del self.code[start:], self.consts[consts:]
@@ -296,8 +300,9 @@ class Programs:
         if a.plain != b.plain:
             dim = b if a.plain else a
             if dim.dim:
-                example = {U.VELOCITY.dimensionality: "0 m/s", U.FORCE.dimensionality: "0 N",
-                           U.LENGTH.dimensionality: "0 m", U.TIME.dimensionality: "0 s"}.get(dim.dim, "0 ...")
+                number = a if a.plain else b  # the number written without a unit
+                value = f"{number.value:g}" if number.const else "0"
+                example = f"{value} {U.example_unit(dim.dim)}"
                 raise pos.error(f"cannot {what} a plain number and {U.describe(dim.dim)} (`{pos.text}`)",
                                 hint=f"give the number a unit, e.g. `{example}`")
         if a.dim != b.dim:

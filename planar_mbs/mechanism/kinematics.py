@@ -7,6 +7,11 @@ journal centred and at rest relative to the bearing (Muvengei et al. §III.A:
 the run starts from the ideal-joint kinematics), so for assembly it is an
 ideal revolute joint.  Its ``offset`` (journal centre minus bearing centre,
 bearing frame) and ``relative_velocity``, when given, are assembled instead.
+A translational clearance joint that closes a loop holds its block centred in
+the guide, at the angle, angular velocity and velocity across the guide that
+the bodies state (the block is free to turn and to move across: nothing
+forbids them), or at its ``offset``, ``tilt``, ``relative_velocity`` and
+``tilt_rate`` where given (`slide_joints`).
 A clearance joint that closes no loop (a journal held by nothing else) adds no
 rows: the journal keeps the position and velocity it is given.  Positions are
 found by Newton–Raphson with minimum-norm corrections (the assembled pose is
@@ -88,28 +93,80 @@ def revolute_clearances(model: Model) -> list[int]:
     return [c for c, a in enumerate(_assembly_of(model)) if a[0] == "revolute"]
 
 
+NOT_GIVEN = (np.nan,) * 4  # a translational clearance joint's (offset, tilt, relative_velocity, tilt_rate)
+
+
+def slide_joints(model: Model) -> list[tuple]:
+    """The translational clearance joints the assembly holds as translational joints: those that close
+    a loop, and those given an initial `offset`, `tilt` or velocity; each as its assembly tuple
+    (`Model.clearance_assembly`) with its stated initial state (offset, tilt, relative_velocity,
+    tilt_rate; NaN where not given) last."""
+    loop = closes_loop(model)
+    out = []
+    for c, a in enumerate(_assembly_of(model)):
+        if a[0] != "translational":
+            continue
+        start = tuple(a[8]) if len(a) > 8 else NOT_GIVEN
+        if loop[c] or not np.all(np.isnan(start)):
+            out.append((*a[:8], start, loop[c]))
+    return out
+
+
+def _guide_frame(q: np.ndarray, a: tuple):
+    """(P_i, P_j, n_i) of a translational clearance joint at pose q: its guide and block points and the
+    guide's left normal, in the ground frame."""
+    (bi, bj), pts = a[1:3], (a[3], a[4])
+    ends = []
+    for b, p in zip((bi, bj), pts):
+        phi = q[3 * b + 2] if b >= 0 else 0.0
+        rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
+        ends.append((q[3 * b:3 * b + 2] if b >= 0 else np.zeros(2)) + rot @ np.asarray(p, dtype=np.float64))
+    phi_i = q[3 * bi + 2] if bi >= 0 else 0.0
+    c, s = np.cos(phi_i), np.sin(phi_i)
+    n = np.array([-s * a[5][0] - c * a[5][1], c * a[5][0] - s * a[5][1]])  # A_i (-u_y, u_x)
+    return ends[0], ends[1], n
+
+
+def _slide_rows(model: Model, sl: list[tuple]) -> tuple[np.ndarray, np.ndarray]:
+    """(phi0, across offset) of each slide's assembly rows: the `tilt` given, else the relative angle the
+    pose states; the `offset` given, else 0 (centred) where it closes a loop, else as the pose states."""
+    q0 = np.asarray(model.q0, dtype=np.float64)
+    phi0, across = np.zeros(len(sl)), np.zeros(len(sl))
+    for s, a in enumerate(sl):
+        (bi, bj), (offset, tilt, _, _), loop = a[1:3], a[8], a[9]
+        stated = (q0[3 * bj + 2] if bj >= 0 else 0.0) - (q0[3 * bi + 2] if bi >= 0 else 0.0)
+        phi0[s] = stated if np.isnan(tilt) else tilt
+        if not np.isnan(offset):
+            across[s] = offset
+        elif not loop:
+            pi, pj, n = _guide_frame(q0, a)
+            across[s] = float(n @ (pj - pi))
+    return phi0, across
+
+
 def assembly_kernel(model: Model, use=None, offset=None, slides=True) -> tuple[KernelModel, list[str]]:
     """The model's kernel arrays with the clearance joints `use` (default: every revolute one) turned
     into revolute joints whose bearing point is shifted by `offset` (bearing frame; default 0), with
-    `slides` every translational clearance joint that closes a loop into a translational joint (the
-    block centred in its guide), and the name of the element behind each constraint row."""
+    `slides` the translational clearance joints of `slide_joints` turned into translational joints (the
+    block at its offset across the guide and its tilt: `_slide_rows`), and the name of the element
+    behind each constraint row."""
     k = model.kernel
     use = revolute_clearances(model) if use is None else list(use)
-    loop = closes_loop(model)
-    slides = [a for c, a in enumerate(_assembly_of(model)) if a[0] == "translational" and loop[c] and slides]
+    slides = slide_joints(model) if slides else []
     ns = len(slides)
     nc = len(use)
     cpoint = np.array(np.asarray(k.clearance_point)[use], dtype=np.float64).reshape(nc, 2, 2)
     if offset is not None and nc:
         cpoint[:, 0, :] += np.asarray(offset, dtype=np.float64)[use]
     spar = np.zeros((ns, k.joint_param.shape[1]))
-    spar[:, JP_PHI0] = [a[6] for a in slides]
+    spar[:, JP_PHI0], across = _slide_rows(model, slides)
+    spoint = np.array([(a[3], a[4]) for a in slides], dtype=np.float64).reshape(ns, 2, 2)
+    spoint[:, 0, :] += across[:, None] * np.array([(-a[5][1], a[5][0]) for a in slides]).reshape(ns, 2)
     jt = np.concatenate([k.joint_type, np.full(ns, int(JointType.TRANSLATIONAL), dtype=np.int64),
                          np.full(nc, int(JointType.REVOLUTE), dtype=np.int64)])
     jb = np.concatenate([k.joint_body, np.array([a[1:3] for a in slides], dtype=np.int64).reshape(ns, 2),
                          np.asarray(k.clearance_body)[use].reshape(nc, 2)]).astype(np.int64)
-    jp = np.concatenate([k.joint_point, np.array([(a[3], a[4]) for a in slides], dtype=np.float64).reshape(ns, 2, 2),
-                         cpoint])
+    jp = np.concatenate([k.joint_point, spoint, cpoint])
     ja = np.concatenate([k.joint_axis, np.array([a[5] for a in slides], dtype=np.float64).reshape(ns, 2),
                          np.tile([1.0, 0.0], (nc, 1))])
     jpar = np.concatenate([k.joint_param, spar, np.zeros((nc, k.joint_param.shape[1]))])
@@ -303,8 +360,20 @@ def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         phi = q[3 * bi + 2] if bi >= 0 else 0.0
         rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
         target[r0 + 2 * i:r0 + 2 * i + 2] = -(rot @ v)
+    _slide_velocities(model, Cqv, target, qd)
     dqd, *_ = np.linalg.lstsq(Cqv, target - Cqv @ qd, rcond=None)
     return q, qd + dqd
+
+
+def _slide_velocities(model: Model, Cqv: np.ndarray, target: np.ndarray, qd: np.ndarray) -> None:
+    """The targets of the slides' velocity rows (after the ideal joints' rows): the block's `tilt_rate`
+    and `relative_velocity` across the guide where given, else what the stated velocities give (so the
+    assembly keeps them: the block is free to turn and to move across its guide)."""
+    r = int(JOINT_ROWS[np.asarray(model.kernel.joint_type, dtype=np.int64)].sum())
+    for s, a in enumerate(slide_joints(model)):
+        _, _, vel, rate = a[8]
+        for row, given in ((r + 2 * s, rate), (r + 2 * s + 1, vel)):  # the angle row, then the axis row
+            target[row] = float(Cqv[row] @ qd) if np.isnan(given) else given
 
 
 def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | None = None,
@@ -330,6 +399,36 @@ def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | 
                         if what == "pose" else "assembly changed the stated velocity of " + ", ".join(moved)
                         + ": the joints and drivers forbid it"))
     return out
+
+
+MOVE_FRACTION = 0.5  # a body the assembly moves by more than this x the mechanism's size: warned about
+TURN_LIMIT = np.radians(45.0)  # ... or turns by more than this: another branch of a loop than the sketch
+
+
+def assembly_warnings(model: Model, q: np.ndarray) -> list[str]:
+    """What the assembly did that a sketch does not explain: a body moved by more than `MOVE_FRACTION`
+    of the mechanism's size (`Model.size`: a position in the wrong unit, a typo) or turned by more than
+    `TURN_LIMIT` (the loop closed on another branch than the one drawn: a link with its ends swapped),
+    each naming the body and the move."""
+    size = model.size
+    out = []
+    d = (np.asarray(q, dtype=np.float64) - np.asarray(model.q0, dtype=np.float64)).reshape(-1, 3)
+    for b, name in enumerate(model.body_names):
+        shift, turn = float(np.hypot(d[b, 0], d[b, 1])), float(abs(d[b, 2]))
+        if shift > MOVE_FRACTION * size:
+            out.append(f"assembly moved `{name}` by {_length(shift)}, more than {MOVE_FRACTION:g} x the "
+                       f"mechanism's size ({_length(size)}): its stated `position` is far from where its joints "
+                       "put it (a unit or a typo?); the run starts from the assembled pose")
+        if turn > TURN_LIMIT:
+            out.append(f"assembly turned `{name}` by {np.degrees(turn):.3g}°, more than "
+                       f"{np.degrees(TURN_LIMIT):.3g}°: the joints closed on another configuration than the one "
+                       "drawn (a link with its ends swapped, a loop flipped?); check its `angle`, `position` and "
+                       "joint points")
+    return out
+
+
+def _length(x: float) -> str:
+    return f"{x * 1e3:.3g} mm" if x < 1.0 else f"{x:.3g} m"
 
 
 def _change(d: np.ndarray, tol: np.ndarray, what: str) -> str:

@@ -401,9 +401,13 @@ class Model:
     # relative velocity (x, y) in the bearing's frame; NaN where not given (kinematics.assemble)
     clearance_start: np.ndarray | None = None
     # per clearance element: how the assembly of the initial pose treats it: ("revolute",) the journal
-    # centred (or at its offset) when it closes a loop; ("translational", bi, bj, pi, pj, axis, phi0) on the
-    # first pair of a translational clearance joint, the block centred in its guide; ("none",) no rows
+    # centred (or at its offset) when it closes a loop; ("translational", bi, bj, pi, pj, axis, phi0, name,
+    # (offset, tilt, relative_velocity, tilt_rate), NaN where not given) on the first pair of a translational
+    # clearance joint (kinematics.slide_joints); ("none",) no rows
     clearance_assembly: list = field(default_factory=list)
+    # what the compiler took but warns about (a number without a unit taken in SI), each rendered as
+    # `file:line:col: warning: ...` with its line and hint; `mbs check` and `mbs run` print them
+    warnings: list = field(default_factory=list)
 
     @property
     def nbody(self) -> int:

@@ -319,7 +319,7 @@ SIGNALS = "signals"  # group of the signals: SIGNALS/<entity>, one compound data
 UNIT = "unit"  # attribute of the time dataset (and of every dataset in files of the earlier layout)
 UNITS = "units"  # attribute of an entity's dataset: the unit of each field
 JSON_ATTRS = ("parameters", "settings", "warnings", "model_includes", "model_tables", "assembly_changes",
-              "mechanism")  # JSON
+              "mechanism", "model_warnings")  # JSON
 
 
 def entity_path(entity: str) -> str:
@@ -785,7 +785,7 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,199}")
 MAX_SIGNALS = 100_000
 _JSON_ATTRS = {"parameters": dict, "settings": dict, "warnings": list, "model_includes": dict,
-               "model_tables": dict, "assembly_changes": list, "mechanism": dict}
+               "model_tables": dict, "assembly_changes": list, "mechanism": dict, "model_warnings": list}
 
 
 def memory_budget() -> int:

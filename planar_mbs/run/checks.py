@@ -167,6 +167,11 @@ def not_physical(warnings: list[str]) -> str:
     return "the results are not physical: " + warnings[0]
 
 
+def kept_unphysical(message: str) -> str:
+    """The message of a finished run whose results are not physical, kept by ``allow_unphysical``."""
+    return f"{message}; the results are not physical, kept as asked (allow_unphysical)"
+
+
 ABSURD = 1e9  # m, m/s, rad/s: beyond it no planar mechanism is being simulated (light: 3e8 m/s)
 
 

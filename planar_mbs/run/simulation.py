@@ -28,7 +28,7 @@ from .. import catalog
 from ..version import __version__
 from ..errors import ModelError, SimulationError, did_you_mean
 from ..language.units import parse_quantity
-from ..mechanism.kinematics import assemble, assembly_changes
+from ..mechanism.kinematics import assemble, assembly_changes, assembly_warnings
 from ..mechanism.model import (
     CFG_SKIP,
     ST_CONTACT_EVENTS,
@@ -41,7 +41,7 @@ from ..mechanism.model import (
     Settings,
     Status,
 )
-from .checks import end_warnings, not_physical
+from .checks import end_warnings, kept_unphysical, not_physical
 from .driver import BUFFER_ROWS, Driver, MemorySink, Sink
 from .loads import Loads
 from .output_size import MAX_ROWS, estimate
@@ -244,6 +244,7 @@ def simulate(
     signals: list[str] | None = None,
     max_rows: float = MAX_ROWS,
     overwrite: bool = False,
+    allow_unphysical: bool = False,
     **settings_changes,
 ) -> Results:
     """Integrate `model` from its assembled initial state to ``t_end``.
@@ -258,7 +259,10 @@ def simulate(
     with `ModelError` before it starts (a typo in ``output_step`` would fill memory or disk).
     Raises `SimulationError` (with ``.results``) on failure.  ``output`` replaces an existing file
     only if it holds the results of a run (``overwrite=True``: any file), and never the model
-    file or a file it includes.
+    file or a file it includes.  A run whose results are not physical (a journal sunk deeper than
+    its clearance: `checks.physics_warnings`) raises `SimulationError`, status ``not_physical``;
+    ``allow_unphysical=True`` keeps it as a finished run instead (the ideal-limit study of
+    docs/contact.md), with the warning and the attribute ``allow_unphysical`` in its results.
     """
     check_arguments(model, signals, "simulate")
     settings = run_settings(model, **settings_changes)
@@ -267,7 +271,7 @@ def simulate(
     _check_rows(model, settings, max_rows)
     if output is None:
         check_memory(model, settings, "simulate without an output file")
-    run = _Run(model, settings, output, signals, overwrite)
+    run = _Run(model, settings, output, signals, overwrite, allow_unphysical)
     with _deferred_interrupts() as received:
         try:
             run.loop(received, progress)
@@ -276,9 +280,13 @@ def simulate(
     return run.outcome()
 
 
-def _header(model: Model, settings: Settings) -> dict:
-    """The attributes a results file starts with: the model's text, parameters and the settings."""
-    return {
+def _header(model: Model, settings: Settings, allow_unphysical: bool = False) -> dict:
+    """The attributes a results file starts with: the model's text, parameters and the settings
+    (and ``allow_unphysical`` where the run keeps results that are not physical)."""
+    extra = {"allow_unphysical": True} if allow_unphysical else {}
+    if model.warnings:  # what the compiler took but warned about (a number without a unit)
+        extra["model_warnings"] = list(model.warnings)
+    return {**extra,
         "model_source": model.source_text,
         "model_path": model.source_path,
         "model_key": model.source_key,
@@ -343,16 +351,18 @@ class _Run:
     end of the run.  The steps: `__init__` (assemble, allocate, compile), `loop`, `finish` (the run's
     attributes, the file closed) and `outcome` (the `Results`, or the exception that carries them)."""
 
-    def __init__(self, model: Model, settings: Settings, output, signals, overwrite: bool):
-        self.model, self.settings = model, settings
+    def __init__(self, model: Model, settings: Settings, output, signals, overwrite: bool,
+                 allow_unphysical: bool = False):
+        self.model, self.settings, self.allow_unphysical = model, settings, bool(allow_unphysical)
         q, qd = assemble(model)
         self.changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
+        self.assembly_warnings = assembly_warnings(model, q)  # a body moved or turned far: said with the run's
         cfg = settings.cfg(model.size)
         self.table, self.cols = signal_selection(model, signals, cfg)
         self.driver = Driver(model, settings, np.concatenate([q, qd]), cfg)
         self.driver.table = self.table
         self.nobs = self.driver.nobs
-        self.attrs = _header(model, settings)
+        self.attrs = _header(model, settings, self.allow_unphysical)
         self.writer = ResultsWriter(output, self.table, self.attrs, overwrite=overwrite,
                                     inputs=model.source_files) if output is not None else None
         self.sink = (FileSink(self.writer, self.nobs, self.cols, self.driver.watch) if self.writer
@@ -395,11 +405,14 @@ class _Run:
         self.message = self._message()
         status = "disk_full" if self.disk_full else "interrupted" if self.interrupted else Status(d.status).name.lower()
         unphysical, warnings = end_warnings(self.model, self.settings, d.data.ws, d.track)
+        warnings = self.assembly_warnings + warnings
         run_attrs = {"complete": self.complete, "status": status, "message": self.message, "t_reached": self.t_kept,
                      **_statistics(d), "warnings": warnings, "assembly_changes": self.changes}
         if d.absurd and not self.interrupted and not self.disk_full:
             self.complete, self.message = False, d.absurd
             run_attrs.update(complete=False, status="absurd_state", message=self.message)
+        elif self.complete and unphysical and self.allow_unphysical:  # kept, as the user chose
+            self.message = run_attrs["message"] = kept_unphysical(self.message)
         elif self.complete and unphysical:  # finished, but not physical: not a result to use
             self.complete = False
             self.message = not_physical(unphysical)
@@ -443,11 +456,13 @@ class Simulation:
     the results so far); a numerical failure raises `SimulationError`.  ``output`` writes an HDF5 file
     as the run goes; `close` (or `run`, or leaving a ``with`` block) marks it complete or not.  Two
     Simulations of one model are independent: each has its own data (`driver.RunData`).
+    ``allow_unphysical`` keeps results that are not physical, as in `simulate`.
     """
 
     def __init__(self, model: Model, output: str | Path | None = None, signals: list[str] | None = None,
-                 overwrite: bool = False, **settings_changes):
+                 overwrite: bool = False, allow_unphysical: bool = False, **settings_changes):
         check_arguments(model, signals, "Simulation")
+        self.allow_unphysical = bool(allow_unphysical)  # as `simulate`'s
         self.settings = run_settings(model, **settings_changes)
         check_settings(self.settings, given=_given(settings_changes), source=model.source_path)
         check_tolerances(self.settings)
@@ -455,6 +470,7 @@ class Simulation:
         self.model = model
         self.t_end = self.settings.t_end
         q, qd = assemble(model)
+        self._assembly_warnings = assembly_warnings(model, q)  # as `simulate`'s
         self._loads = Loads(model)  # set_load: this run's own copy of the force elements' values
         cfg = self.settings.cfg(model.size)
         self._table, self._cols = signal_selection(model, signals, cfg)
@@ -462,7 +478,7 @@ class Simulation:
         self._driver.table = self._table
         self._where = {s.name: s for s in self._table}
         self._failure = ""
-        self._attrs = _header(model, self.settings)
+        self._attrs = _header(model, self.settings, self.allow_unphysical)
         self._writer = ResultsWriter(output, self._table, self._attrs, overwrite=overwrite,
                                      inputs=model.source_files) if output is not None else None
         self._sink = MemorySink(self._driver.nobs, self._cols, also=self._writer, watch=self._driver.watch)
@@ -546,9 +562,12 @@ class Simulation:
         times, rows = self._rows()
         done = self.t >= self.t_end and not self._failure
         unphysical, warnings = end_warnings(self.model, self.settings, self._driver.data.ws, self._driver.track)
+        warnings = self._assembly_warnings + warnings
         status = "done" if done else ("failed" if self._failure else "running")
         message = self._failure or ("finished" if done else f"stopped at t = {self.t:.9g} s")
-        if done and unphysical:  # as `simulate`: not physical is not complete
+        if done and unphysical and self.allow_unphysical:  # as `simulate`: kept, as the user chose
+            message = kept_unphysical(message)
+        elif done and unphysical:  # as `simulate`: not physical is not complete
             done, status, message = False, "not_physical", not_physical(unphysical)
         attrs = {**self._attrs, "complete": done, "status": status, "message": message, "warnings": warnings,
                  "t_reached": self.t, **_statistics(self._driver)}

@@ -79,7 +79,7 @@ def run_until_settled(model, out, max_revolutions: int, progress: Callable[[int,
                       overwrite: bool = False, **settings) -> LongRun:
     """`long_run` until the section settles (at most `max_revolutions`, `PER_REV_UNTIL_SETTLED`
     samples each), its results written to the file `out` with the run's statistics (`mbs run
-    --until-settled`; ``overwrite`` as in `simulate`)."""
+    --until-settled`; ``overwrite`` and ``allow_unphysical`` as in `simulate`)."""
     run = long_run(model, max_revolutions, PER_REV_UNTIL_SETTLED, until_settled=True, progress=progress,
                    **settings)
     res, stats = run.results, run.stepper.stats
@@ -87,6 +87,8 @@ def run_until_settled(model, out, max_revolutions: int, progress: Callable[[int,
                      settled_at=run.settled_at if run.settled_at is not None else -1,
                      n_steps=int(stats[ST_STEPS]), n_rejected=int(stats[ST_REJECTED]), n_rhs=int(stats[ST_RHS]),
                      n_contact_events=int(stats[ST_CONTACT_EVENTS]))
+    if settings.get("allow_unphysical"):
+        res.attrs["allow_unphysical"] = True
     write_beside(out, res, overwrite=overwrite, inputs=model.source_files)
     return run
 

@@ -335,6 +335,7 @@ class CaseSpec:
     keep: tuple[str, ...] | None = None  # signals stored (None: all)
     section: dict[str, Any] | None = field(default_factory=dict)  # poincare_section options; None: no section
     snapshot: ModelSnapshot | None = None  # the model's text, taken once (None: read model_path)
+    allow_unphysical: bool = False  # keep results that are not physical (`simulate`'s option)
 
     @property
     def key(self) -> str:
@@ -397,7 +398,7 @@ def run_case(spec: CaseSpec) -> CaseOutcome:
     try:
         overrides = {**spec.sets, **spec.values}
         model = spec.snapshot.compile(overrides) if spec.snapshot else compiler.load_model(spec.model_path, overrides)
-        res = simulate(model, output=None, **case_settings(model, spec))
+        res = simulate(model, output=None, allow_unphysical=spec.allow_unphysical, **case_settings(model, spec))
         status, message = FINISHED, res.attrs.get("message", "finished")
     except SimulationError as err:
         res, status, message = err.results, FAILED, err.message
@@ -550,8 +551,10 @@ class SweepSummary:
     rows: list[dict]
 
 
-def _config(snapshot: ModelSnapshot, sets, settings, revolutions, per_rev, keep, section) -> dict:
-    return {"model_fingerprint": snapshot.fingerprint(),
+def _config(snapshot: ModelSnapshot, sets, settings, revolutions, per_rev, keep, section,
+            allow_unphysical: bool = False) -> dict:
+    extra = {"allow_unphysical": True} if allow_unphysical else {}  # (absent: the files made before it)
+    return {**extra, "model_fingerprint": snapshot.fingerprint(),
             "sets": {k: str(v).replace(" ", "") for k, v in sorted((sets or {}).items())},
             "settings": {k: settings[k] for k in sorted(settings or {})},
             "revolutions": revolutions, "per_rev": per_rev,
@@ -565,12 +568,12 @@ def _canon(obj) -> str:
 
 def plan(model_path, axes: Sequence[Axis], sets=None, settings=None, revolutions=None, per_rev=None,
          keep=None, section=None, snapshot: ModelSnapshot | None = None,
-         cases: Sequence[dict[str, str]] | None = None) -> list[CaseSpec]:
+         cases: Sequence[dict[str, str]] | None = None, allow_unphysical: bool = False) -> list[CaseSpec]:
     """The cases of a sweep, numbered in product order (before any resumption); ``cases``, when
     given, lists each case's values instead of the product of the axes (a sampled study)."""
     values_list = expand(axes) if cases is None else [dict(c) for c in cases]
     return [CaseSpec(k, str(model_path), values, dict(sets or {}), dict(settings or {}), revolutions, per_rev,
-                     tuple(keep) if keep is not None else None, section, snapshot)
+                     tuple(keep) if keep is not None else None, section, snapshot, bool(allow_unphysical))
             for k, values in enumerate(values_list)]
 
 
@@ -782,6 +785,7 @@ def run_sweep(
     force: bool = False,
     cases: Sequence[dict[str, str]] | None = None,
     study: dict | None = None,
+    allow_unphysical: bool = False,
 ) -> SweepSummary:
     """Run every case of the sweep not yet in ``output`` and store it there.
 
@@ -799,7 +803,8 @@ def run_sweep(
     case beyond `output_size.MAX_ROWS` rows or cases that do not fit on the disk are refused first.
     ``cases`` lists the cases' values instead of the product of ``axes`` (which then name the
     parameters and their values), and ``study`` is stored as the root attribute ``study`` (JSON):
-    a sampled study (`planar_mbs.sweep.sampling`).
+    a sampled study (`planar_mbs.sweep.sampling`).  ``allow_unphysical`` keeps each case whose
+    results are not physical as finished (as `simulate`'s), recorded in the file's ``config``.
     """
     start = time.perf_counter()
     output = Path(output)
@@ -814,8 +819,9 @@ def run_sweep(
     if section and section.get("signals"):
         section["signals"] = list(section["signals"])
     settings = dict(settings or {})
-    specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section, snapshot, cases)
-    config = _config(snapshot, sets, settings, revolutions, per_rev, keep, section)
+    specs = plan(model_path, axes, sets, settings, revolutions, per_rev, keep, section, snapshot, cases,
+                 allow_unphysical)
+    config = _config(snapshot, sets, settings, revolutions, per_rev, keep, section, allow_unphysical)
     params = [a.name for a in axes]
     _check_param_names(params)
 
@@ -1174,13 +1180,14 @@ def replay_case(path: str | Path, index: int, output: str | Path | None = None, 
         raise SweepError(f"{path} has no case {index} (cases {min(rows, default=0)}..{max(rows, default=-1)})")
     spec = _replay_spec(rows[index], config, snapshot)
     model = snapshot.compile({**spec.sets, **spec.values})
+    run_options.setdefault("allow_unphysical", spec.allow_unphysical)
     return simulate(model, output=output, **case_settings(model, spec), **run_options)
 
 
 def _replay_spec(row: dict, config: dict, snapshot: ModelSnapshot) -> CaseSpec:
     return CaseSpec(row["index"], snapshot.path, dict(row["values"]), dict(config.get("sets") or {}),
                     dict(config.get("settings") or {}), config.get("revolutions"), config.get("per_rev"),
-                    None, config.get("section"), snapshot)
+                    None, config.get("section"), snapshot, bool(config.get("allow_unphysical", False)))
 
 
 def case_summary(path: str | Path, index: int) -> dict[str, tuple[float, float, float]]:
