@@ -215,8 +215,7 @@ def sweep(
         axes = [] if study else [sweep_scan.parse_param(p) for p in param]
         settings = _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs)
         section = _section_options(poincare, period, angle, transient, clock, no_section)
-        keep_list = None if keep is not None and keep.strip() == "all" else \
-            [k.strip() for k in (keep or "").split(",") if k.strip()]  # none by default
+        keep_list = _keep_list(keep)
         _check_sweep_files(model, output, set_ or [], keep_list)
         workers = None if scheduler else jobs or os.cpu_count() or 1  # a cluster's: unknown here
         with _interruptible(), _SweepProgress(quiet, workers) as bar, _cluster(scheduler) as executor:
@@ -234,6 +233,13 @@ def sweep(
         server.remove_temp_folder()  # the fork server's socket folder (the command ends without multiprocessing's finalizers)
     study_command.report(summary, output) if study else _report_sweep(summary, [a.name for a in axes],
                                                                       section is not None)
+
+
+def _keep_list(keep: str | None) -> list[str] | None:
+    """The signals `--keep` names (None: `all`; none by default)."""
+    if keep is not None and keep.strip() == "all":
+        return None
+    return [k.strip() for k in (keep or "").split(",") if k.strip()]
 
 
 def _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs) -> dict:
