@@ -65,6 +65,13 @@ from ..mechanism.model import (
     CP_FRICTION,
     CP_FRICTION_V0,
     CP_FRICTION_V1,
+    CP_FRICTION_MODEL,
+    CP_STATIC_FRICTION,
+    CP_STICK_DAMPING,
+    CP_STICK_STIFFNESS,
+    CP_STRIBECK_EXPONENT,
+    CP_STRIBECK_VELOCITY,
+    CP_VISCOUS_FRICTION,
     CP_BREAKDOWN,
     CP_KIND,
     CP_LENGTH,
@@ -80,6 +87,13 @@ from ..mechanism.model import (
     CT_IMPACT_VELOCITY,
     CT_LAST_FORCE,
     CT_MODE,
+    CT_ANCHOR,
+    CT_FRICTION,
+    CT_SLIP_DIRECTION,
+    NO_FRICTION_MODE,
+    SLIP,
+    STICK,
+    FrictionModel,
     FREE,
     TOUCHING,
     ContactLaw,
@@ -98,6 +112,10 @@ FLORES = int(ContactLaw.FLORES)
 GONTHIER = int(ContactLaw.GONTHIER)
 KELVIN_VOIGT = int(ContactLaw.KELVIN_VOIGT)
 N_LAWS = len(catalog.LAWS)
+AMBROSIO = int(FrictionModel.AMBROSIO)
+STRIBECK = int(FrictionModel.STRIBECK)
+# per friction model code: 1 = it sticks (catalog.FrictionSpec.stick)
+STICKS = np.array([1 if m.stick else 0 for m in catalog.FRICTION_MODELS], dtype=np.int64)
 CIRCLE_IN_CIRCLE = int(PairKind.CIRCLE_IN_CIRCLE)
 LUBRICATED = int(PairKind.LUBRICATED)
 CIRCLE_ON_LINE = int(PairKind.CIRCLE_ON_LINE)
@@ -240,6 +258,100 @@ def elastic_energy(law, p, delta, f_last):
         return 0.25 * A * F * F * (1.0 + 2.0 * math.log(B / F))
     ne = p[CP_EXPONENT]
     return p[CP_STIFFNESS] * delta ** (ne + 1.0) / (ne + 1.0)
+
+
+@kernel
+def normal_stiffness(law, p, delta, F):
+    """dF/dd of the law's elastic part at penetration delta > 0 (force F there): n K d^(n-1), or for
+    the cylindrical laws 1 / (A ln(B/F))."""
+    if is_cylindrical(law):
+        A, B = cylinder_scales(law, p)
+        if not (F > 0.0) or F >= B:
+            return 0.0
+        return 1.0 / (A * math.log(B / F))
+    ne = p[CP_EXPONENT]
+    return ne * p[CP_STIFFNESS] * delta ** (ne - 1.0)
+
+
+@kernel
+def sticks(p):
+    """True when element p's friction model holds a stuck contact (and it has friction)."""
+    return p[CP_FRICTION_MODEL] != AMBROSIO and p[CP_STATIC_FRICTION] > 0.0
+
+
+@kernel
+def slip_friction(p, F, vt, d):
+    """Friction force along t of a slipping contact of a stick model, slip direction d = +-1:
+    -mu_k F d (coulomb), or the Stribeck curve with its viscous term."""
+    if int(p[CP_FRICTION_MODEL]) == STRIBECK:
+        mk = p[CP_FRICTION]
+        mu = mk + (p[CP_STATIC_FRICTION] - mk) * math.exp(-(abs(vt) / p[CP_STRIBECK_VELOCITY]) ** p[CP_STRIBECK_EXPONENT])
+        return -d * mu * F - p[CP_VISCOUS_FRICTION] * vt
+    return -d * p[CP_FRICTION] * F
+
+
+@kernel
+def _body_point(q, b, lx, ly):
+    """Global point of body b given in its frame (ground: the point itself)."""
+    if b < 0:
+        return lx, ly
+    c = math.cos(q[3 * b + 2])
+    s = math.sin(q[3 * b + 2])
+    return q[3 * b] + c * lx - s * ly, q[3 * b + 1] + s * lx + c * ly
+
+
+@kernel
+def _arm_in_body(q, b, ax, ay):
+    """An arm from body b's centre of mass (ground: a global point) in the body's frame."""
+    if b < 0:
+        return ax, ay
+    c = math.cos(q[3 * b + 2])
+    s = math.sin(q[3 * b + 2])
+    return c * ax + s * ay, -s * ax + c * ay
+
+
+@kernel
+def set_anchor(km, k, q, contact, rix, riy, rjx, rjy):
+    """Element k sticks from now: its two material points at the contact (arms r_i, r_j) are its anchor."""
+    bi = km.clearance_body[k, 0]
+    bj = km.clearance_body[k, 1]
+    contact[k, CT_ANCHOR], contact[k, CT_ANCHOR + 1] = _arm_in_body(q, bi, rix, riy)
+    contact[k, CT_ANCHOR + 2], contact[k, CT_ANCHOR + 3] = _arm_in_body(q, bj, rjx, rjy)
+    contact[k, CT_FRICTION] = STICK
+
+
+@kernel
+def stick_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy):
+    """Friction force along t of stuck element k, uncapped: -(k_t s + c_t v_T), s the tangential
+    separation of its two anchor points, k_t = stick_stiffness x dF/dd of the normal law, c_t =
+    2 zeta sqrt(k_t m_t) with m_t the two bodies' effective mass along t at the contact points."""
+    p = km.clearance_param[k]
+    bi = km.clearance_body[k, 0]
+    bj = km.clearance_body[k, 1]
+    xi, yi = _body_point(q, bi, contact[k, CT_ANCHOR], contact[k, CT_ANCHOR + 1])
+    xj, yj = _body_point(q, bj, contact[k, CT_ANCHOR + 2], contact[k, CT_ANCHOR + 3])
+    s = -(xj - xi) * ny + (yj - yi) * nx
+    kt = p[CP_STICK_STIFFNESS] * normal_stiffness(law, p, delta, F)
+    w = _inverse_mass_along(km, bi, rix, riy, -ny, nx) + _inverse_mass_along(km, bj, rjx, rjy, -ny, nx)
+    ct = 2.0 * p[CP_STICK_DAMPING] * math.sqrt(kt / w) if w > 0.0 else 0.0
+    return -(kt * s + ct * vt)
+
+
+@kernel
+def friction_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy):
+    """Friction force F_T on the second body along t of element k in contact (normal force F): the
+    model's (catalog.FRICTION_MODELS); a stuck contact's spring-damper capped at mu_s F."""
+    p = km.clearance_param[k]
+    if not sticks(p):
+        return -friction_coefficient(p, vt) * F
+    mode = int(contact[k, CT_FRICTION])
+    if mode == SLIP:
+        return slip_friction(p, F, vt, contact[k, CT_SLIP_DIRECTION])
+    if mode != STICK:
+        return 0.0
+    Ft = stick_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy)
+    cap = p[CP_STATIC_FRICTION] * F
+    return max(-cap, min(cap, Ft))
 
 
 @kernel
@@ -464,7 +576,8 @@ def clearance_force(km, k, q, qd, cs, contact):
     F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], contact[k, CT_LAST_FORCE])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, rix, riy, rjx, rjy
-    Ft = -friction_coefficient(p, vt) * F
+    Ft = friction_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy) if p[CP_FRICTION] > 0.0 \
+        or sticks(p) else 0.0
     return F + F0, Ft + Ft0, nx, ny, vt, 0, rix, riy, rjx, rjy
 
 
