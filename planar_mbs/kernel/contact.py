@@ -291,46 +291,60 @@ def slip_friction(p, F, vt, d):
 
 
 @kernel
-def _body_point(q, b, lx, ly):
-    """Global point of body b given in its frame (ground: the point itself)."""
-    if b < 0:
-        return lx, ly
-    c = math.cos(q[3 * b + 2])
-    s = math.sin(q[3 * b + 2])
-    return q[3 * b] + c * lx - s * ly, q[3 * b + 1] + s * lx + c * ly
+def _angle(q, b):
+    return q[3 * b + 2] if b >= 0 else 0.0
 
 
 @kernel
-def _arm_in_body(q, b, ax, ay):
-    """An arm from body b's centre of mass (ground: a global point) in the body's frame."""
-    if b < 0:
-        return ax, ay
-    c = math.cos(q[3 * b + 2])
-    s = math.sin(q[3 * b + 2])
-    return c * ax + s * ay, -s * ax + c * ay
+def slip_coordinates(km, k, q, ex, ey, nx, ny):
+    """(a, b, c) of element k whose change s = (a - a0) + (b - b0) (circle on line) or (a - a0) +
+    c wrap(b - b0) (b an angle) is the slip at the contact since (a0, b0): its rate is the slip velocity
+    v_T to first order in the penetration, and rolling without slip leaves it unchanged.  With gamma
+    the angle of n: circle in circle s = R_j (phi_j - gamma) - R_i (phi_i - gamma); circles from outside
+    R_j (phi_j - gamma) + R_i (phi_i - gamma); circle on line R_j (phi_j - phi_i) + xi, xi = (P_j - P_i) . t
+    the contact's place along the line."""
+    p = km.clearance_param[k]
+    kind = int(p[CP_KIND])
+    pi_ = _angle(q, km.clearance_body[k, 0])
+    pj = _angle(q, km.clearance_body[k, 1])
+    rj = p[CP_R_JOURNAL]
+    ri = p[CP_R_BEARING]
+    if kind == CIRCLE_ON_LINE:
+        return rj * (pj - pi_), -ex * ny + ey * nx, 0.0
+    if kind == CIRCLE_ON_CIRCLE:
+        return rj * pj + ri * pi_, math.atan2(ny, nx), -(rj + ri)
+    return rj * pj - ri * pi_, math.atan2(ny, nx), ri - rj
 
 
 @kernel
-def set_anchor(km, k, q, contact, rix, riy, rjx, rjy):
-    """Element k sticks from now: its two material points at the contact (arms r_i, r_j) are its anchor."""
-    bi = km.clearance_body[k, 0]
-    bj = km.clearance_body[k, 1]
-    contact[k, CT_ANCHOR], contact[k, CT_ANCHOR + 1] = _arm_in_body(q, bi, rix, riy)
-    contact[k, CT_ANCHOR + 2], contact[k, CT_ANCHOR + 3] = _arm_in_body(q, bj, rjx, rjy)
+def set_anchor(km, k, q, contact, ex, ey, nx, ny):
+    """Element k sticks from now: its slip coordinates now are its anchor."""
+    a, b, c = slip_coordinates(km, k, q, ex, ey, nx, ny)
+    contact[k, CT_ANCHOR] = a
+    contact[k, CT_ANCHOR + 1] = b
     contact[k, CT_FRICTION] = STICK
 
 
 @kernel
-def stick_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy):
-    """Friction force along t of stuck element k, uncapped: -(k_t s + c_t v_T), s the tangential
-    separation of its two anchor points, k_t = stick_stiffness x dF/dd of the normal law, c_t =
-    2 zeta sqrt(k_t m_t) with m_t the two bodies' effective mass along t at the contact points."""
+def stuck_slip(km, k, q, contact, ex, ey, nx, ny):
+    """Slip s of stuck element k since it stuck (`slip_coordinates`)."""
+    a, b, c = slip_coordinates(km, k, q, ex, ey, nx, ny)
+    db = b - contact[k, CT_ANCHOR + 1]
+    if c == 0.0:
+        return a - contact[k, CT_ANCHOR] + db
+    db = math.atan2(math.sin(db), math.cos(db))
+    return a - contact[k, CT_ANCHOR] + c * db
+
+
+@kernel
+def stick_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy):
+    """Friction force along t of stuck element k, uncapped: -(k_t s + c_t v_T), s its slip since it
+    stuck (`stuck_slip`), k_t = stick_stiffness x dF/dd of the normal law, c_t = 2 zeta sqrt(k_t m_t)
+    with m_t the two bodies' effective mass along t at the contact points."""
     p = km.clearance_param[k]
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
-    xi, yi = _body_point(q, bi, contact[k, CT_ANCHOR], contact[k, CT_ANCHOR + 1])
-    xj, yj = _body_point(q, bj, contact[k, CT_ANCHOR + 2], contact[k, CT_ANCHOR + 3])
-    s = -(xj - xi) * ny + (yj - yi) * nx
+    s = stuck_slip(km, k, q, contact, ex, ey, nx, ny)
     kt = p[CP_STICK_STIFFNESS] * normal_stiffness(law, p, delta, F)
     w = _inverse_mass_along(km, bi, rix, riy, -ny, nx) + _inverse_mass_along(km, bj, rjx, rjy, -ny, nx)
     ct = 2.0 * p[CP_STICK_DAMPING] * math.sqrt(kt / w) if w > 0.0 else 0.0
@@ -338,7 +352,7 @@ def stick_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy
 
 
 @kernel
-def friction_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy):
+def friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy):
     """Friction force F_T on the second body along t of element k in contact (normal force F): the
     model's (catalog.FRICTION_MODELS); a stuck contact's spring-damper capped at mu_s F."""
     p = km.clearance_param[k]
@@ -349,7 +363,7 @@ def friction_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, 
         return slip_friction(p, F, vt, contact[k, CT_SLIP_DIRECTION])
     if mode != STICK:
         return 0.0
-    Ft = stick_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy)
+    Ft = stick_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy)
     cap = p[CP_STATIC_FRICTION] * F
     return max(-cap, min(cap, Ft))
 
@@ -576,7 +590,7 @@ def clearance_force(km, k, q, qd, cs, contact):
     F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], contact[k, CT_LAST_FORCE])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, rix, riy, rjx, rjy
-    Ft = friction_force(km, k, q, contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy) if p[CP_FRICTION] > 0.0 \
+    Ft = friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy) if p[CP_FRICTION] > 0.0 \
         or sticks(p) else 0.0
     return F + F0, Ft + Ft0, nx, ny, vt, 0, rix, riy, rjx, rjy
 

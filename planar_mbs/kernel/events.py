@@ -273,7 +273,7 @@ def friction_g(km, k, y, contact):
     law = km.clearance_law[k]
     p = km.clearance_param[k]
     F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], 0.0)
-    Ft = stick_force(km, k, y[:n], contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy)
+    Ft = stick_force(km, k, y[:n], contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy)
     return abs(Ft) - p[CP_STATIC_FRICTION] * F
 
 
@@ -350,7 +350,7 @@ def start_friction(km, k, y, contact):
     n = y.shape[0] // 2
     ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
     if vt == 0.0:
-        set_anchor(km, k, y[:n], contact, rix, riy, rjx, rjy)
+        set_anchor(km, k, y[:n], contact, ex, ey, nx, ny)
     else:
         contact[k, CT_FRICTION] = SLIP
         contact[k, CT_SLIP_DIRECTION] = 1.0 if vt > 0.0 else -1.0
@@ -365,11 +365,11 @@ def switch_friction(km, k, y, contact, stats):
     if int(contact[k, CT_FRICTION]) == STICK:
         law = km.clearance_law[k]
         F, st = normal_force(law, km.clearance_param[k], max(delta, 0.0), vn, contact[k, CT_IMPACT_VELOCITY], 0.0)
-        Ft = stick_force(km, k, y[:n], contact, law, delta, F, vt, nx, ny, rix, riy, rjx, rjy)
+        Ft = stick_force(km, k, y[:n], contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy)
         contact[k, CT_FRICTION] = SLIP
         contact[k, CT_SLIP_DIRECTION] = -1.0 if Ft > 0.0 else 1.0
     else:
-        set_anchor(km, k, y[:n], contact, rix, riy, rjx, rjy)
+        set_anchor(km, k, y[:n], contact, ex, ey, nx, ny)
     stats[ST_CONTACT_EVENTS] += 1
 
 

@@ -934,7 +934,8 @@ class _ClearancePass:
             if isinstance(default, str):  # "NAME" or "FACTOR NAME": another setting's value
                 *factor, other = default.split()
                 default = float(factor[0] if factor else 1.0) * p[FRICTION_COLUMNS[other]]
-            p[FRICTION_COLUMNS[x.name]] = f.scalar(x.name, FRICTION_UNITS[x.unit], default,
+            extra = () if default is None else (default,)  # None: the model needs it
+            p[FRICTION_COLUMNS[x.name]] = f.scalar(x.name, FRICTION_UNITS[x.unit], *extra,
                                                    positive=x.name in _POSITIVE_FRICTION, nonneg=True)
         if name == "ambrosio":
             self._ambrosio_ramp(f, p)

@@ -193,8 +193,8 @@ CT_LAST_FORCE = 2  # unused (once the warm start of the implicit laws)
 # friction of a stick model (catalog.FrictionSpec.stick): its mode, slip direction and stick anchor
 CT_FRICTION = 3  # NO_FRICTION_MODE, STICK or SLIP
 CT_SLIP_DIRECTION = 4  # sign (+1 / -1) of the slip velocity v_T while slipping
-CT_ANCHOR = 5  # 5..8: the two material points stuck together (each in its body's frame; ground: global)
-N_CONTACT_STATE = 9
+CT_ANCHOR = 5  # 5, 6: the slip coordinates where it stuck (kernel.contact.slip_coordinates)
+N_CONTACT_STATE = 7
 NO_FRICTION_MODE, STICK, SLIP = 0, 1, 2
 FREE = 0  # free flight: no contact force even if delta > 0
 TOUCHING = 1  # in contact: the law's force while delta > 0
