@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from scipy.linalg import expm
+from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from planar_mbs import Simulation, compile_text, simulate
@@ -220,3 +221,26 @@ def test_friction_power_is_the_friction_force_times_the_slip_velocity():
 def test_bad_friction_settings_are_refused_with_the_line(fields, message):
     with pytest.raises(ModelError, match=message):
         slope(0.0, fields, t_end=0.01)
+
+
+def test_a_block_thrown_on_a_level_plane_slows_down_on_the_stribeck_curve():
+    """Slipping, m v' = -(mu(v) m g + sigma_2 v), mu(v) = mu_k + (mu_s - mu_k) exp(-(v/v_s)^d): the run's
+    speed against that 1-D equation integrated here, until it sticks."""
+    mk, ms, vs, dlt, s2, v0 = 0.2, 0.4, 0.05, 2.0, 0.5, 0.3
+    fr = (f"friction_model = stribeck  friction = {mk}  static_friction = {ms}  stribeck_velocity = {vs} m/s  "
+          f"stribeck_exponent = {dlt}  viscous_friction = {s2} N*s/m")
+    res, down, d = slope(0.0, fr, t_end=0.3, v0=v0)
+    s, v = along(res, down)
+
+    def rate(t, y):
+        return [-(G * (mk + (ms - mk) * math.exp(-(y[0] / vs) ** dlt)) + s2 * y[0])]
+
+    stop = lambda t, y: y[0] - 1e-9  # noqa: E731
+    stop.terminal = True
+    ref = solve_ivp(rate, (0, 1), [v0], rtol=1e-12, atol=1e-14, dense_output=True, events=stop)
+    t_stop = ref.t_events[0][0]
+    slide = res.time < t_stop - 0.005
+    assert np.allclose(v[slide], ref.sol(res.time[slide])[0], rtol=1e-5, atol=1e-8)
+    k = int(np.argmax(res["plane.stick"] > 0))
+    assert res.time[k - 1] < t_stop + 1e-6 and t_stop - 1e-6 <= res.time[k]
+    assert np.max(np.abs(v[res.time > t_stop + 0.01])) < 1e-6
