@@ -244,3 +244,37 @@ def test_a_block_thrown_on_a_level_plane_slows_down_on_the_stribeck_curve():
     k = int(np.argmax(res["plane.stick"] > 0))
     assert res.time[k - 1] < t_stop + 1e-6 and t_stop - 1e-6 <= res.time[k]
     assert np.max(np.abs(v[res.time > t_stop + 0.01])) < 1e-6
+
+
+GUIDE = """
+gravity (0, -9.81 m/s^2)
+body block {{ mass = 1 kg  inertia = 4e-4 kg*m^2  position = ({x0}, {y0}) }}
+joint S = clearance_translational(ground (0, 0), block, axis = ({ux}, {uy})) {{
+    clearance = 0.5 mm  length = 60 mm  width = 20 mm  law = kelvin_voigt  stiffness = {K} N/m  restitution = 0.5
+    {friction}
+}}
+simulate {{ t_end = {t_end} s  output_step = 10 ms }}
+"""
+
+
+@pytest.mark.parametrize("deg, friction", [(10, "friction = 0.3"), (30, "friction = 0.2  static_friction = 0.3")])
+def test_a_block_in_a_tilted_guide_holds_below_and_slides_above_its_friction_angle(deg, friction):
+    """A translational clearance joint (a block on its two bottom corners, free to tilt) on a guide at
+    theta: below the friction angle both corners stay stuck and the block moves by the corners'
+    compliance only; above it slides with a = g (sin - mu_k cos) (the corners' normal forces sum to
+    m g cos(theta) whatever the tilt moment shares them out)."""
+    th = math.radians(deg)
+    u, n = np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
+    c = -n * (0.25e-3 + G * math.cos(th) / 2 / K)  # on the bottom surface, each corner carrying half
+    res = simulate(compile_text(GUIDE.format(x0=c[0], y0=c[1], ux=u[0], uy=u[1], K=K, friction=friction,
+                                             t_end=2.0 if deg == 10 else 0.5)))
+    s = res["block.x"] * u[0] + res["block.y"] * u[1]
+    v = res["block.vx"] * u[0] + res["block.vy"] * u[1]
+    if deg == 10:
+        assert np.max(np.abs(s - s[0])) < G * math.cos(th) / 2 / K  # below one corner's penetration
+        assert res["S_rear_bottom.stick"].min() == 1.0 and res["S_front_bottom.stick"].min() == 1.0
+        assert abs(v[-1]) < 1e-9
+    else:
+        late = res.time > 0.2
+        a = (v[late][-1] - v[late][0]) / (res.time[late][-1] - res.time[late][0])
+        assert a == pytest.approx(-G * (math.sin(th) - 0.2 * math.cos(th)), rel=1e-6)
