@@ -234,6 +234,7 @@ def render(data, page: str = "") -> str:
         out.append(RATIO_TEXT.format(**data["_verdict"], **_ratio_facts(data, sc)))
         out.append("![clearance work-precision](images/bench_clearance_slider_crank.png)\n")
         out.append("<details><summary>all runs</summary>\n\n" + wp_table(sec) + "\n\n</details>\n")
+    out.extend(_hand(page, "friction"))  # benchmarks/friction_cost.py, written by hand from its output
     if "wp_ideal" in data:
         sec = data["wp_ideal"]
         out.append("## Ideal slider-crank against its closed form\n")

@@ -282,6 +282,81 @@ def pair(name: str) -> PairSpec:
 def element(name: str) -> ElementSpec:
     return _by_name(ELEMENTS, name, "contact element")
 
+# ------------------------------------------------------------------ friction models
+
+
+@dataclass(frozen=True)
+class FrictionSetting:
+    """A setting of a friction model: its name in a contact element, its unit kind (the compiler's
+    unit table: "number", "velocity", "damping"), its default (None: required; a string: the value of
+    that other setting) and what it means, with its symbol."""
+
+    name: str
+    unit: str
+    default: float | str | None
+    meaning: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class FrictionSpec:
+    """A friction model of the contact elements (`friction_model = NAME`; docs/contact.md, "Friction").
+
+    ``stick``: the model holds a stuck contact by a stiff spring-damper to an anchor, with its slip and
+    stick events located (kernel/events.py); without, the force is a function of the slip speed alone."""
+
+    code: int  # FrictionModel value, clearance_param[k, CP_FRICTION_MODEL]
+    enum: str
+    name: str
+    title: str
+    formula: str
+    settings: tuple[FrictionSetting, ...]
+    stick: bool
+    reference: str
+
+
+_MU = FrictionSetting("friction", "number", 0.0, "kinetic coefficient mu_k (0: frictionless)")
+_MU_S = FrictionSetting("static_friction", "number", "friction", "static coefficient mu_s >= mu_k")
+_STICK = (FrictionSetting("stick_stiffness", "number", 1.0,
+                          "stiffness of a stuck contact along t as a multiple of the normal law's dF/dd "
+                          "(Mindlin's ratio 2 (1 - nu)/(2 - nu) is 0.82 for steel)"),
+          FrictionSetting("stick_damping", "number", 1.0,
+                          "damping ratio zeta of the stuck contact's spring-damper (1: critical)"))
+FRICTION_MODELS: tuple[FrictionSpec, ...] = (
+    FrictionSpec(code=0, enum="AMBROSIO", name="ambrosio", title="Coulomb, Ambrósio's correction",
+                 formula="F_T = -mu c_d(v) F_N sign(v), c_d = 0 below a slip speed v0, 1 above v1", stick=False,
+                 settings=(_MU, FrictionSetting("friction_velocity", "velocity", 1e-4,
+                                                "slip speed v0 below which friction is off"),
+                           FrictionSetting("friction_velocity_full", "velocity", "2 friction_velocity",
+                                           "slip speed v1 from which the full mu F_N acts")),
+                 reference="Ambrósio, Impact of rigid and flexible multibody systems (2003)"),
+    FrictionSpec(code=1, enum="COULOMB", name="coulomb", title="Coulomb with stick",
+                 formula="stick: F_T = -(k_t s + c_t v) up to mu_s F_N; slip: F_T = -mu_k F_N sign(v)",
+                 stick=True, settings=(_MU, _MU_S) + _STICK,
+                 reference="Marques, Flores, Claro & Lankarani, Nonlinear Dyn 86 (2016)"),
+    FrictionSpec(code=2, enum="STRIBECK", name="stribeck", title="Stribeck with stick",
+                 formula="stick as coulomb; slip: F_T = -(mu_k + (mu_s - mu_k) exp(-(abs(v)/v_s)^d)) F_N "
+                         "sign(v) - sigma_2 v", stick=True,
+                 settings=(_MU, _MU_S, FrictionSetting("stribeck_velocity", "velocity", None,
+                                                       "Stribeck velocity v_s"),
+                           FrictionSetting("stribeck_exponent", "number", 2.0, "exponent d of the Stribeck curve"),
+                           FrictionSetting("viscous_friction", "damping", 0.0, "viscous coefficient sigma_2"))
+                 + _STICK,
+                 reference="Marques, Flores, Claro & Lankarani, Nonlinear Dyn 86 (2016); Pennestri et al., "
+                           "Nonlinear Dyn 83 (2016)"),
+)
+FRICTION_UNIT_TEXT = {"number": "", "velocity": " m/s", "damping": " N*s/m"}  # as docs show a default
+DEFAULT_FRICTION = "coulomb"  # a model that writes only `friction = 0.3` gets a contact that can stick
+
+
+def friction_model(name: str) -> FrictionSpec:
+    return _by_name(FRICTION_MODELS, name, "friction model")
+
+
+def friction_settings() -> tuple[str, ...]:
+    """Every setting of any friction model, each once, in order of first use."""
+    return tuple(dict.fromkeys(s.name for m in FRICTION_MODELS for s in m.settings))
+
+
 # ------------------------------------------------------------------ integrators
 
 
@@ -667,7 +742,7 @@ def _check_joint(s: JointSpec) -> None:
 
 def check() -> None:
     """The tables are consistent: codes 0..n-1 in order, names unique."""
-    for table in (LAWS, JOINTS, INTEGRATORS, PAIRS, FORCES, DRIVERS, MOTIONS):
+    for table in (LAWS, JOINTS, INTEGRATORS, PAIRS, FORCES, DRIVERS, MOTIONS, FRICTION_MODELS):
         assert [s.code for s in table] == list(range(len(table))), "codes must be 0..n-1 in order"
         assert len(set(names(table))) == len(table), "names must be unique"
         assert len({s.enum for s in table}) == len(table), "enum names must be unique"
@@ -679,6 +754,7 @@ def check() -> None:
         _check_tableau(s)
     for g in LAW_GROUPS:
         assert set(g.needs) <= set(g.takes) and set(g.one_of) <= set(g.takes), g.name
+    assert DEFAULT_FRICTION in names(FRICTION_MODELS)
     assert ELEMENTS[0].name == CLEARANCE_JOINT and {e.pair for e in ELEMENTS} <= set(names(PAIRS))
 
 
@@ -707,6 +783,11 @@ def docs_lists() -> dict[str, str]:
             + (f", needs one of {_code(g.one_of)}" if g.one_of else "") for g in LAW_GROUPS),
         "integrators": "| integrator | order | stages | step |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.name}` | {s.order} | {s.stages} | {s.summary} |" for s in INTEGRATORS),
+        "friction": "| model | formula | settings |\n| --- | --- | --- |\n" + "\n".join(
+            f"| `{m.name}` | {m.formula} | " + "; ".join(
+                f"`{x.name}`: {x.meaning}" + ("" if x.default is None else f" (default {x.default}"
+                                                   f"{FRICTION_UNIT_TEXT[x.unit]})")
+                for x in m.settings) + " |" for m in FRICTION_MODELS),
         "forces": "| force | formula | settings | potential energy |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.example or s.name}` | {s.formula} | " + ("; ".join(f"`{k}`: {v}" for k, v in s.fields.items())
                                                           or "—") + f" | {'yes' if s.potential else 'no'} |"

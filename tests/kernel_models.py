@@ -11,7 +11,7 @@ import numpy as np
 from planar_mbs.kernel import kernel_model
 from planar_mbs.mechanism.model import (
     CP_CLEARANCE, CP_EXPONENT, CP_R_BEARING, CP_R_JOURNAL, CP_RESTITUTION, CP_SIGMA_SUM, CP_STIFFNESS,
-    CP_LENGTH, JOINT_ROWS, JP, N_CLEARANCE_PARAM, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM,
+    CP_LENGTH, JOINT_ROWS, JP, N_CLEARANCE_PARAM, N_CONTACT_STATE, N_FORCE_PARAM, N_JOINT_PARAM, N_MOTION_PARAM,
     ContactLaw, DriverType, ForceType, JointType, KernelModel, MotionType, Settings, Integrator,
 )
 
@@ -188,7 +188,7 @@ def run(km, q0, qd0, c, t_end, cap=100_000, t0=0.0, contact=None):
     y = np.concatenate([q0, qd0]).astype(float)
     clock = np.array([t0, 0.0, t0])
     if contact is None:
-        contact = np.zeros((len(km.clearance_law), 3))
+        contact = np.zeros((len(km.clearance_law), N_CONTACT_STATE))
     stats = np.zeros(N_STATS, np.int64)
     out_t = np.zeros(cap)
     out = np.zeros((cap, nobs(km)))

@@ -7,7 +7,7 @@ import pytest
 import kernel_models as K
 from planar_mbs import catalog
 from planar_mbs.kernel import advance, make_workspace, nobs
-from planar_mbs.mechanism.model import N_STATS, ContactLaw, Integrator, Status
+from planar_mbs.mechanism.model import N_CONTACT_STATE, N_STATS, ContactLaw, Integrator, Status
 
 
 @pytest.mark.parametrize("cap", [1, 7, 1000])
@@ -56,7 +56,7 @@ def _one_call(km, q0, qd0, c, t_stop):
     clock = np.zeros(3)
     stats = np.zeros(N_STATS, np.int64)
     out_t, out = np.zeros(100), np.zeros((100, nobs(km)))
-    st, nw = advance(km, c, y, clock, np.zeros((len(km.clearance_law), 3)), stats, ws, t_stop, out_t, out)
+    st, nw = advance(km, c, y, clock, np.zeros((len(km.clearance_law), N_CONTACT_STATE)), stats, ws, t_stop, out_t, out)
     return st, nw, y, clock, stats
 
 

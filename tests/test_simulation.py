@@ -262,7 +262,7 @@ def test_skipped_columns_of_the_observation_row_are_nan_and_the_rest_unchanged()
                                   OBS_SKIP_DYNAMICS, OBS_SKIP_ENERGY, OBS_SKIP_ERRORS, OBS_SKIP_LOADS,
                                   SYS_BALANCE, SYS_DISSIPATED, SYS_GRAVITY_POWER, SYS_GRAVITY_WORK,
                                   SYS_INPUT_WORK, SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR,
-                                  SYS_VELOCITY_ERROR, OB_FORCE, observation_layout,
+                                  SYS_VELOCITY_ERROR, OB_FORCE, N_CONTACT_STATE, observation_layout,
                                   observation_size)
 
     model = mbs.load_model(MODELS / "slider_crank_clearance_a.mbs")
@@ -271,7 +271,7 @@ def test_skipped_columns_of_the_observation_row_are_nan_and_the_rest_unchanged()
     y = np.concatenate([q, qd])
     lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce)
     n = observation_size(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce)
-    contact = np.zeros((model.nclearance, 3))
+    contact = np.zeros((model.nclearance, N_CONTACT_STATE))
 
     def row(bits):
         cfg = model.settings.cfg()

@@ -65,6 +65,13 @@ from ..mechanism.model import (
     CP_FRICTION,
     CP_FRICTION_V0,
     CP_FRICTION_V1,
+    CP_FRICTION_MODEL,
+    CP_STATIC_FRICTION,
+    CP_STICK_DAMPING,
+    CP_STICK_STIFFNESS,
+    CP_STRIBECK_EXPONENT,
+    CP_STRIBECK_VELOCITY,
+    CP_VISCOUS_FRICTION,
     CP_BREAKDOWN,
     CP_KIND,
     CP_LENGTH,
@@ -80,6 +87,13 @@ from ..mechanism.model import (
     CT_IMPACT_VELOCITY,
     CT_LAST_FORCE,
     CT_MODE,
+    CT_ANCHOR,
+    CT_FRICTION,
+    CT_SLIP_DIRECTION,
+    NO_FRICTION_MODE,
+    SLIP,
+    STICK,
+    FrictionModel,
     FREE,
     TOUCHING,
     ContactLaw,
@@ -98,6 +112,10 @@ FLORES = int(ContactLaw.FLORES)
 GONTHIER = int(ContactLaw.GONTHIER)
 KELVIN_VOIGT = int(ContactLaw.KELVIN_VOIGT)
 N_LAWS = len(catalog.LAWS)
+AMBROSIO = int(FrictionModel.AMBROSIO)
+STRIBECK = int(FrictionModel.STRIBECK)
+# per friction model code: 1 = it sticks (catalog.FrictionSpec.stick)
+STICKS = np.array([1 if m.stick else 0 for m in catalog.FRICTION_MODELS], dtype=np.int64)
 CIRCLE_IN_CIRCLE = int(PairKind.CIRCLE_IN_CIRCLE)
 LUBRICATED = int(PairKind.LUBRICATED)
 CIRCLE_ON_LINE = int(PairKind.CIRCLE_ON_LINE)
@@ -240,6 +258,114 @@ def elastic_energy(law, p, delta, f_last):
         return 0.25 * A * F * F * (1.0 + 2.0 * math.log(B / F))
     ne = p[CP_EXPONENT]
     return p[CP_STIFFNESS] * delta ** (ne + 1.0) / (ne + 1.0)
+
+
+@kernel
+def normal_stiffness(law, p, delta, F):
+    """dF/dd of the law's elastic part at penetration delta > 0 (force F there): n K d^(n-1), or for
+    the cylindrical laws 1 / (A ln(B/F))."""
+    if is_cylindrical(law):
+        A, B = cylinder_scales(law, p)
+        if not (F > 0.0) or F >= B:
+            return 0.0
+        return 1.0 / (A * math.log(B / F))
+    ne = p[CP_EXPONENT]
+    return ne * p[CP_STIFFNESS] * delta ** (ne - 1.0)
+
+
+@kernel
+def sticks(p):
+    """True when element p's friction model holds a stuck contact (and it has friction)."""
+    return p[CP_FRICTION_MODEL] != AMBROSIO and p[CP_STATIC_FRICTION] > 0.0
+
+
+@kernel
+def slip_friction(p, F, vt, d):
+    """Friction force along t of a slipping contact of a stick model, slip direction d = +-1:
+    -mu_k F d (coulomb), or the Stribeck curve with its viscous term."""
+    if int(p[CP_FRICTION_MODEL]) == STRIBECK:
+        mk = p[CP_FRICTION]
+        mu = mk + (p[CP_STATIC_FRICTION] - mk) * math.exp(-(abs(vt) / p[CP_STRIBECK_VELOCITY]) ** p[CP_STRIBECK_EXPONENT])
+        return -d * mu * F - p[CP_VISCOUS_FRICTION] * vt
+    return -d * p[CP_FRICTION] * F
+
+
+@kernel
+def _angle(q, b):
+    return q[3 * b + 2] if b >= 0 else 0.0
+
+
+@kernel
+def slip_coordinates(km, k, q, ex, ey, nx, ny):
+    """(a, b, c) of element k whose change s = (a - a0) + (b - b0) (circle on line) or (a - a0) +
+    c wrap(b - b0) (b an angle) is the slip at the contact since (a0, b0): its rate is the slip velocity
+    v_T to first order in the penetration, and rolling without slip leaves it unchanged.  With gamma
+    the angle of n: circle in circle s = R_j (phi_j - gamma) - R_i (phi_i - gamma); circles from outside
+    R_j (phi_j - gamma) + R_i (phi_i - gamma); circle on line R_j (phi_j - phi_i) + xi, xi = (P_j - P_i) . t
+    the contact's place along the line."""
+    p = km.clearance_param[k]
+    kind = int(p[CP_KIND])
+    pi_ = _angle(q, km.clearance_body[k, 0])
+    pj = _angle(q, km.clearance_body[k, 1])
+    rj = p[CP_R_JOURNAL]
+    ri = p[CP_R_BEARING]
+    if kind == CIRCLE_ON_LINE:
+        return rj * (pj - pi_), -ex * ny + ey * nx, 0.0
+    if kind == CIRCLE_ON_CIRCLE:
+        return rj * pj + ri * pi_, math.atan2(ny, nx), -(rj + ri)
+    return rj * pj - ri * pi_, math.atan2(ny, nx), ri - rj
+
+
+@kernel
+def set_anchor(km, k, q, contact, ex, ey, nx, ny):
+    """Element k sticks from now: its slip coordinates now are its anchor."""
+    a, b, c = slip_coordinates(km, k, q, ex, ey, nx, ny)
+    contact[k, CT_ANCHOR] = a
+    contact[k, CT_ANCHOR + 1] = b
+    contact[k, CT_FRICTION] = STICK
+
+
+@kernel
+def stuck_slip(km, k, q, contact, ex, ey, nx, ny):
+    """Slip s of stuck element k since it stuck (`slip_coordinates`)."""
+    a, b, c = slip_coordinates(km, k, q, ex, ey, nx, ny)
+    db = b - contact[k, CT_ANCHOR + 1]
+    if c == 0.0:
+        return a - contact[k, CT_ANCHOR] + db
+    db = math.atan2(math.sin(db), math.cos(db))
+    return a - contact[k, CT_ANCHOR] + c * db
+
+
+@kernel
+def stick_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy):
+    """Friction force along t of stuck element k, uncapped: -(k_t s + c_t v_T), s its slip since it
+    stuck (`stuck_slip`), k_t = stick_stiffness x dF/dd of the normal law, c_t = 2 zeta sqrt(k_t m_t)
+    with m_t the two bodies' effective mass along t at the contact points."""
+    p = km.clearance_param[k]
+    bi = km.clearance_body[k, 0]
+    bj = km.clearance_body[k, 1]
+    s = stuck_slip(km, k, q, contact, ex, ey, nx, ny)
+    kt = p[CP_STICK_STIFFNESS] * normal_stiffness(law, p, delta, F)
+    w = _inverse_mass_along(km, bi, rix, riy, -ny, nx) + _inverse_mass_along(km, bj, rjx, rjy, -ny, nx)
+    ct = 2.0 * p[CP_STICK_DAMPING] * math.sqrt(kt / w) if w > 0.0 else 0.0
+    return -(kt * s + ct * vt)
+
+
+@kernel
+def friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy):
+    """Friction force F_T on the second body along t of element k in contact (normal force F): the
+    model's (catalog.FRICTION_MODELS); a stuck contact's spring-damper capped at mu_s F."""
+    p = km.clearance_param[k]
+    if not sticks(p):
+        return -friction_coefficient(p, vt) * F
+    mode = int(contact[k, CT_FRICTION])
+    if mode == SLIP:
+        return slip_friction(p, F, vt, contact[k, CT_SLIP_DIRECTION])
+    if mode != STICK:
+        return 0.0
+    Ft = stick_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy)
+    cap = p[CP_STATIC_FRICTION] * F
+    return max(-cap, min(cap, Ft))
 
 
 @kernel
@@ -464,7 +590,8 @@ def clearance_force(km, k, q, qd, cs, contact):
     F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], contact[k, CT_LAST_FORCE])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, rix, riy, rjx, rjy
-    Ft = -friction_coefficient(p, vt) * F
+    Ft = friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy) if p[CP_FRICTION] > 0.0 \
+        or sticks(p) else 0.0
     return F + F0, Ft + Ft0, nx, ny, vt, 0, rix, riy, rjx, rjy
 
 

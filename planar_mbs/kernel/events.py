@@ -17,6 +17,11 @@ by the same method to about 1e-12 relative time; the step is cut at the
 bracket end on the new side, and the earliest crossing over all joints wins
 (cf. SciPy ``_ivp/ivp.py``: sign change, root on the dense output).
 
+The friction of a stick model (`contact.sticks`) switches the same way: a stuck contact slips when its
+spring-damper's force reaches mu_s F_N (g = |F_T| - mu_s F_N), a slipping one sticks when its slip
+velocity crosses zero (g = -d v_T, d the slip direction); these are found from a sign change over the
+step and refined by the same regula falsi (`locate_friction`), event index nc + k for element k.
+
 The comparisons of expressions (`kernel.expressions`) are switches of the same kind: `locate_switch`
 finds the earliest one whose live value differs from its frozen value at the step's end, by
 bisection on the dense output to the same relative time ROOT_RTOL.
@@ -26,8 +31,9 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from ..mechanism.model import CT_IMPACT_VELOCITY, CT_MODE, FREE, TOUCHING
-from .contact import contact_mode
+from ..mechanism.model import (CP_STATIC_FRICTION, CT_FRICTION, CT_IMPACT_VELOCITY, CT_MODE, CT_SLIP_DIRECTION, FREE,
+                               NO_FRICTION_MODE, SLIP, STICK, TOUCHING)
+from .contact import contact_mode, normal_force, pair_kinematics, set_anchor, stick_force, sticks
 
 from ..mechanism.model import ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
@@ -98,7 +104,7 @@ def event_possible(km, ws, contact, kend):
         x, p = _cubic_peak(g0, d0, g1, d1)
         if x > 0.0 and 2.0 * p - max(g0, g1) > 0.0:
             return True
-    return False
+    return friction_possible(km, ws, contact)
 
 
 @kernel
@@ -211,8 +217,8 @@ def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
 def locate_event(km, ws, contact):
     """Earliest mode change inside the last step (dense segment ws.dense[DN_TA], ws.dense[DN_H]).
 
-    Returns (k, theta): joint index (-1 if none) and the step fraction of the
-    bracket end on the new side of the switching surface."""
+    Returns (k, theta): joint index (-1 if none; nc + k: element k's friction) and the step fraction
+    of the bracket end on the new side of the switching surface."""
     nc = km.clearance_body.shape[0]
     ta = ws.dense[DN_TA]
     h = ws.dense[DN_H]
@@ -248,28 +254,151 @@ def locate_event(km, ws, contact):
         if hi < best:
             best = hi
             kbest = k
+    return locate_friction(km, ws, contact, best, kbest)
+
+
+@kernel
+def friction_g(km, k, y, contact):
+    """Event function of element k's friction mode at state y, positive past the switch: stuck,
+    |F_T| - mu_s F_N of its spring-damper; slipping, -d v_T.  -1 when it has no friction mode or no force."""
+    mode = int(contact[k, CT_FRICTION])
+    if mode == NO_FRICTION_MODE or contact_mode(contact, k) == FREE:
+        return -1.0
+    n = y.shape[0] // 2
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
+    if mode == SLIP:
+        return -contact[k, CT_SLIP_DIRECTION] * vt
+    if not (delta > 0.0):
+        return -1.0
+    law = km.clearance_law[k]
+    p = km.clearance_param[k]
+    F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], 0.0)
+    Ft = stick_force(km, k, y[:n], contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy)
+    return abs(Ft) - p[CP_STATIC_FRICTION] * F
+
+
+@kernel
+def friction_possible(km, ws, contact):
+    """True when some element's friction event function is positive at the step end."""
+    for k in range(km.clearance_body.shape[0]):
+        if friction_g(km, k, ws.yb, contact) > 0.0:
+            return True
+    return False
+
+
+@kernel
+def locate_friction(km, ws, contact, best, kbest):
+    """Earliest friction switch inside the last step before step fraction `best` (contact events'):
+    (event index nc + k, or kbest when none is earlier; its step fraction on the new side)."""
+    nc = km.clearance_body.shape[0]
+    ta = ws.dense[DN_TA]
+    h = ws.dense[DN_H]
+    tol = ROOT_RTOL * max(abs(ta), h) / h
+    for k in range(nc):
+        if int(contact[k, CT_FRICTION]) == NO_FRICTION_MODE:
+            continue
+        g1 = friction_g(km, k, ws.yb, contact)
+        if not (g1 > 0.0):
+            continue
+        g0 = friction_g(km, k, ws.ya, contact)
+        if g0 > 0.0:  # already past the switch at the step start (roundoff at a switch)
+            x = 0.0
+        else:
+            x = _friction_crossing(km, ws, contact, k, 0.0, g0, 1.0, g1, tol)
+        if x < best:
+            best = x
+            kbest = nc + k
     return kbest, best
+
+
+@kernel
+def _friction_crossing(km, ws, contact, k, lo, flo, hi, fhi, tol):
+    """Bracket end on the new side of the friction switch of element k in [lo, hi] (flo <= 0 < fhi)."""
+    side = 0
+    for it in range(MAX_ROOT_ITER):
+        if hi - lo <= tol:
+            break
+        if it % 4 == 3 or not (fhi - flo > 0.0):
+            x = 0.5 * (lo + hi)
+        else:
+            x = (lo * fhi - hi * flo) / (fhi - flo)
+            if not (x > lo and x < hi):
+                x = 0.5 * (lo + hi)
+        dense_eval(ws, x, ws.yt)
+        fx = friction_g(km, k, ws.yt, contact)
+        if fx > 0.0:
+            hi = x
+            fhi = fx
+            if side == 1:
+                flo *= 0.5
+            side = 1
+        else:
+            lo = x
+            flo = fx
+            if side == -1:
+                fhi *= 0.5
+            side = -1
+    return hi
+
+
+@kernel
+def start_friction(km, k, y, contact):
+    """Friction mode of element k as its contact begins: stuck when the slip velocity is zero, else
+    slipping its way (nothing for a model that does not stick)."""
+    if not sticks(km.clearance_param[k]):
+        return
+    n = y.shape[0] // 2
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
+    if vt == 0.0:
+        set_anchor(km, k, y[:n], contact, ex, ey, nx, ny)
+    else:
+        contact[k, CT_FRICTION] = SLIP
+        contact[k, CT_SLIP_DIRECTION] = 1.0 if vt > 0.0 else -1.0
+
+
+@kernel
+def switch_friction(km, k, y, contact, stats):
+    """Switch element k's friction mode at state y (on the new side): a stuck contact slips against
+    its spring-damper's force; a slipping one sticks where it is (its anchor)."""
+    n = y.shape[0] // 2
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
+    if int(contact[k, CT_FRICTION]) == STICK:
+        law = km.clearance_law[k]
+        F, st = normal_force(law, km.clearance_param[k], max(delta, 0.0), vn, contact[k, CT_IMPACT_VELOCITY], 0.0)
+        Ft = stick_force(km, k, y[:n], contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy)
+        contact[k, CT_FRICTION] = SLIP
+        contact[k, CT_SLIP_DIRECTION] = -1.0 if Ft > 0.0 else 1.0
+    else:
+        set_anchor(km, k, y[:n], contact, ex, ey, nx, ny)
+    stats[ST_CONTACT_EVENTS] += 1
 
 
 @kernel
 def switch_mode(km, k, y, contact, stats):
     """Switch joint k's mode at state y (on the new side).  At an onset store the
     impact velocity delta'(-) = normal relative velocity (floored: see
-    contact.IMPACT_VELOCITY_FLOOR) and count the contact event."""
+    contact.IMPACT_VELOCITY_FLOOR), start its friction mode and count the contact event; an event
+    index nc + k switches element k's friction mode."""
     n = y.shape[0] // 2
-    if contact_mode(contact, k) == FREE:
+    nc = km.clearance_body.shape[0]
+    if k >= nc:
+        switch_friction(km, k - nc, y, contact, stats)
+    elif contact_mode(contact, k) == FREE:
         ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
         contact[k, CT_MODE] = TOUCHING
         contact[k, CT_IMPACT_VELOCITY] = max(vn, IMPACT_VELOCITY_FLOOR)
         stats[ST_CONTACT_EVENTS] += 1
+        start_friction(km, k, y, contact)
     else:
         contact[k, CT_MODE] = FREE
+        contact[k, CT_FRICTION] = NO_FRICTION_MODE
 
 
 @kernel
 def init_modes(km, y, contact):
     """At the start of a run: a joint already penetrating in free mode starts in
-    contact mode (impact velocity = its current normal velocity, floored)."""
+    contact mode (impact velocity = its current normal velocity, floored) and one touching without a
+    friction mode starts it (`start_friction`)."""
     n = y.shape[0] // 2
     nc = km.clearance_body.shape[0]
     for k in range(nc):
@@ -279,6 +408,8 @@ def init_modes(km, y, contact):
             contact[k, CT_IMPACT_VELOCITY] = vn
         if contact_mode(contact, k) == TOUCHING and contact[k, CT_IMPACT_VELOCITY] < IMPACT_VELOCITY_FLOOR:
             contact[k, CT_IMPACT_VELOCITY] = IMPACT_VELOCITY_FLOOR
+        if contact_mode(contact, k) == TOUCHING and int(contact[k, CT_FRICTION]) == NO_FRICTION_MODE:
+            start_friction(km, k, y, contact)
 
 
 @kernel(inline=True)

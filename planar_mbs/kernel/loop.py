@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from ..mechanism.model import CT_IMPACT_VELOCITY, TOUCHING
+from ..mechanism.model import CT_FRICTION, CT_IMPACT_VELOCITY, STICK, TOUCHING
 from .contact import contact_mode
 from .workspace import (
     DN_ERR_OLD,
@@ -84,6 +84,8 @@ from ..mechanism.model import (
     CS_POINT_X,
     CS_POINT_Y,
     CS_SLIP,
+    CS_STICK,
+    CS_FRICTION_POWER,
     CS_DISSIPATED,
     CS_WORK,
     FS_POWER,
@@ -298,6 +300,8 @@ def _observe_clearances(km, q, qd, contact, ws, row, col0):
         row[col + CS_IMPACT_VELOCITY] = contact[k, CT_IMPACT_VELOCITY]
         row[col + CS_FRICTION] = Ft
         row[col + CS_SLIP] = vt
+        row[col + CS_STICK] = 1.0 if contact[k, CT_FRICTION] == STICK else 0.0
+        row[col + CS_FRICTION_POWER] = Ft * vt
         bj = km.clearance_body[k, 1]
         row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
         row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
@@ -480,7 +484,7 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
         switch_mode(km, k, y, contact, stats)
         ws.flags[FL_SWITCH_JOINT] = -1
         restart = True
-        if contact_mode(contact, k) == TOUCHING:
+        if k < contact.shape[0] and contact_mode(contact, k) == TOUCHING:  # (k >= nc: a friction switch)
             n = y.shape[0] // 2
             hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:], contact[k, CT_IMPACT_VELOCITY])
     if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:

@@ -52,6 +52,13 @@ from .model import (
     CP_FRICTION_V0,
     CP_LENGTH,
     CP_FRICTION_V1,
+    CP_FRICTION_MODEL,
+    CP_STATIC_FRICTION,
+    CP_STICK_DAMPING,
+    CP_STICK_STIFFNESS,
+    CP_STRIBECK_EXPONENT,
+    CP_STRIBECK_VELOCITY,
+    CP_VISCOUS_FRICTION,
     CP_R_BEARING,
     CP_R_JOURNAL,
     CP_RESTITUTION,
@@ -129,13 +136,20 @@ BODY_FIELDS = {"mass": "kg", "inertia": "kg*m^2", "position": "(x, y) of the cen
                "shape": "bar(length, width) | box(width, height) | circle(radius)"}
 MATERIAL_FIELDS = {"E": "Young's modulus, e.g. 207 GPa", "nu": "Poisson's ratio, e.g. 0.3",
                    "density": "e.g. 7800 kg/m^3"}
+# the friction models' settings (catalog.FRICTION_MODELS), the first meaning of each name
+FRICTION_FIELDS = {"friction_model": f"{catalog.choices(catalog.FRICTION_MODELS)} (default {catalog.DEFAULT_FRICTION})",
+                   **{x.name: x.meaning for m in reversed(catalog.FRICTION_MODELS) for x in m.settings}}
+FRICTION_UNITS = {"number": U.NUMBER, "velocity": U.VELOCITY, "damping": U.DAMPING}
+FRICTION_COLUMNS = {"friction": CP_FRICTION, "static_friction": CP_STATIC_FRICTION,
+                    "friction_velocity": CP_FRICTION_V0, "friction_velocity_full": CP_FRICTION_V1,
+                    "stick_stiffness": CP_STICK_STIFFNESS, "stick_damping": CP_STICK_DAMPING,
+                    "stribeck_velocity": CP_STRIBECK_VELOCITY, "stribeck_exponent": CP_STRIBECK_EXPONENT,
+                    "viscous_friction": CP_VISCOUS_FRICTION}
 _CONTACT_FIELDS = {  # every contact element (catalog.ELEMENTS) takes these
     "material": "material of both parts", "law": "contact law name", "restitution": "coefficient of restitution",
     "effective_restitution": "the rebound the law is to give (its own coefficient found from it)",
     "damping": "c of the Kelvin-Voigt law F = K d + c d'",
-    "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)", "friction": "Coulomb coefficient (default 0)",
-    "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
-    "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
+    "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)", **FRICTION_FIELDS,
 }
 JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
     **{spec.name: dict(spec.fields) for spec in catalog.JOINTS},
@@ -147,9 +161,7 @@ JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
         "effective_restitution": "the rebound the law is to give (its own coefficient found from it)",
         "damping": "c of the Kelvin-Voigt law F = K d + c d'",
         "stiffness": "K of F = K d^n", "exponent": "n (default 1.5)",
-        "friction": "Coulomb coefficient (default 0)",
-        "friction_velocity": "slip speed v0 below which friction is off (default 1e-4 m/s)",
-        "friction_velocity_full": "slip speed v1 from which full Coulomb friction acts (default 2 v0)",
+        **FRICTION_FIELDS,
         "offset": "initial journal centre minus bearing centre (dx, dy) in the bearing's frame (default: "
                   "centred when the joint closes a loop)",
         "relative_velocity": "initial velocity of the journal centre relative to the bearing centre (vx, vy), "
@@ -944,17 +956,47 @@ class _ClearancePass:
         return e
 
     def _clearance_friction(self, f: Fields, p: np.ndarray) -> None:
-        """Coulomb friction and its slip-speed ramp v0 -> v1 into the joint's parameter row."""
-        p[CP_FRICTION] = f.scalar("friction", U.NUMBER, 0.0, nonneg=True)
-        v0 = p[CP_FRICTION_V0] = f.scalar("friction_velocity", U.VELOCITY, 1e-4, nonneg=True)
+        """The friction model (catalog.FRICTION_MODELS) and its settings into the joint's parameter row.
+        Without `friction_model`, a setting of Ambrosio's ramp chooses it, else the default."""
+        implied = "ambrosio" if f.has("friction_velocity") or f.has("friction_velocity_full") else None
+        name = f.symbol("friction_model", catalog.names(catalog.FRICTION_MODELS),
+                        implied or catalog.DEFAULT_FRICTION)
+        model = catalog.friction_model(name)
+        p[CP_FRICTION_MODEL] = model.code
+        own = {x.name for x in model.settings}
+        for other in catalog.friction_settings():
+            if other not in own and f.has(other):
+                users = [m.name for m in catalog.FRICTION_MODELS if other in {x.name for x in m.settings}]
+                raise f.expr(other).pos.error(f"`{other}` is a setting of friction_model = {' or '.join(users)}, "
+                                              f"not of {name}", hint=f"add `friction_model = {users[0]}`")
+        for x in model.settings:
+            default = x.default
+            if isinstance(default, str):  # "NAME" or "FACTOR NAME": another setting's value
+                *factor, other = default.split()
+                default = float(factor[0] if factor else 1.0) * p[FRICTION_COLUMNS[other]]
+            extra = () if default is None else (default,)  # None: the model needs it
+            p[FRICTION_COLUMNS[x.name]] = f.scalar(x.name, FRICTION_UNITS[x.unit], *extra,
+                                                   positive=x.name in _POSITIVE_FRICTION, nonneg=True)
+        if name == "ambrosio":
+            self._ambrosio_ramp(f, p)
+        elif p[CP_STATIC_FRICTION] < p[CP_FRICTION]:
+            raise f.expr("static_friction").pos.error(
+                "`static_friction` must not be below `friction` (the kinetic coefficient)",
+                hint="a contact sticks with up to mu_s F_N and slides with mu_k F_N, mu_s >= mu_k")
+
+    def _ambrosio_ramp(self, f: Fields, p: np.ndarray) -> None:
+        """Ambrosio's slip-speed ramp v0 -> v1."""
+        v0, v1 = p[CP_FRICTION_V0], p[CP_FRICTION_V1]
         if v0 == 0 and not f.has("friction_velocity_full"):
             raise f.expr("friction_velocity").pos.error(
                 "with `friction_velocity = 0` give `friction_velocity_full` (the slip speed of full friction)")
-        v1 = p[CP_FRICTION_V1] = f.scalar("friction_velocity_full", U.VELOCITY, 2 * v0, positive=True)
         if not v1 > v0:
             raise f.expr("friction_velocity_full").pos.error(
                 "`friction_velocity_full` must exceed `friction_velocity`",
                 hint="friction ramps from 0 at friction_velocity to its full value at friction_velocity_full")
+
+
+_POSITIVE_FRICTION = ("friction_velocity_full", "stribeck_velocity", "stribeck_exponent", "stick_stiffness")
 
 
 class _DriverPass:

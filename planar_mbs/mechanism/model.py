@@ -58,6 +58,8 @@ N_MOTION_PARAM = catalog.N_MOTION_PARAM
 
 ContactLaw = IntEnum("ContactLaw", {s.enum: s.code for s in catalog.LAWS}, module=__name__)
 ContactLaw.__doc__ = "Normal contact-force laws of a clearance joint (catalog.LAWS, contact.md)."
+FrictionModel = IntEnum("FrictionModel", {s.enum: s.code for s in catalog.FRICTION_MODELS}, module=__name__)
+FrictionModel.__doc__ = "Friction models of the contact elements (catalog.FRICTION_MODELS, contact.md)."
 CONTACT_LAW_NAMES = {ContactLaw(s.code): s.name for s in catalog.LAWS}
 
 # clearance_param columns
@@ -78,7 +80,15 @@ CP_NY = 13
 CP_VISCOSITY = 14  # dynamic viscosity mu of the lubricant [Pa s] (LUBRICATED)
 CP_BREAKDOWN = 15  # eccentricity ratio where the film breaks down and dry contact begins (LUBRICATED)
 CP_DAMPING = 16  # c of the Kelvin-Voigt law F = K d + c d' [N s/m] (given, or from a restitution)
-N_CLEARANCE_PARAM = 17
+# the friction model (catalog.FRICTION_MODELS; CP_FRICTION is mu_k, CP_FRICTION_V0/V1 Ambrosio's ramp)
+CP_FRICTION_MODEL = 17  # a FrictionModel code
+CP_STATIC_FRICTION = 18  # mu_s >= mu_k of the stick models
+CP_STICK_STIFFNESS = 19  # k_t of a stuck contact / the normal law's dF/dd
+CP_STICK_DAMPING = 20  # damping ratio of a stuck contact's spring-damper
+CP_STRIBECK_VELOCITY = 21  # v_s [m/s]
+CP_STRIBECK_EXPONENT = 22  # exponent of the Stribeck curve
+CP_VISCOUS_FRICTION = 23  # sigma_2 [N s/m]
+N_CLEARANCE_PARAM = 24
 # contact geometries of the clearance elements (catalog.PAIRS); R_i = CP_R_BEARING, R_j = CP_R_JOURNAL
 PairKind = IntEnum("PairKind", {s.enum: s.code for s in catalog.PAIRS}, module=__name__)
 PairKind.__doc__ = "Contact geometries of the clearance and contact elements (catalog.PAIRS)."
@@ -180,7 +190,12 @@ class Status(IntEnum):
 CT_MODE = 0  # contact mode, an integer code (FREE / TOUCHING) read through kernel.contact.contact_mode
 CT_IMPACT_VELOCITY = 1  # delta'(-) of the current contact
 CT_LAST_FORCE = 2  # unused (once the warm start of the implicit laws)
-N_CONTACT_STATE = 3
+# friction of a stick model (catalog.FrictionSpec.stick): its mode, slip direction and stick anchor
+CT_FRICTION = 3  # NO_FRICTION_MODE, STICK or SLIP
+CT_SLIP_DIRECTION = 4  # sign (+1 / -1) of the slip velocity v_T while slipping
+CT_ANCHOR = 5  # 5, 6: the slip coordinates where it stuck (kernel.contact.slip_coordinates)
+N_CONTACT_STATE = 7
+NO_FRICTION_MODE, STICK, SLIP = 0, 1, 2
 FREE = 0  # free flight: no contact force even if delta > 0
 TOUCHING = 1  # in contact: the law's force while delta > 0
 
@@ -205,11 +220,12 @@ CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
 CS_IN_CONTACT, CS_IMPACT_VELOCITY, CS_FRICTION, CS_SLIP = 7, 8, 9, 10
 CS_POINT_X, CS_POINT_Y, CS_FILM_PRESSURE = 11, 12, 13
 CS_WORK, CS_DISSIPATED = 14, 15
+CS_STICK, CS_FRICTION_POWER = 16, 17  # 1 while stuck (a stick model); F_T v_T
 # CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T;
 # CS_POINT_*: the contact point on the second body (global); CS_FILM_PRESSURE: peak film pressure (LUBRICATED);
 # CS_WORK: work of the element's contact (and film) forces on both bodies since the start; CS_DISSIPATED:
 # the energy it took out, -(CS_WORK + its elastic energy now - at the start)
-N_CLEARANCE_SIGNALS = 16
+N_CLEARANCE_SIGNALS = 18
 SYS_GRAVITY_POWER, SYS_GRAVITY_WORK, SYS_INPUT_WORK, SYS_DISSIPATED, SYS_BALANCE = 0, 1, 2, 3, 4
 SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 5, 6, 7, 8
 # SYS_INPUT_WORK: work of the loads and drivers less what their potentials store (damping, actuators,

@@ -24,10 +24,14 @@ from ..mechanism.model import (
     CS_IN_CONTACT,
     CS_PENETRATION,
     CS_SLIP,
+    CS_STICK,
+    CS_FRICTION_POWER,
     CS_FILM_PRESSURE,
     CS_POINT_X,
     CS_POINT_Y,
     CP_FRICTION,
+    CP_FRICTION_MODEL,
+    CP_STATIC_FRICTION,
     CS_DISSIPATED,
     CS_WORK,
     FS_POWER,
@@ -84,7 +88,10 @@ CLEARANCE_QUANTITIES = [
 ]
 # the work of its contact (and film) forces on both bodies, and the energy it dissipated, since the start
 WORK_QUANTITIES = [("work", "J", CS_WORK), ("dissipated", "J", CS_DISSIPATED)]
-FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "m/s", CS_SLIP)]
+FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "m/s", CS_SLIP),
+                       ("friction_power", "W", CS_FRICTION_POWER)]
+STICK_QUANTITIES = [("stick", "1", CS_STICK)]  # a friction model that sticks (catalog.FrictionSpec.stick)
+_STICKS = {m.code for m in catalog.FRICTION_MODELS if m.stick}
 # the contact point on the second body (journal, circle, corner), global frame; the film's peak pressure
 POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_Y)]
 FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
@@ -144,8 +151,9 @@ def signal_table(model: Model) -> list[Signal]:
     for c, name in enumerate(model.clearance_names):
         col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * c
         quantities = list(CLEARANCE_QUANTITIES)
-        if k.clearance_param[c, CP_FRICTION] > 0:
-            quantities += FRICTION_QUANTITIES
+        sticks = int(k.clearance_param[c, CP_FRICTION_MODEL]) in _STICKS and k.clearance_param[c, CP_STATIC_FRICTION] > 0
+        if k.clearance_param[c, CP_FRICTION] > 0 or sticks:
+            quantities += FRICTION_QUANTITIES + (STICK_QUANTITIES if sticks else [])
         quantities += POINT_QUANTITIES
         if int(k.clearance_param[c, CP_KIND]) == PairKind.LUBRICATED:
             quantities += FILM_QUANTITIES
