@@ -191,7 +191,8 @@ def absurd_state(model: Model, y: np.ndarray, t: float) -> str:
     i = int(np.argmax(np.where(np.isfinite(size), size, np.inf)))
     what = "position" if i < n else "velocity"
     return (f"the state left every physical bound at t = {t:.9g} s: {state_name(model, i)} = {y[i]:.3g} "
-            f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units")
+            f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units, "
+            "or the step (a fixed step too long for a stiff element blows the state up)")
 
 
 def projection_note(model: Model, settings: Settings, ws) -> list[str]:
