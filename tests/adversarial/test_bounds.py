@@ -6,6 +6,7 @@ the run (it used to creep at 1e-12 s steps: 6 ms of 0.5 s in 170 s, or an estima
 from __future__ import annotations
 
 import shutil
+import warnings
 
 import numpy as np
 import pytest
@@ -13,6 +14,8 @@ import pytest
 import planar_mbs as api
 from advhelp import MODELS, assert_clean, mbs, snapshot
 from planar_mbs.errors import ModelError, SimulationError
+from planar_mbs.results.hdf5 import _RowPacker
+from planar_mbs.results.signals import signal_table
 
 PUSHED = """\
 body disc {{ mass = 1 kg  inertia = 1e-3 kg*m^2  position = (0, 0) }}
@@ -141,3 +144,16 @@ def test_a_larger_max_steps_lets_the_user_insist(tmp_path):
         api.Simulation(model)
     sim = api.Simulation(model, max_steps=10**12)
     assert sim.t == 0.0
+
+
+def test_rows_of_a_run_that_blew_up_are_written_without_a_raw_warning():
+    """A row holding inf and -inf (a run that blew up between two checks): its sums (the energy balance)
+    and magnitudes are NaN or inf in the file, never a numpy RuntimeWarning on the user's screen."""
+    model = api.compile_text(PUSHED.format(force="1 N", dt="10 ms"))
+    table = signal_table(model)
+    rows = np.zeros((3, 1 + max(c for s in table for c in s.columns)))
+    rows[1, :] = np.inf
+    rows[2, ::2], rows[2, 1::2] = np.inf, -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _RowPacker(table).records(rows)
