@@ -15,6 +15,7 @@ from planar_mbs.mechanism.compile import load_model  # errors worded for --set
 from planar_mbs.mechanism.kinematics import (assemble, assembly_changes, assembly_warnings, constraint_report,
                                              start_gaps)
 from planar_mbs.mechanism.model import CP_CLEARANCE, CP_STIFFNESS
+from planar_mbs.mechanism.start_stiffness import DEEP_FRACTION, start_contacts, step_count_message
 from planar_mbs.run.output_size import MAX_ROWS, estimate
 
 from .common import console, fail_code, parse_sets, print_assembly, print_model_warnings
@@ -30,10 +31,26 @@ def check_model(model, sets: list[str]) -> int:
     print_model_warnings(m)
     _print_model(m, {**constraint_report(m, q), "gaps": start_gaps(m, q)})
     _print_output_size(m)
+    _print_start_contacts(m, q, qd)
     print_assembly(assembly_changes(m, q, qd))
     for warning in assembly_warnings(m, q):
         console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
     return 0
+
+
+def _print_start_contacts(m, q, qd) -> None:
+    """Contacts that start deep inside (beyond DEEP_FRACTION of their size), and a start so stiff that
+    `mbs run` refuses it (more than max_steps steps: `start_stiffness.check_step_count`)."""
+    contacts = start_contacts(m, q, qd)
+    err = console(stderr=True)
+    for c in contacts:
+        if c.deep:
+            err.print(f"warning: {c.describe()}: deeper than {DEEP_FRACTION:g} of its {c.size_name}, beyond the small "
+                      "deformations its law describes (start the body outside, or touching; or check the stiffness)",
+                      markup=False, style="yellow")
+    message = step_count_message(m, m.settings, contacts)
+    if message:
+        err.print(f"warning: {message}: `mbs run` refuses this", markup=False, style="yellow")
 
 
 def _print_output_size(m) -> None:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from ..mechanism.model import CT_FRICTION, CT_IMPACT_VELOCITY, STICK, TOUCHING
+from ..mechanism.model import ABSURD_STATE, CT_FRICTION, CT_IMPACT_VELOCITY, STICK, TOUCHING
 from .contact import contact_mode
 from .workspace import (
     DN_ERR_OLD,
@@ -179,6 +179,7 @@ CONTACT_SOLVE = int(Status.CONTACT_SOLVE)
 SINGULAR = int(Status.SINGULAR)
 CONSTRAINTS_LOST = int(Status.CONSTRAINTS_LOST)
 PASSAGE = int(Status.PASSAGE)
+ABSURD = int(Status.ABSURD)
 layout = kernel(observation_layout)  # the observation row's block offsets, compiled
 
 GRID_TOL = 1e-9  # an output time within GRID_TOL * output_step of a step end belongs to it
@@ -621,6 +622,17 @@ def _all_finite(a):
     return True
 
 
+@kernel
+def _beyond_bound(y):
+    """The first finite component of y = (q, q') beyond every physical bound (ABSURD_STATE; angles are
+    not bounded), or -1.  Once per accepted step: 2n comparisons beside several right-hand sides."""
+    n = y.shape[0] // 2
+    for i in range(y.shape[0]):
+        if abs(y[i]) >= ABSURD_STATE and math.isfinite(y[i]) and (i >= n or i % 3 != 2):
+            return i
+    return -1
+
+
 # The steps of `advance`, each inlined at its one call site (`@kernel(inline=True)`): a call that is
 # not inlined passes every array of the model and workspace tuples (kernel/jit.py), and the loop's
 # machine code stays what it was when `advance` was one function (same results, same speed).
@@ -911,6 +923,10 @@ def _end_step(method, km, cfg, t0, t, h, y, clock, contact, stats, ws, out_t, ou
     N = y.shape[0]
     clock[0] = t
     clock[1] = h
+    i = _beyond_bound(y)
+    if i >= 0:  # stop before the step's outputs are written: y stays the state beyond the bound
+        stats[ST_INFO] = i
+        return ABSURD, nw, h
     st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, math.nan, y)
     if st != 0:
         return st, nw, h
@@ -971,7 +987,8 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     it has used that many right-hand sides, so that the caller regains control (signals,
     progress) after a bounded time; the run continues exactly.
     Returns (status, n_written).  On an error clock[0] is the time of failure
-    and y the last good state; on STEP_UNDERFLOW limited by the error estimate,
+    and y the last good state (on ABSURD the accepted state beyond the bound, stats[ST_INFO] its
+    component); on STEP_UNDERFLOW limited by the error estimate,
     stats[ST_INFO] is the state component whose error limited the step."""
     cap = out_t.shape[0]
     nw = cap - cap  # 0, but not a constant: `_emit(..., nw, ...)` with a literal 0 is compiled once more

@@ -184,6 +184,11 @@ class Status(IntEnum):
     DRIFT = 8  # fixed-step RK4 left the constraints (residual above the documented bound)
     CONSTRAINTS_LOST = 9  # an adaptive run left its constraints beyond the bound scaled to the mechanism
     PASSAGE = 10  # a fixed RK4 step across a singular position that step halving does not confirm
+    ABSURD = 11  # an accepted step left every physical bound (ABSURD_STATE); y is that state
+
+
+# beyond it (m, m/s, rad/s) no planar mechanism is being simulated (light: 3e8 m/s); angles are not bounded
+ABSURD_STATE = 1e9
 
 
 # contact state of the clearance joints, `contact` (nclearance, N_CONTACT_STATE) float64, kept across calls

@@ -621,12 +621,13 @@ class _RowPacker:
             block = np.take(rows, src, axis=1, out=buf[:n], mode="clip")  # "clip": no buffering of `out`
             for j, sig in combined:  # into their field, without temporaries
                 a, b = (rows[:, c] for c in sig.columns[:2])
-                if sig.op == "hypot":
-                    np.hypot(a, b, out=block[:, j])
-                else:
-                    np.add(a, b, out=block[:, j])
-                    for c in sig.columns[2:]:
-                        block[:, j] += rows[:, c]
+                with np.errstate(over="ignore", invalid="ignore"):  # rows of a run that blew up: inf, NaN
+                    if sig.op == "hypot":
+                        np.hypot(a, b, out=block[:, j])
+                    else:
+                        np.add(a, b, out=block[:, j])
+                        for c in sig.columns[2:]:
+                            block[:, j] += rows[:, c]
             out.append(block.view(packed).reshape(-1))
         return out
 

@@ -11,8 +11,8 @@ import numpy as np
 from .. import catalog
 from ..errors import ModelError
 from ..lazy import lazy
-from ..mechanism.model import CP_CLEARANCE, CT_MODE, JOINT_ROWS, ST_INFO, TOUCHING, Model, Settings, \
-    Status, lost_bound
+from ..mechanism.model import ABSURD_STATE, CP_CLEARANCE, CT_MODE, JOINT_ROWS, ST_INFO, TOUCHING, Model, \
+    Settings, Status, lost_bound
 
 # numba: `mbs check` and `import planar_mbs` read this module without loading the kernels
 if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
@@ -46,6 +46,8 @@ def failure_message(model: Model, settings: Settings, status: int, data, y0: np.
     element involved, the time, and what to try; near a singular position (measured against the
     start `y0`) it says so."""
     t, info = data.t, int(data.stats[ST_INFO])
+    if status == Status.ABSURD:  # the time loop stopped at the first accepted state beyond the bound
+        return absurd_state(model, data.y, t) or f"the state left every physical bound at t = {t:.9g} s"
     message = _status_message(model, settings, status, info, t, data.contact, data.ws.xfault)
     if y0 is not None and status in (Status.STEP_UNDERFLOW, Status.NONFINITE, Status.CONTACT_SOLVE):
         message += near_singular(model, data.y, t, y0)
@@ -172,13 +174,15 @@ def kept_unphysical(message: str) -> str:
     return f"{message}; the results are not physical, kept as asked (allow_unphysical)"
 
 
-ABSURD = 1e9  # m, m/s, rad/s: beyond it no planar mechanism is being simulated (light: 3e8 m/s)
+ABSURD = ABSURD_STATE  # m, m/s, rad/s: beyond it no planar mechanism is being simulated (light: 3e8 m/s)
 
 
 def absurd_state(model: Model, y: np.ndarray, t: float) -> str:
     """Why the state y = (q, q') is beyond every physical bound (`ABSURD`: a position or speed of a
     billion metres, per second), or ''.  Angles are not bounded (a crank turns on and on).  A run
-    in such a state only crawls (its steps shrink to the round-off of huge numbers)."""
+    in such a state only crawls (its steps shrink to the round-off of huge numbers), or finishes
+    with infinite energies: the time loop stops at the first accepted step beyond it
+    (`Status.ABSURD`), and the driver checks the state it hands back after every call."""
     n = model.ncoord
     size = np.abs(y).copy()
     size[2:n:3] = 0.0  # the angles
@@ -187,7 +191,8 @@ def absurd_state(model: Model, y: np.ndarray, t: float) -> str:
     i = int(np.argmax(np.where(np.isfinite(size), size, np.inf)))
     what = "position" if i < n else "velocity"
     return (f"the state left every physical bound at t = {t:.9g} s: {state_name(model, i)} = {y[i]:.3g} "
-            f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units")
+            f"(a {what} beyond {ABSURD:g} in SI units); check the initial velocities, the forces and the units, "
+            "or the step (a fixed step too long for a stiff element blows the state up)")
 
 
 def projection_note(model: Model, settings: Settings, ws) -> list[str]:

@@ -196,11 +196,12 @@ class Driver:
             out_t, out = sink.room()
             status, n = self.call(t_stop, out_t, out)
             full = sink.take(n) if n else False
+            # after every call, the last one too: a short run ends in one call (Status.ABSURD leaves y beyond)
+            self.absurd = absurd_state(self.model, self.data.y, self.t)
             if callback is not None and callback() is True:
                 break
             if status != Status.BUFFER_FULL or full:
                 break
-            self.absurd = absurd_state(self.model, self.data.y, self.t)
         return self.status
 
     def failure(self, status: int | None = None) -> str:

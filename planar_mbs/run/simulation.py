@@ -29,6 +29,7 @@ from ..version import __version__
 from ..errors import ModelError, SimulationError, did_you_mean
 from ..language.units import parse_quantity
 from ..mechanism.kinematics import assemble, assembly_changes, assembly_warnings
+from ..mechanism.start_stiffness import check_step_count
 from ..mechanism.model import (
     CFG_SKIP,
     ST_CONTACT_EVENTS,
@@ -355,6 +356,7 @@ class _Run:
                  allow_unphysical: bool = False):
         self.model, self.settings, self.allow_unphysical = model, settings, bool(allow_unphysical)
         q, qd = assemble(model)
+        check_step_count(model, settings, q, qd)  # a contact too stiff at the start to ever reach t_end
         self.changes = assembly_changes(model, q, qd, settings.rtol, settings.atol)
         self.assembly_warnings = assembly_warnings(model, q)  # a body moved or turned far: said with the run's
         cfg = settings.cfg(model.size)
@@ -470,6 +472,7 @@ class Simulation:
         self.model = model
         self.t_end = self.settings.t_end
         q, qd = assemble(model)
+        check_step_count(model, self.settings, q, qd)
         self._assembly_warnings = assembly_warnings(model, q)  # as `simulate`'s
         self._loads = Loads(model)  # set_load: this run's own copy of the force elements' values
         cfg = self.settings.cfg(model.size)
