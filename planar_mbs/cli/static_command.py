@@ -15,6 +15,7 @@ compiler = lazy("planar_mbs.mechanism.compile")
 static = lazy("planar_mbs.run.static")
 linear = lazy("planar_mbs.run.modes")
 modes_plot = lazy("planar_mbs.outputs.modes_plot")
+mode_recording = lazy("planar_mbs.outputs.mode_recording")  # rerun: only a recording asked for loads it
 h5py = lazy("h5py")
 
 
@@ -67,12 +68,12 @@ def static_model(model: Path, sets: list[str], output: Path | None, time: str | 
 
 
 def modes_model(model: Path, sets: list[str], output: Path | None, plot: Path | None, at: str, count: int,
-                impact_velocity: float | None, time: str | None) -> int:
+                impact_velocity: float | None, time: str | None, rerun: Path | None = None, mode: int = 1) -> int:
     """`mbs modes`: the modes printed (written, drawn); the exit code."""
     con = _console()
     try:
         at = check_choice(at, ("static", "assembled"), "--at")
-        m = _load(model, sets, [("--output", output), ("--plot", plot)])
+        m = _load(model, sets, [("--output", output), ("--plot", plot), ("--rerun", rerun)])
         md = linear.linearize(m, None if at == "static" else "assembled", t=_time(time),
                               impact_velocity=impact_velocity)
         if md.equilibrium is not None:
@@ -85,9 +86,21 @@ def modes_model(model: Path, sets: list[str], output: Path | None, plot: Path | 
         if plot is not None:
             modes_plot.draw_modes(md, plot, count)
             con.print(f"mode shapes → {plot}", markup=False)
+        if rerun is not None:
+            _record(md, rerun, mode)
+            con.print(f"mode {mode} recorded → {rerun}", markup=False)
     except MbsError as err:
         return fail_code(err)
     return 0
+
+
+def _record(md, path: Path, mode: int) -> None:
+    """`--rerun`: mode `mode` of `md` as a recording (exit 2 for a mode the linearisation lacks)."""
+    count = len(md.modes())
+    if mode > count:
+        raise ModelError(f"--mode {mode}: the linearisation has {count} mode(s)", "--mode",
+                         hint=f"give `--mode` between 1 and {count}")
+    mode_recording.record_mode(md, path, mode)
 
 
 def start_at_rest(m):

@@ -50,10 +50,15 @@ def modes(
         "--impact-velocity", help="delta'(-) of the dissipative contact laws' damping, in m/s.",
         show_default="1e-5 m/s, as a run that starts at rest", min=0.0)] = None,
     time: TimeOpt = None,
+    rerun: Annotated[Optional[Path], typer.Option(
+        "--rerun", help="Write a rerun recording (.rrd) of one mode: the mechanism moving in it (`mbs view` "
+        "opens recordings as `rerun FILE.rrd` does).", show_default="none")] = None,
+    mode: Annotated[int, typer.Option("--mode", help="The mode --rerun records (1: the lowest).", min=1)] = 1,
 ) -> None:
     """Linearise the constrained motion in its minimal coordinates and print its modes: natural
     frequencies, damping ratios and what moves, about the static equilibrium or the assembled state.
     Exit 3 when the state cannot be found."""
-    code = static_command.modes_model(model, set_ or [], output, plot, at, count, impact_velocity, time)
+    code = static_command.modes_model(model, set_ or [], output, plot, at, count, impact_velocity, time,
+                                      rerun, mode)
     if code:
         raise typer.Exit(code)

@@ -70,7 +70,7 @@ def _draw(ax, lines: list[np.ndarray], style: dict) -> None:
         ax.plot(p[:, 0], p[:, 1], **style)
 
 
-def _amplitude(model, q: np.ndarray, shape: np.ndarray, local) -> float:
+def display_amplitude(model, q: np.ndarray, shape: np.ndarray, local) -> float:
     """a such that the largest point displacement of q + a shape (to first order) is AMPLITUDE x size."""
     eps = 1e-6
     moved = placed(q + eps * shape, local)
@@ -97,7 +97,7 @@ def figure(modes, count: int = 4, title: str | None = None):
     base = placed(modes.q, local)
     for ax, m in zip(axes, shown):
         shape = np.real(m.shape)
-        a = _amplitude(model, modes.q, shape, local)
+        a = display_amplitude(model, modes.q, shape, local)
         _draw(ax, base, dict(color="0.6", lw=3, solid_capstyle="round"))
         _draw(ax, placed(modes.q + a * shape, local), dict(color="tab:blue", lw=1.8, marker="o", ms=3))
         ax.plot([0], [0], marker="^", color="k", ms=7, ls="none")
