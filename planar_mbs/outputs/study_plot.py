@@ -9,6 +9,7 @@ Drawn on a ``matplotlib.figure.Figure`` (Agg canvas, no pyplot state).
 """
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -83,7 +84,8 @@ def figure(path, outputs: Sequence[str], bands: Sequence[str] = (), confidence: 
     drawn = [sampling.kept_band(path, s, BAND) for s in bands]
     cols = 2 if any(r.sobol is not None for r in reports) else 1
     rows = max(1, len(reports) + len(drawn))
-    fig = mpl_figure.Figure(figsize=(5.2 * cols, 3.4 * rows), layout="constrained", dpi=110)
+    width = 5.2 * cols if cols > 1 else 8.0
+    fig = mpl_figure.Figure(figsize=(width, 3.4 * rows), layout="constrained", dpi=110)
     grid = fig.add_gridspec(rows, cols)
     for i, r in enumerate(reports):
         histogram(fig.add_subplot(grid[i, 0]), r)
@@ -92,8 +94,10 @@ def figure(path, outputs: Sequence[str], bands: Sequence[str] = (), confidence: 
     for j, (s, (t, b, unit, n)) in enumerate(zip(bands, drawn)):
         band(fig.add_subplot(grid[len(reports) + j, :]), t, b, s, unit, n)
     study = (reports[0].study if reports else sampling.stored_study(path))
-    fig.suptitle(f"{Path(path).name}: {study.sampler} study, {study.n} samples; "
-                 + "; ".join(d.describe() for d in study.distributions), fontsize="small")
+    size = (f"{study.n} base samples (Saltelli's design)" if study.sobol_indices else f"{study.n} samples")
+    fig.suptitle(textwrap.fill(f"{Path(path).name}: {study.sampler} study, {size}; "
+                               + "; ".join(d.describe() for d in study.distributions), int(14 * width)),
+                 fontsize="small")
     return fig
 
 
