@@ -37,6 +37,12 @@ def study_options(param, sample, cases, sampler, seed, sobol_indices, output=Non
             "sampler": check_choice(sampler, SAMPLERS, "--sampler"), "seed": seed, "sobol_indices": sobol_indices}
 
 
+def design(param, sample, cases, sampler, seed, sobol_indices, output):
+    """(the study's options, None for a grid; the grid's axes, none for a study)."""
+    study = study_options(param, sample, cases, sampler, seed, sobol_indices, output)
+    return study, ([] if study else [sweep_scan.parse_param(p) for p in param])
+
+
 def start(study: dict | None, model, axes, output, **options):
     """`sampling.run_study` for a study, else `scan.run_sweep`."""
     if study is None:
