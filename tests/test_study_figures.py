@@ -172,3 +172,29 @@ def test_a_table_study_resumes_without_its_file(tmp_path):
     after = sa.stored_study(out)
     assert after.n == 6 and after.distributions == before.distributions
     assert after.distributions[0].args == tuple(np.sort([50.02, 49.91, 50.10, 50.02, 49.97, 50.02, 50.21, 49.85]))
+
+
+def test_a_sweeps_spectrum_grid_draws_each_cases_spectrum(tmp_path, monkeypatch):
+    """`mbs plot SWEEP.h5 --spectrum SIGNAL`: one panel per case, each the spectrum of that case's kept
+    signal (`results.spectrum`, tested on its own in tests/test_spectrum.py)."""
+    from planar_mbs.outputs import plot
+    from planar_mbs.results import spectrum
+
+    model = tmp_path / "sc.mbs"
+    model.write_text(MODEL)
+    out = tmp_path / "speeds.h5"
+    res = runner.invoke(app, ["sweep", str(model), "-P", "speed=2000rpm,3000rpm", "--t-end", "60ms", "--keep",
+                              "slider.ax,crank", "--no-section", "-j", "1", "-q", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    cases = plot.sweep_cases(out)
+    fig, kind = plot.sweep_spectrum_figure(cases, "slider.ax", {"kind": "order"})
+    assert kind == "order" and len([a for a in fig.axes if a.get_visible()]) == 2
+    for ax, (_, case) in zip(fig.axes, cases):
+        spec = spectrum.spectrum(case, "slider.ax", "order")
+        assert np.array_equal(ax.lines[0].get_ydata(), spec.y)
+        # an ideal slider-crank's acceleration: its largest component is order 1, r ω²
+        assert spec.peaks(1)[0][0] == pytest.approx(1.0)
+    png = tmp_path / "figs"
+    res = runner.invoke(app, ["plot", str(out), "--spectrum", "slider.ax", "--kind", "order", "-o", str(png)])
+    assert res.exit_code == 0, res.output
+    assert (png / "speeds_order_grid_slider.ax.png").read_bytes()[:8] == PNG
