@@ -2,8 +2,8 @@
 
 ``--sample clearance=table(measured.csv, mm)`` reads the file once, when the study starts: one
 number per line (``#`` comments, blank lines and one header line of words allowed), in the unit
-given (none: the parameter's own).  The values are stored, sorted, with the study's design in the
-sweep file, so that a resumed study or a replayed case needs no file.
+given (none: plain numbers, for a parameter without a unit).  The values are stored, sorted, with
+the study's design in the sweep file, so that a resumed study or a replayed case needs no file.
 
 The inverse CDF is the piecewise-linear one through the order statistics (Hyndman and Fan,
 "Sample quantiles in statistical packages", Am. Stat. 50 (1996), their definition 7, numpy's

@@ -118,7 +118,7 @@ def parse_distribution(text: str, stored: "Study | None" = None) -> Distribution
 
 
 def _table(text: str, name: str, inside: str, stored: "Study | None") -> Distribution:
-    """``table(FILE, UNIT)``: the file's values, sorted, in UNIT (none: the parameter's own unit); a file
+    """``table(FILE, UNIT)``: the file's values, sorted, in UNIT (none: plain numbers); a file
     no longer there is the ``stored`` study's table of that name and file, if it has one."""
     parts = [p.strip().strip("'\"") for p in inside.split(",")]
     if not 1 <= len(parts) <= 2 or not parts[0]:
