@@ -131,6 +131,10 @@ def test_histogram_and_band_are_numpys_over_the_stored_cases(tmp_path):
     res = runner.invoke(app, ["sweep-stats", str(out), "slider.x@3ms", "--plot", str(png), "--band", "slider.x"])
     assert res.exit_code == 0 and "figure →" in res.output, res.output
     assert png.read_bytes()[:8] == PNG
+    for args, says in [(["--band", "slider.x"], "give --plot"), (["slider.x@3ms", "--plot", "f.jpg"], "png"),
+                       (["--plot", str(png), "--band", "slider.vx"], "--keep slider.vx"), ([], "name the outputs")]:
+        res = runner.invoke(app, ["sweep-stats", str(out), *args])
+        assert res.exit_code == 2 and says in res.output and "Traceback" not in res.output, (args, res.output)
 
 
 def test_sobol_bars_are_the_indices_sweep_stats_prints(tmp_path):

@@ -70,11 +70,11 @@ def print_stats(path, outputs, confidence: float, plot=None, bands=()) -> None:
     """`mbs sweep stats`: the report of each output, and with ``plot`` its figure (`study_plot`)."""
     try:
         hdf5.check_results_file(path)
+        if bands and plot is None:
+            raise ModelError("--band draws a figure: give --plot FIG.png too", "--band")
         if not outputs and not (plot and bands):
             raise ModelError("name the outputs to describe (e.g. `slider.x:max`), or --band SIGNAL with --plot",
                              "OUTPUT", hint="e.g. `mbs sweep stats study.h5 slider.x@4ms --plot study.png`")
-        if bands and plot is None:
-            raise ModelError("--band draws a figure: give --plot FIG.png too", "--band")
         if plot is not None:
             check_choice(plot.suffix[1:].lower() or "png", FORMATS, "--plot")
             check_output(plot, "--plot", [("the study file", path)])
