@@ -34,6 +34,14 @@ TUTORIAL_RUN = "mbs run four_bar.mbs"
 TUTORIAL_PLOT = "mbs plot results/four_bar.h5 rocker_link.phi motor.torque --against crank_link.phi"
 
 MODES_PLOT = "mbs modes docs/studies/resting_journal.mbs --set law=hertz --plot resting_journal_modes.png"
+SPEEDS_RUN = ("mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm,1200rpm,2500rpm,5000rpm -n 4 "
+              "--keep slider.ax,crank --no-section -q -o speeds.h5")
+SPEEDS_PLOT = "mbs plot speeds.h5 --spectrum slider.ax --kind order -o docs/images"
+SPEEDS = "speeds_order_grid_slider.ax.png"
+TOLERANCE_RUN = ("mbs sweep docs/studies/tolerance_slider_crank.mbs --sample \"clearance=uniform(0.1mm, 0.3mm)\" "
+                 "--sample \"crank_length=normal(50mm, 0.05mm)\" --cases 24 --set speed=2500rpm -n 2 "
+                 "--keep slider.ax --no-section -q -o tolerance.h5")
+TOLERANCE_PLOT = "mbs sweep stats tolerance.h5 slider.ax:rms A.contact_force:max --plot tolerance.png --band slider.ax"
 
 A_5000 = ["a_5000_slider_velocity.png", "a_5000_slider_acceleration.png", "a_5000_contact_force.png",
           "a_5000_driver_torque.png", "a_5000_orbit_A.png", "a_5000_poincare_slider.vx_slider.ax.png"]
@@ -49,6 +57,8 @@ PAGES = {
                          {"results/four_bar_plots/four_bar_rocker_link.phi_motor.torque_vs_crank_link.phi.png":
                           "tutorial_four_bar.png"}),
     "docs/studies.md": ([MODES_PLOT], {"resting_journal_modes.png": "studies_resting_journal_modes.png"}),
+    "docs/studies.md#spectra": ([SPEEDS_RUN, SPEEDS_PLOT], {f"docs/images/{SPEEDS}": "studies_speeds_order_slider.ax.png"}),
+    "docs/studies.md#tolerances": ([TOLERANCE_RUN, TOLERANCE_PLOT], {"tolerance.png": "studies_tolerance.png"}),
 }
 
 
@@ -59,11 +69,14 @@ def mbs(command: str, cwd: Path) -> None:
     from typer.testing import CliRunner
 
     from planar_mbs.cli.app import app
+    from planar_mbs.cli.sweep_commands import route
 
     here = os.getcwd()
     os.chdir(cwd)
+    argv = shlex.split(command)
+    route(argv)  # `mbs sweep stats` is the command sweep-stats
     try:
-        r = CliRunner().invoke(app, shlex.split(command)[1:], env={"COLUMNS": "200"})
+        r = CliRunner().invoke(app, argv[1:], env={"COLUMNS": "200"})
     finally:
         os.chdir(here)
     if r.exit_code != 0:

@@ -211,8 +211,7 @@ def sweep(
     Example: mbs sweep models/slider_crank_clearance_a.mbs -P speed=800rpm..6000rpm:27 -n 101 --per-rev 720 -o a.h5
     """
     try:
-        study = study_command.study_options(param, sample, cases, sampler, seed, sobol_indices)
-        axes = [] if study else [sweep_scan.parse_param(p) for p in param]
+        study, axes = study_command.design(param, sample, cases, sampler, seed, sobol_indices, output)
         settings = _sweep_settings(integrator, t_end, output_step, rtol, atol, revolutions, jobs)
         section = _section_options(poincare, period, angle, transient, clock, no_section)
         keep_list = _keep_list(keep)

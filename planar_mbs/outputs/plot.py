@@ -451,6 +451,37 @@ def spectrum_figure(results: "Results", spec):
     return fig
 
 
+def sweep_spectrum_figure(cases, name: str, options: dict):
+    """One subplot per case: the spectrum of ``name`` (`spectrum.spectrum` with ``options``), its peaks marked."""
+    keys = varying_parameters(cases)
+    nrows, ncols = _grid(len(cases))
+    fig = _figure(4.0 * ncols, 0.8 + 2.6 * nrows)
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    spec = None
+    for ax, (k, res) in zip(axes, cases):
+        opts = dict(options)
+        spec = spectrum.spectrum(res, name, opts.pop("kind"), **opts)
+        x, y = np.asarray(spec.x), np.asarray(spec.y)
+        (ax.semilogy(x[1:], y[1:], lw=0.7) if spec.kind == "psd" else ax.plot(x, y, lw=0.7))
+        seen = np.nonzero(y > 1e-3 * y.max())[0] if spec.kind != "psd" and len(y) and y.max() > 0 else []
+        if len(seen):
+            ax.set_xlim(0, min(x[-1], max(1.5 * x[seen[-1]], 10 * spec.resolution)))
+        for px, py in spec.peaks(3):
+            ax.plot(px, py, "v", ms=3, color="C3")
+            ax.annotate(f"{px:.3g}", (px, py), textcoords="offset points", xytext=(3, 2), fontsize="x-small")
+        res_text = f"{spec.resolution:.3g} " + ("orders" if spec.kind == "order" else "Hz")
+        ax.set_title(wrap_pairs([case_label(res, keys, k), f"resolution {res_text}"], SUBPLOT_CHARS),
+                     fontsize="small")
+        ax.set_xlabel("order" if spec.kind == "order" else "frequency [Hz]", fontsize="small")
+        ax.set_ylabel(f"{spec.signal} [{pretty_unit(spec.y_unit)}]", fontsize="small")
+        ax.grid(True, lw=0.3, alpha=0.6)
+    for ax in axes[len(cases):]:
+        ax.set_visible(False)
+    what = {"amplitude": "amplitude spectrum", "psd": "PSD", "order": "order spectrum"}[spec.kind]
+    fig.suptitle(f"{name}: {what} per case ({spec.window} window)", fontsize="medium")
+    return fig, spec.kind
+
+
 def sweep_grid_figure(cases, name: str, against: str | None = None):
     """One subplot per case of one signal (Muvengei et al.'s Figs. 9-11)."""
     keys = varying_parameters(cases)
@@ -651,9 +682,13 @@ def plot_file(
         raise PlotError(f"error: {path} is not an HDF5 results file ({exc})") from None
     outdir = Path(outdir) if outdir is not None else path.parent / f"{path.stem}_plots"
     stem = path.stem
-    if sweep and spectra:
-        raise PlotError(f"error: {path} is a sweep file: a spectrum is drawn for a run or one case "
-                        f"({path}:/cases/0)")
+    if sweep and spectra:  # a grid of each case's spectrum
+        written = Written(style)
+        for name in spectra:
+            opts = {"kind": "amplitude", **(spectrum_options or {}), "t_from": t_from, "t_to": t_to}
+            fig, kind = sweep_spectrum_figure(sweep_cases(path), name, opts)
+            _save(fig, outdir / f"{stem}_{kind}_grid_{_slug(name)}.{fmt}", written)
+        return written
     if sweep:
         panels = parse_panels(signals)
         pair = parse_pair(poincare_pair) if poincare_pair else None

@@ -33,7 +33,7 @@ from ..language.units import parse_quantity
 from ..lazy import lazy
 from ..results import hdf5
 from ..results import statistics as st
-from . import scan
+from . import empirical, scan
 from .scan import Axis, SweepError, _fmt, case_key, parameter_number
 from .store import read_summary
 
@@ -42,6 +42,7 @@ qmc = lazy("scipy.stats.qmc")
 
 SAMPLERS = ("mc", "lhs", "sobol")
 KINDS = {"normal": 2, "uniform": 2, "truncnormal": 4}  # arguments of each distribution
+TABLE = "table"  # measured values (`empirical`): table(FILE.csv) or table(FILE.csv, UNIT)
 _CALL = re.compile(r"\s*([A-Za-z_]\w*)\s*\((.*)\)\s*", re.S)
 
 
@@ -49,16 +50,20 @@ _CALL = re.compile(r"\s*([A-Za-z_]\w*)\s*\((.*)\)\s*", re.S)
 class Distribution:
     """One toleranced parameter: ``kind`` with ``args`` in ``unit`` (text as `--set` takes it).
 
-    normal(mean, std), uniform(low, high), truncnormal(mean, std, low, high)."""
+    normal(mean, std), uniform(low, high), truncnormal(mean, std, low, high); table: ``args``
+    the measured values, sorted, read from the file ``source`` (`empirical`)."""
 
     name: str
     kind: str
     args: tuple[float, ...]
     unit: str = ""
+    source: str = ""
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
         """The values at cumulative probabilities ``u`` (inverse transform sampling)."""
         a = self.args
+        if self.kind == TABLE:
+            return empirical.ppf(a, u)
         if self.kind == "uniform":
             return a[0] + (a[1] - a[0]) * np.asarray(u)
         if self.kind == "normal":
@@ -69,6 +74,8 @@ class Distribution:
     def variance(self) -> float:
         """The distribution's variance (in ``unit``²)."""
         a = self.args
+        if self.kind == TABLE:
+            return empirical.variance(a)
         if self.kind == "uniform":
             return (a[1] - a[0]) ** 2 / 12
         if self.kind == "normal":
@@ -79,18 +86,26 @@ class Distribution:
         return _fmt(float(x)) + self.unit
 
     def describe(self) -> str:
+        if self.kind == TABLE:
+            return (f"{self.name} = table({self.source}: {len(self.args)} measured values, "
+                    f"{self.text(self.args[0])} to {self.text(self.args[-1])})")
         return f"{self.name} = {self.kind}({', '.join(_fmt(v) + self.unit for v in self.args)})"
 
 
-def parse_distribution(text: str) -> Distribution:
+def parse_distribution(text: str, stored: "Study | None" = None) -> Distribution:
     """``NAME=normal(50mm, 0.1mm)``, ``NAME=uniform(0.1mm, 0.3mm)``,
-    ``NAME=truncnormal(MEAN, STD, LOW, HIGH)``; every argument in one unit (or none)."""
+    ``NAME=truncnormal(MEAN, STD, LOW, HIGH)``; every argument in one unit (or none);
+    ``NAME=table(FILE.csv)`` or ``table(FILE.csv, UNIT)``: measured values, read now (`empirical`), or
+    taken from ``stored`` (the study being resumed) when the file is gone."""
     name, sep, rest = text.partition("=")
     m = _CALL.fullmatch(rest) if sep else None
-    if not name.strip() or m is None or m.group(1).lower() not in KINDS:
+    if not name.strip() or m is None or m.group(1).lower() not in (*KINDS, TABLE):
         raise SweepError(f"`--sample {text}` is not NAME=DISTRIBUTION(...): write e.g. `--sample "
-                         "crank=normal(50mm,0.1mm)`, `uniform(LOW,HIGH)` or `truncnormal(MEAN,STD,LOW,HIGH)`")
+                         "crank=normal(50mm,0.1mm)`, `uniform(LOW,HIGH)`, `truncnormal(MEAN,STD,LOW,HIGH)` "
+                         "or `table(FILE.csv, UNIT)`")
     kind = m.group(1).lower()
+    if kind == TABLE:
+        return _table(text, name.strip(), m.group(2), stored)
     parts = [parameter_number(p.strip()) for p in m.group(2).split(",")]
     if len(parts) != KINDS[kind] or any(p is None for p in parts):
         raise SweepError(f"--sample {text}: {kind} takes {KINDS[kind]} numbers with units")
@@ -100,6 +115,24 @@ def parse_distribution(text: str) -> Distribution:
     args = tuple(float(p[0]) for p in parts)
     _check_args(text, kind, args)
     return Distribution(name.strip(), kind, args, units.pop() if units else "")
+
+
+def _table(text: str, name: str, inside: str, stored: "Study | None") -> Distribution:
+    """``table(FILE, UNIT)``: the file's values, sorted, in UNIT (none: plain numbers); a file
+    no longer there is the ``stored`` study's table of that name and file, if it has one."""
+    parts = [p.strip().strip("'\"") for p in inside.split(",")]
+    if not 1 <= len(parts) <= 2 or not parts[0]:
+        raise SweepError(f"--sample {text}: write table(FILE.csv) or table(FILE.csv, UNIT), e.g. "
+                         "`--sample clearance=table(measured.csv, mm)`")
+    unit = parts[1].replace(" ", "") if len(parts) == 2 else ""
+    if unit and parameter_number(f"1{unit}") != (1.0, unit):
+        raise SweepError(f"--sample {text}: `{parts[1]}` is not a unit (e.g. mm, rpm, GPa)")
+    if stored is not None and not Path(parts[0]).exists():  # resuming: the study file holds the values
+        for d in stored.distributions:
+            if (d.name, d.kind, d.source, d.unit) == (name, TABLE, parts[0], unit):
+                return d
+    values = empirical.read_values(parts[0])
+    return Distribution(name, TABLE, tuple(float(v) for v in values), unit, parts[0])
 
 
 def _check_args(text: str, kind: str, a: tuple[float, ...]) -> None:
@@ -184,7 +217,8 @@ class Study:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Study":
-        dists = tuple(Distribution(x["name"], x["kind"], tuple(x["args"]), x["unit"]) for x in d["distributions"])
+        dists = tuple(Distribution(x["name"], x["kind"], tuple(x["args"]), x["unit"], x.get("source", ""))
+                      for x in d["distributions"])
         return cls(dists, int(d["n"]), d["sampler"], int(d["seed"]), bool(d["sobol_indices"]))
 
     def same_design(self, other: "Study") -> bool:
@@ -294,6 +328,8 @@ class StudyReport:
     statistics: st.OutputStatistics
     convergence: list
     sobol: st.SobolIndices | None
+    values: np.ndarray | None = None  # the output of every sample, in design order (NaN: no value)
+    unit: str = ""
 
     def lines(self) -> list[str]:
         d = self.study
@@ -325,4 +361,37 @@ def study_report(path, output: str, confidence: float = 0.95) -> StudyReport:
         sobol = st.sobol_indices(fa, fb, fab, names, confidence, seed=study.seed)
     else:
         y, sobol = at(mats["X"]), None
-    return StudyReport(study, output, st.describe(y, output, unit, confidence), st.convergence(y, confidence), sobol)
+    return StudyReport(study, output, st.describe(y, output, unit, confidence), st.convergence(y, confidence), sobol,
+                       y, unit)
+
+
+def sample_keys(study: Study) -> list[str]:
+    """The case key of every sample the statistics are over, in design order (X; A then B of Saltelli's)."""
+    mats = study.matrices()
+    rows = np.r_[mats["A"], mats["B"]] if study.sobol_indices else mats["X"]
+    return [case_key(study.case_values(r)) for r in rows]
+
+
+def kept_band(path, signal: str, percentiles=st.PERCENTILES):
+    """(t, bands, unit, n): the ``percentiles`` of a kept signal over the study's samples at each time
+    (``bands[k]`` the k-th percentile, `np.percentile`'s linear rule), on the first case's time grid over
+    the span every case covers (each case interpolated linearly onto it; cases of one grid are not)."""
+    study = stored_study(path)
+    if study is None:
+        raise SweepError(f"{path} is not a sampled study (it was run with --param, not --sample)")
+    index = {r["key"]: r["index"] for r in scan.read_case_table(path) if r["status"] == scan.FINISHED}
+    series, unit = [], ""
+    for key in [k for k in sample_keys(study) if k in index]:  # a repeated sample counts twice, as in the statistics
+        res = hdf5.read_results(f"{path}:/cases/{index[key]}")
+        if signal not in res:
+            raise SweepError(f"case {index[key]} of {path} keeps no signal {signal}: run the study with "
+                             f"`--keep {signal}`")
+        series.append((np.asarray(res.time, float), np.asarray(res[signal], float)))
+        unit = unit or res.units.get(signal, "")
+    if len(series) < 2:
+        raise SweepError(f"{path}: fewer than two finished cases keep {signal}; nothing to draw a band of")
+    lo, hi = max(t[0] for t, _ in series), min(t[-1] for t, _ in series)
+    t = series[0][0][(series[0][0] >= lo) & (series[0][0] <= hi)]
+    ys = np.array([y if len(tc) == len(series[0][0]) and np.array_equal(tc, series[0][0]) and len(t) == len(tc)
+                   else np.interp(t, tc, y) for tc, y in series])
+    return t, np.percentile(ys, list(percentiles), axis=0), unit, len(series)
