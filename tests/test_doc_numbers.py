@@ -193,7 +193,12 @@ def test_the_hdf5_layout_of_the_signals_page_is_the_files(tmp_path):
     out = tmp_path / "a.h5"
     mbs.simulate(mbs.load_model(SHIPPED), t_end="1 ms", output=str(out))
     with h5py.File(out) as f:
-        assert listed == set(f.attrs)
+        plain = set(f.attrs)
+    kept = tmp_path / "kept.h5"  # the page: `allow_unphysical` only where the run was asked to keep such results
+    mbs.simulate(mbs.load_model(SHIPPED), t_end="1 ms", output=str(kept), allow_unphysical=True)
+    with h5py.File(kept) as f:
+        assert set(f.attrs) - plain == {"allow_unphysical"} and bool(f.attrs["allow_unphysical"])
+    assert listed == plain | {"allow_unphysical"}
     bars, datasets, signals = (int(n) for n in re.search(
         r"a pendulum chain of (\d+) bars has (\d+) entity datasets\n?.*?not (\d+)\.", text, re.S).groups())
     mbs.simulate(mbs.compile_text(pendulum_chain(bars)), t_end="1 ms", output=str(out))

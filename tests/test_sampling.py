@@ -3,6 +3,7 @@ Sobol indices of a linear model, the spread of an ideal slider-crank's slider po
 toleranced crank length, reproducible designs, intervals that hold and narrow."""
 import math
 
+import h5py
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -144,3 +145,28 @@ def test_study_usage_errors(tmp_path):
         assert res.exit_code == 2 and says in res.output, res.output
     res = runner.invoke(app, ["sweep-stats", str(out), "slider.x"])
     assert res.exit_code == 2 and "Traceback" not in res.output
+
+
+def _stored(out):
+    """Every case's parameters and its stored slider.x, by case."""
+    with h5py.File(out, "r") as f:
+        return {k: (g.attrs["case_key"], g["signals/slider"]["x"][()]) for k, g in f["cases"].items()}
+
+
+def test_the_same_random_state_gives_the_same_study_on_one_core_or_two(tmp_path):
+    """The design is drawn before any case runs: one worker or two store the same cases and results."""
+    path = tmp_path / "sc_r.mbs"
+    path.write_text(MODEL)
+    stored = []
+    for jobs in ("1", "2"):
+        out = tmp_path / f"study{jobs}.h5"
+        args = ["sweep", str(path), "--sample", "r=normal(50mm, 0.1mm)", "--cases", "6", "--sampler", "lhs",
+                "--random-state", "4", "--keep", "slider.x", "--no-section", "-j", jobs, "-q", "-o", str(out)]
+        res = runner.invoke(app, args)
+        assert res.exit_code == 0 and "6 case(s) run" in res.output, res.output
+        stored.append(_stored(out))
+    one, two = stored
+    assert sorted(one) == sorted(two) and len(one) == 6
+    for k in one:
+        assert one[k][0] == two[k][0]
+        np.testing.assert_array_equal(one[k][1], two[k][1])

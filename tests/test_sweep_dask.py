@@ -91,3 +91,24 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path):
                                    "--scheduler", "tcp://127.0.0.1:1"])
     assert res.exit_code == 2
     assert "cannot reach the dask scheduler" in res.output and "Traceback" not in res.output
+
+
+STUDY = ["--sample", "clearance=uniform(0.1mm, 0.3mm)", "--sample", "speed=normal(3000rpm, 200rpm)",
+         "--cases", "4", "--sampler", "sobol", "--random-state", "3", "--revolutions", "2", "--per-rev", "90",
+         "-q", "--keep", "all"]
+
+
+def test_a_sampled_study_on_the_cluster_draws_and_runs_the_local_cases(tmp_path, cluster):
+    """The same random state gives the same cases, and the same results to the last bit, on one
+    local process and on the cluster's workers (the design is drawn before any case runs)."""
+    runner = CliRunner()
+    local, remote = tmp_path / "local.h5", tmp_path / "remote.h5"
+    res = runner.invoke(app, ["sweep", str(MODEL), *STUDY, "-o", str(local), "--jobs", "1"])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["sweep", str(MODEL), *STUDY, "-o", str(remote), "--scheduler", cluster])
+    assert res.exit_code == 0 and "4 case(s) run" in res.output, res.output
+    a, b = _cases(local), _cases(remote)
+    assert sorted(a) == sorted(b) and len(a) == 4
+    for key in a:
+        for name in a[key]:
+            np.testing.assert_array_equal(a[key][name], b[key][name])
