@@ -437,3 +437,18 @@ def test_only_model_errors_escape():
                  "param x = atan2(1 m, 1 s)", "param x = box(1)", "\x00", "param x = 1 rpm + 1 m"]:
         with pytest.raises(ModelError):
             compile_text(text, "t.mbs")
+
+
+def test_a_second_body_written_as_a_drivers_argument_is_named_with_relative_to():
+    """`rotation(a, b, speed = ...)` is a reference body in the wrong place, not a second motion: the
+    message says so at `b` and shows `relative_to`; written that way, the driver moves a relative to b."""
+    base = ("body a { mass = 1 kg  inertia = 1 kg*m^2 }\n"
+            "body b { mass = 1 kg  inertia = 1 kg*m^2  position = (1 m, 0) }\n"
+            "joint pa = revolute(ground (0, 0), a (0, 0))\njoint pb = revolute(ground (1 m, 0), b (0, 0))\n")
+    with pytest.raises(ModelError) as err:
+        compile_text(base + "driver d = rotation(a, b, speed = 0 rad/s)\n")
+    text = err.value.render()
+    assert "`b` is a body, not a motion" in text and "relative_to = b" in text
+    assert (err.value.line, err.value.column) == (5, 24)
+    m = compile_text(base + "driver d = rotation(a, relative_to = b, speed = 0 rad/s)\n")
+    assert list(m.kernel.driver_body[0]) == [1, 0]

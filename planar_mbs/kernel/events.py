@@ -183,6 +183,31 @@ def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi):
 
 
 @kernel(inline=True)
+def _illinois_trial(it, lo, flo, hi, fhi):
+    """The next point of Illinois regula falsi in [lo, hi] (flo <= 0 < fhi); every fourth, or on a
+    flat bracket, the midpoint (the bisection safeguard)."""
+    if it % 4 == 3 or not (fhi - flo > 0.0):
+        return 0.5 * (lo + hi)
+    x = (lo * fhi - hi * flo) / (fhi - flo)
+    if not (x > lo and x < hi):
+        return 0.5 * (lo + hi)
+    return x
+
+
+@kernel(inline=True)
+def _illinois_narrow(x, fx, lo, flo, hi, fhi, side):
+    """(lo, flo, hi, fhi, side) once g(x) = fx is known (g > 0 past the switch): x replaces the end on
+    its side, and the end kept twice in a row has its value halved (Illinois)."""
+    if fx > 0.0:
+        if side == 1:
+            flo *= 0.5
+        return lo, flo, x, fx, 1
+    if side == -1:
+        fhi *= 0.5
+    return x, fx, hi, fhi, -1
+
+
+@kernel(inline=True)
 def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
     """Bracket end on the new side (g > 0) of the crossing of g in [lo, hi] (flo <= 0 < fhi),
     refined by Illinois regula falsi (bisection safeguard) to tol."""
@@ -190,26 +215,10 @@ def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
     for it in range(MAX_ROOT_ITER):
         if hi - lo <= tol:
             break
-        if it % 4 == 3 or not (fhi - flo > 0.0):
-            x = 0.5 * (lo + hi)
-        else:
-            x = (lo * fhi - hi * flo) / (fhi - flo)
-            if not (x > lo and x < hi):
-                x = 0.5 * (lo + hi)
+        x = _illinois_trial(it, lo, flo, hi, fhi)
         dense_eval(ws, x, ws.yt)
         fx, v = _g(km, k, ws.yt, sgn)
-        if fx > 0.0:
-            hi = x
-            fhi = fx
-            if side == 1:
-                flo *= 0.5
-            side = 1
-        else:
-            lo = x
-            flo = fx
-            if side == -1:
-                fhi *= 0.5
-            side = -1
+        lo, flo, hi, fhi, side = _illinois_narrow(x, fx, lo, flo, hi, fhi, side)
     return hi
 
 
@@ -318,26 +327,10 @@ def _friction_crossing(km, ws, contact, k, lo, flo, hi, fhi, tol):
     for it in range(MAX_ROOT_ITER):
         if hi - lo <= tol:
             break
-        if it % 4 == 3 or not (fhi - flo > 0.0):
-            x = 0.5 * (lo + hi)
-        else:
-            x = (lo * fhi - hi * flo) / (fhi - flo)
-            if not (x > lo and x < hi):
-                x = 0.5 * (lo + hi)
+        x = _illinois_trial(it, lo, flo, hi, fhi)
         dense_eval(ws, x, ws.yt)
         fx = friction_g(km, k, ws.yt, contact)
-        if fx > 0.0:
-            hi = x
-            fhi = fx
-            if side == 1:
-                flo *= 0.5
-            side = 1
-        else:
-            lo = x
-            flo = fx
-            if side == -1:
-                fhi *= 0.5
-            side = -1
+        lo, flo, hi, fhi, side = _illinois_narrow(x, fx, lo, flo, hi, fhi, side)
     return hi
 
 

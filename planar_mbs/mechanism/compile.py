@@ -947,6 +947,17 @@ class _ClearancePass:
                     str(e), hint="use flores or gonthier, which reach any restitution") from None
         return ce, 0.0
 
+    def _no_second_body(self, extra: list, driven: Expr, label: str) -> None:
+        """A body written as a driver's second argument (`rotation(a, b, ...)`) is a reference body in
+        the wrong place, not a motion: say how to write it."""
+        for e in extra:
+            name = e.name if isinstance(e, Name) or isinstance(e, Call) and not e.kwargs else None
+            if name in self.body_id:
+                first = getattr(driven, "name", "body")
+                raise e.pos.error(f"{label}: `{name}` is a body, not a motion: a driver names the body it moves "
+                                  "first and the body it moves relative to as `relative_to`",
+                                  hint=f"write `{first}, relative_to = {name}` (or the other way round)")
+
     def _restitution(self, f: Fields, key: str) -> float:
         """A coefficient of restitution in (0, 1]."""
         e = f.scalar(key, U.NUMBER)
@@ -1035,6 +1046,7 @@ class _DriverPass:
             p0 = float(u @ (self._world(bj, pj) - self._world(bi, p_i)))
         # motion: speed = X | motion = m(...) | a positional m(...)
         motions = [e for e in (f.expr("motion"), *c.args[1:]) if e is not None]
+        self._no_second_body(c.args[1:], c.args[0], label)
         if f.has("speed"):
             if motions:
                 raise f.expr("speed").pos.error("give either `speed = ...` or a motion, not both",
