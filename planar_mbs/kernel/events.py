@@ -201,10 +201,12 @@ def _illinois_narrow(x, fx, lo, flo, hi, fhi, side):
     if fx > 0.0:
         if side == 1:
             flo *= 0.5
-        return lo, flo, x, fx, 1
+        side = 1
+        return lo, flo, x, fx, side
     if side == -1:
         fhi *= 0.5
-    return x, fx, hi, fhi, -1
+    side = -1
+    return x, fx, hi, fhi, side
 
 
 @kernel(inline=True)
