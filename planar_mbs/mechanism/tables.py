@@ -213,13 +213,13 @@ def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
 
         def fail(message, hint=""):
             return ModelError(message, path, i, 1, hint=hint, source_line=raw, width=max(1, len(raw)))
-        header, first = first and not any(map(_number, cells)), False
+        header, first = first and not any(map(is_number, cells)), False
         if header:
             continue
         try:
             values = [float(c) for c in cells]
         except ValueError:
-            bad = next(c for c in cells if not _number(c))
+            bad = next(c for c in cells if not is_number(c))
             raise fail(f"a table line must hold two numbers (x, y); `{bad}` is not a number",
                        "e.g. `90, 1250.5`; only the first line may be a header of words") from None
         if len(values) != 2:
@@ -238,7 +238,8 @@ def read_csv(text: str, path: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array(xs), np.array(ys)
 
 
-def _number(cell: str) -> bool:
+def is_number(cell: str) -> bool:
+    """Does a CSV cell read as a float (a header's words do not)?"""
     try:
         float(cell)
     except ValueError:

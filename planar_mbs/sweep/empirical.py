@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError
-from ..mechanism.tables import MAX_TABLE_BYTES, read_table_file
+from ..mechanism.tables import MAX_TABLE_BYTES, is_number, read_table_file
 
 MAX_VALUES = 2000  # stored in the sweep file's `study` attribute (HDF5 keeps attributes under 64 KiB)
 
@@ -51,7 +51,7 @@ def parse_values(text: str, path: str) -> np.ndarray:
         def fail(message, hint):
             return ModelError(message, path, i, 1, hint=hint, source_line=raw, width=max(1, len(raw)))
         cells = [c for c in line.replace(";", ",").replace("\t", ",").replace(" ", ",").split(",") if c]
-        number = [_number(c) for c in cells]
+        number = [is_number(c) for c in cells]
         if first and not any(number):
             first = False
             continue  # a header
@@ -75,14 +75,6 @@ def parse_values(text: str, path: str) -> np.ndarray:
                          path, 1, 1, source_line=lines[0] if lines else "",
                          hint="its quantiles describe it as well: keep every k-th of the sorted values")
     return np.sort(np.array(values))
-
-
-def _number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
 
 
 def ppf(values, u) -> np.ndarray:
