@@ -288,7 +288,7 @@ def element(name: str) -> ElementSpec:
 @dataclass(frozen=True)
 class FrictionSetting:
     """A setting of a friction model: its name in a contact element, its unit kind (the compiler's
-    unit table: "number", "velocity", "damping"), its default (None: required; a string: the value of
+    unit table: "number", "velocity", "damping", "per_length", "time_per_length"), its default (None: required; a string: the value of
     that other setting) and what it means, with its symbol."""
 
     name: str
@@ -302,7 +302,8 @@ class FrictionSpec:
     """A friction model of the contact elements (`friction_model = NAME`; docs/contact.md, "Friction").
 
     ``stick``: the model holds a stuck contact by a stiff spring-damper to an anchor, with its slip and
-    stick events located (kernel/events.py); without, the force is a function of the slip speed alone."""
+    stick events located (kernel/events.py); without, the force is a function of the slip speed alone, or
+    (``state``) of the slip speed and a state of the run that the integrator carries (LuGre's bristles)."""
 
     code: int  # FrictionModel value, clearance_param[k, CP_FRICTION_MODEL]
     enum: str
@@ -312,6 +313,7 @@ class FrictionSpec:
     settings: tuple[FrictionSetting, ...]
     stick: bool
     reference: str
+    state: bool = False  # one state per contact element in the integrated state vector (the bristle z)
 
 
 _MU = FrictionSetting("friction", "number", 0.0, "kinetic coefficient mu_k (0: frictionless)")
@@ -343,8 +345,20 @@ FRICTION_MODELS: tuple[FrictionSpec, ...] = (
                  + _STICK,
                  reference="Marques, Flores, Claro & Lankarani, Nonlinear Dyn 86 (2016); Pennestri et al., "
                            "Nonlinear Dyn 83 (2016)"),
+    FrictionSpec(code=3, enum="LUGRE", name="lugre", title="LuGre bristle model",
+                 formula="dz/dt = v - sigma_0 abs(v) z / g(v), g(v) = mu_k + (mu_s - mu_k) exp(-(abs(v)/v_s)^d); "
+                         "F_T = -F_N (sigma_0 z + sigma_1 dz/dt) - sigma_2 v, z a state of the run", stick=False, state=True,
+                 settings=(_MU, _MU_S, FrictionSetting("stribeck_velocity", "velocity", None, "Stribeck velocity v_s"),
+                           FrictionSetting("stribeck_exponent", "number", 2.0, "exponent d of the Stribeck curve"),
+                           FrictionSetting("viscous_friction", "damping", 0.0, "viscous coefficient sigma_2"),
+                           FrictionSetting("bristle_stiffness", "per_length", None,
+                                           "bristle stiffness sigma_0 per unit normal force"),
+                           FrictionSetting("bristle_damping", "time_per_length", 0.0,
+                                           "bristle damping sigma_1 per unit normal force")),
+                 reference="Canudas de Wit, Olsson, Astrom & Lischinsky, IEEE TAC 40 (1995)"),
 )
-FRICTION_UNIT_TEXT = {"number": "", "velocity": " m/s", "damping": " N*s/m"}  # as docs show a default
+FRICTION_UNIT_TEXT = {"number": "", "velocity": " m/s", "damping": " N*s/m", "per_length": " 1/m",
+                      "time_per_length": " s/m"}  # as docs show a default
 DEFAULT_FRICTION = "coulomb"  # a model that writes only `friction = 0.3` gets a contact that can stick
 
 

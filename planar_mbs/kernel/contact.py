@@ -72,6 +72,9 @@ from ..mechanism.model import (
     CP_STRIBECK_EXPONENT,
     CP_STRIBECK_VELOCITY,
     CP_VISCOUS_FRICTION,
+    CP_BRISTLE_DAMPING,
+    CP_BRISTLE_STIFFNESS,
+    CP_STATE,
     CP_BREAKDOWN,
     CP_KIND,
     CP_LENGTH,
@@ -114,6 +117,7 @@ KELVIN_VOIGT = int(ContactLaw.KELVIN_VOIGT)
 N_LAWS = len(catalog.LAWS)
 AMBROSIO = int(FrictionModel.AMBROSIO)
 STRIBECK = int(FrictionModel.STRIBECK)
+LUGRE = int(FrictionModel.LUGRE)
 # per friction model code: 1 = it sticks (catalog.FrictionSpec.stick)
 STICKS = np.array([1 if m.stick else 0 for m in catalog.FRICTION_MODELS], dtype=np.int64)
 CIRCLE_IN_CIRCLE = int(PairKind.CIRCLE_IN_CIRCLE)
@@ -276,7 +280,43 @@ def normal_stiffness(law, p, delta, F):
 @kernel
 def sticks(p):
     """True when element p's friction model holds a stuck contact (and it has friction)."""
-    return p[CP_FRICTION_MODEL] != AMBROSIO and p[CP_STATIC_FRICTION] > 0.0
+    return STICKS[int(p[CP_FRICTION_MODEL])] == 1 and p[CP_STATIC_FRICTION] > 0.0
+
+
+@kernel
+def state_index(p):
+    """Index j of element p's own state (LuGre's bristle deflection z = y[2n + j]), or -1."""
+    return int(p[CP_STATE]) - 1
+
+
+@kernel
+def stribeck_curve(p, vt):
+    """g(v) = mu_k + (mu_s - mu_k) exp(-(|v|/v_s)^d), the Stribeck curve per unit normal force."""
+    mk = p[CP_FRICTION]
+    return mk + (p[CP_STATIC_FRICTION] - mk) * math.exp(-(abs(vt) / p[CP_STRIBECK_VELOCITY]) ** p[CP_STRIBECK_EXPONENT])
+
+
+@kernel
+def bristle_slip_rate(p, w, vt):
+    """dz/dt = v - sigma_0 |v| z / g(v) of LuGre's bristle deflection z (Canudas de Wit, Olsson, Astrom
+    & Lischinsky, "A new model for control of systems with friction", 1995), sigma_0 per unit normal
+    force, from w = sigma_0 z: its steady state z = g(v) sign(v) / sigma_0 at a constant slip speed."""
+    return vt - abs(vt) * w / stribeck_curve(p, vt)
+
+
+@kernel
+def bristle_rate(p, w, vt):
+    """dw/dt of the state the integrator carries, w = sigma_0 z: the bristles' force per unit normal
+    force, of the size of mu (z itself, micrometres, would sit below the error control's atol)."""
+    return p[CP_BRISTLE_STIFFNESS] * bristle_slip_rate(p, w, vt)
+
+
+@kernel
+def lugre_friction(p, F, vt, w):
+    """F_T = -F_N (sigma_0 z + sigma_1 dz/dt) - sigma_2 v, w = sigma_0 z: LuGre with its bristle stiffness
+    and damping scaled by the normal force (the steady state is F_N g(v) sign(v) + sigma_2 v against the
+    slip)."""
+    return -F * (w + p[CP_BRISTLE_DAMPING] * bristle_slip_rate(p, w, vt)) - p[CP_VISCOUS_FRICTION] * vt
 
 
 @kernel
@@ -284,9 +324,7 @@ def slip_friction(p, F, vt, d):
     """Friction force along t of a slipping contact of a stick model, slip direction d = +-1:
     -mu_k F d (coulomb), or the Stribeck curve with its viscous term."""
     if int(p[CP_FRICTION_MODEL]) == STRIBECK:
-        mk = p[CP_FRICTION]
-        mu = mk + (p[CP_STATIC_FRICTION] - mk) * math.exp(-(abs(vt) / p[CP_STRIBECK_VELOCITY]) ** p[CP_STRIBECK_EXPONENT])
-        return -d * mu * F - p[CP_VISCOUS_FRICTION] * vt
+        return -d * stribeck_curve(p, vt) * F - p[CP_VISCOUS_FRICTION] * vt
     return -d * p[CP_FRICTION] * F
 
 
@@ -352,10 +390,13 @@ def stick_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, 
 
 
 @kernel
-def friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy):
+def friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy, zk):
     """Friction force F_T on the second body along t of element k in contact (normal force F): the
-    model's (catalog.FRICTION_MODELS); a stuck contact's spring-damper capped at mu_s F."""
+    model's (catalog.FRICTION_MODELS); a stuck contact's spring-damper capped at mu_s F; LuGre's from
+    its state zk = sigma_0 z (z its bristle deflection)."""
     p = km.clearance_param[k]
+    if state_index(p) >= 0:
+        return lugre_friction(p, F, vt, zk)
     if not sticks(p):
         return -friction_coefficient(p, vt) * F
     mode = int(contact[k, CT_FRICTION])
@@ -558,12 +599,16 @@ def film_peak(km, k, q, qd, e, vn):
 
 
 @kernel
-def clearance_force(km, k, q, qd, cs, contact):
+def clearance_force(km, k, q, qd, cs, contact, z, zd):
     """(F, Ft, nx, ny, vt, status, rix, riy, rjx, rjy) of element k in its current mode:
     normal force magnitude F (the force on the second body is -F n + Ft t), friction force Ft on
     the second body along t = (-ny, nx) (with the film's tangential force for a lubricated joint),
     slip velocity vt, and the arms from the centres of mass to the contact points; cs = the
-    bodies' cos/sin (`body_trig`)."""
+    bodies' cos/sin (`body_trig`).  z: the elements' own states (LuGre's sigma_0 z), whose rates go
+    into zd (0 out of contact: the bristles hold until the contact opens, where they are reset)."""
+    js = state_index(km.clearance_param[k])
+    if js >= 0:
+        zd[js] = 0.0
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
     Pix, Piy, aix, aiy, vix, viy, wi = point_cs(q, qd, cs, bi, km.clearance_point[k, 0, 0], km.clearance_point[k, 0, 1])
@@ -590,23 +635,30 @@ def clearance_force(km, k, q, qd, cs, contact):
     F, st = normal_force(law, p, delta, vn, contact[k, CT_IMPACT_VELOCITY], contact[k, CT_LAST_FORCE])
     if st != 0:
         return F, 0.0, nx, ny, vt, st, rix, riy, rjx, rjy
-    Ft = friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy) if p[CP_FRICTION] > 0.0 \
-        or sticks(p) else 0.0
+    zk = 0.0
+    if js >= 0:
+        zk = z[js]
+        zd[js] = bristle_rate(p, zk, vt)
+    Ft = friction_force(km, k, q, contact, law, delta, F, vt, ex, ey, nx, ny, rix, riy, rjx, rjy, zk) \
+        if p[CP_FRICTION] > 0.0 or sticks(p) else 0.0
     return F + F0, Ft + Ft0, nx, ny, vt, 0, rix, riy, rjx, rjy
 
 
 @kernel
-def add_clearance_forces(km, q, qd, cs, contact, Qe, stats, pw, p0):
+def add_clearance_forces(km, q, qd, cs, contact, z, zd, Qe, stats, pw, p0):
     """Qe += contact forces (normal and friction) of every clearance element in contact mode, and
     the film force of every lubricated joint (an element in free flight costs one comparison); the
-    power of element k's forces on its two bodies into pw[p0 + k].
+    power of element k's forces on its two bodies into pw[p0 + k]; the rates of the elements' own
+    states z into zd (`clearance_force`).
     Returns 0, or a status (BAD_INPUT, CONTACT_SOLVE) with stats[ST_INFO] = element index."""
     nc = km.clearance_body.shape[0]
+    for j in range(zd.shape[0]):
+        zd[j] = 0.0
     for k in range(nc):
         pw[p0 + k] = 0.0
         if contact_mode(contact, k) == FREE and int(km.clearance_param[k, CP_KIND]) != LUBRICATED:
             continue
-        F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, cs, contact)
+        F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, cs, contact, z, zd)
         if st != 0:
             stats[ST_INFO] = k
             return st

@@ -231,7 +231,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     nf = km.force_type.shape[0]
     nd = km.driver_type.shape[0]
     if km.clearance_body.shape[0] > 0:
-        st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.Qe, stats, ws.pw, nf + 1 + nd)
+        st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.z, ws.zd, ws.Qe, stats, ws.pw, nf + 1 + nd)
         if st != 0:
             return st
     n = q.shape[0]
@@ -267,15 +267,21 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
 
 @kernel
 def rhs(km, cfg, t, y, contact, ws, stats, ydot):
-    """First-order form y = (q, q'): ydot = (q', q''). Returns a Status code."""
-    n = y.shape[0] // 2
-    st = accelerations(km, cfg, t, y[:n], y[n:], contact, ws, stats)
+    """First-order form y = (q, q', z): ydot = (q', q'', z'), z the contact elements' own states
+    (LuGre's bristles, sigma_0 z: `contact.bristle_rate`; none in most models). Returns a Status code."""
+    n = km.minv.shape[0]
+    nz = ws.z.shape[0]
+    for j in range(nz):
+        ws.z[j] = y[2 * n + j]
+    st = accelerations(km, cfg, t, y[:n], y[n:2 * n], contact, ws, stats)
     stats[ST_RHS] += 1
     if st != 0:
         return st
     for k in range(n):
         ydot[k] = y[n + k]
         ydot[n + k] = ws.qdd[k]
+    for j in range(nz):
+        ydot[2 * n + j] = ws.zd[j]
     return 0
 
 
@@ -321,12 +327,12 @@ def project(km, t, y, ws, stats):
     projection was regularised (a singular position's force withheld), the kinetic energy
     the velocity projection removed is given back (`restore_kinetic_energy`).
     Returns a Status code."""
-    n = y.shape[0] // 2
+    n = km.minv.shape[0]
     m = ws.C.shape[0]
     if m == 0:
         return 0
     q = y[:n]
-    qd = y[n:]
+    qd = y[n:2 * n]
     minv = km.minv
     for it in range(4):
         body_trig(q, ws.cs)

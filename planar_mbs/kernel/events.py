@@ -33,7 +33,7 @@ import math
 from .jit import kernel
 from ..mechanism.model import (CP_STATIC_FRICTION, CT_FRICTION, CT_IMPACT_VELOCITY, CT_MODE, CT_SLIP_DIRECTION, FREE,
                                NO_FRICTION_MODE, SLIP, STICK, TOUCHING)
-from .contact import contact_mode, normal_force, pair_kinematics, set_anchor, stick_force, sticks
+from .contact import contact_mode, normal_force, pair_kinematics, set_anchor, state_index, stick_force, sticks
 
 from ..mechanism.model import ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
@@ -49,8 +49,8 @@ MAX_ROOT_ITER = 200
 @kernel
 def _g(km, k, y, sgn):
     """(g, dg/dt) of joint k at state y, signed so that the event is g becoming positive."""
-    n = y.shape[0] // 2
-    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
+    n = km.minv.shape[0]
+    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n])
     return sgn * delta, sgn * vn
 
 
@@ -275,8 +275,8 @@ def friction_g(km, k, y, contact):
     mode = int(contact[k, CT_FRICTION])
     if mode == NO_FRICTION_MODE or contact_mode(contact, k) == FREE:
         return -1.0
-    n = y.shape[0] // 2
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
+    n = km.minv.shape[0]
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n])
     if mode == SLIP:
         return -contact[k, CT_SLIP_DIRECTION] * vt
     if not (delta > 0.0):
@@ -342,8 +342,8 @@ def start_friction(km, k, y, contact):
     slipping its way (nothing for a model that does not stick)."""
     if not sticks(km.clearance_param[k]):
         return
-    n = y.shape[0] // 2
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
+    n = km.minv.shape[0]
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n])
     if vt == 0.0:
         set_anchor(km, k, y[:n], contact, ex, ey, nx, ny)
     else:
@@ -355,8 +355,8 @@ def start_friction(km, k, y, contact):
 def switch_friction(km, k, y, contact, stats):
     """Switch element k's friction mode at state y (on the new side): a stuck contact slips against
     its spring-damper's force; a slipping one sticks where it is (its anchor)."""
-    n = y.shape[0] // 2
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:])
+    n = km.minv.shape[0]
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n])
     if int(contact[k, CT_FRICTION]) == STICK:
         law = km.clearance_law[k]
         F, st = normal_force(law, km.clearance_param[k], max(delta, 0.0), vn, contact[k, CT_IMPACT_VELOCITY], 0.0)
@@ -372,14 +372,15 @@ def switch_friction(km, k, y, contact, stats):
 def switch_mode(km, k, y, contact, stats):
     """Switch joint k's mode at state y (on the new side).  At an onset store the
     impact velocity delta'(-) = normal relative velocity (floored: see
-    contact.IMPACT_VELOCITY_FLOOR), start its friction mode and count the contact event; an event
-    index nc + k switches element k's friction mode."""
-    n = y.shape[0] // 2
+    contact.IMPACT_VELOCITY_FLOOR), start its friction mode and count the contact event; at a
+    separation reset its own state (LuGre's bristle deflection, z = 0); an event index nc + k switches
+    element k's friction mode."""
+    n = km.minv.shape[0]
     nc = km.clearance_body.shape[0]
     if k >= nc:
         switch_friction(km, k - nc, y, contact, stats)
     elif contact_mode(contact, k) == FREE:
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n])
         contact[k, CT_MODE] = TOUCHING
         contact[k, CT_IMPACT_VELOCITY] = max(vn, IMPACT_VELOCITY_FLOOR)
         stats[ST_CONTACT_EVENTS] += 1
@@ -387,6 +388,9 @@ def switch_mode(km, k, y, contact, stats):
     else:
         contact[k, CT_MODE] = FREE
         contact[k, CT_FRICTION] = NO_FRICTION_MODE
+        js = state_index(km.clearance_param[k])
+        if js >= 0:  # the contact opens: LuGre's bristles relax (z = 0 until the next contact)
+            y[2 * n + js] = 0.0
 
 
 @kernel
@@ -394,10 +398,10 @@ def init_modes(km, y, contact):
     """At the start of a run: a joint already penetrating in free mode starts in
     contact mode (impact velocity = its current normal velocity, floored) and one touching without a
     friction mode starts it (`start_friction`)."""
-    n = y.shape[0] // 2
+    n = km.minv.shape[0]
     nc = km.clearance_body.shape[0]
     for k in range(nc):
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:])
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n])
         if contact_mode(contact, k) == FREE and delta > 0.0:
             contact[k, CT_MODE] = TOUCHING
             contact[k, CT_IMPACT_VELOCITY] = vn
@@ -415,12 +419,12 @@ def locate_switch(km, ws, best):
     ns = km.expr_switch.shape[0]
     ta = ws.dense[DN_TA]
     h = ws.dense[DN_H]
-    n = ws.yb.shape[0] // 2
+    n = km.minv.shape[0]
     tol = ROOT_RTOL * max(abs(ta), h) / h
     sbest = -1
     for s in range(ns):
         frozen = ws.xmode[km.expr_switch[s, 0]]
-        if live_switch(km, ws.xreg, ws.xmode, s, ta + h, ws.yb[:n], ws.yb[n:]) == frozen:
+        if live_switch(km, ws.xreg, ws.xmode, s, ta + h, ws.yb[:n], ws.yb[n:2 * n]) == frozen:
             continue
         lo = 0.0
         hi = 1.0
@@ -429,7 +433,7 @@ def locate_switch(km, ws, best):
                 break
             mid = 0.5 * (lo + hi)
             dense_eval(ws, mid, ws.yt)
-            if live_switch(km, ws.xreg, ws.xmode, s, ta + mid * h, ws.yt[:n], ws.yt[n:]) == frozen:
+            if live_switch(km, ws.xreg, ws.xmode, s, ta + mid * h, ws.yt[:n], ws.yt[n:2 * n]) == frozen:
                 lo = mid
             else:
                 hi = mid

@@ -191,12 +191,12 @@ def live_switch(km, reg, modes, s, t, q, qd):
 @kernel
 def init_switches(km, reg, modes, fault, t, y):
     """At the start of a run: every comparison frozen at its value in (t, y); no fault recorded."""
-    n = y.shape[0] // 2
+    n = km.minv.shape[0]
     fault[0] = -1.0
     for s in range(km.expr_switch.shape[0]):
         modes[km.expr_switch[s, 0]] = LIVE
     for s in range(km.expr_switch.shape[0]):
-        modes[km.expr_switch[s, 0]] = live_switch(km, reg, modes, s, t, y[:n], y[n:])
+        modes[km.expr_switch[s, 0]] = live_switch(km, reg, modes, s, t, y[:n], y[n:2 * n])
 
 
 @kernel
@@ -350,8 +350,8 @@ def _atan2_dual(y, y1, y2, x, x1, x2):
 @kernel(inline=True)
 def flip_switch(km, reg, modes, s, t, y):
     """Switch s takes its value at (t, y), on its new side (at an event)."""
-    n = y.shape[0] // 2
-    modes[km.expr_switch[s, 0]] = live_switch(km, reg, modes, s, t, y[:n], y[n:])
+    n = km.minv.shape[0]
+    modes[km.expr_switch[s, 0]] = live_switch(km, reg, modes, s, t, y[:n], y[n:2 * n])
 
 
 def expression_scratch(km):

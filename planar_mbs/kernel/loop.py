@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from ..mechanism.model import ABSURD_STATE, CT_FRICTION, CT_IMPACT_VELOCITY, STICK, TOUCHING
+from ..mechanism.model import ABSURD_STATE, CP_BRISTLE_STIFFNESS, CT_FRICTION, CT_IMPACT_VELOCITY, STICK, TOUCHING
 from .contact import contact_mode
 from .workspace import (
     DN_ERR_OLD,
@@ -86,6 +86,7 @@ from ..mechanism.model import (
     CS_SLIP,
     CS_STICK,
     CS_FRICTION_POWER,
+    CS_BRISTLE,
     CS_DISSIPATED,
     CS_WORK,
     FS_POWER,
@@ -141,6 +142,7 @@ from .contact import (
     contact_time_scale,
     film_peak,
     law_supported,
+    state_index,
 )
 from .dynamics import DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs
 from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
@@ -219,10 +221,11 @@ def observe(km, cfg, t, y, contact, ws, row):
     NaN and their work is skipped -- above all the `accelerations` call (its Schur solve) that
     the q'' block, the joint reactions and the driver efforts take; the constraint errors alone
     need only the constraint rows."""
-    N = y.shape[0]
-    n = N // 2
+    n = km.minv.shape[0]
     q = y[:n]
-    qd = y[n:]
+    qd = y[n:2 * n]
+    for j in range(ws.z.shape[0]):  # the contact elements' own states (LuGre's bristles)
+        ws.z[j] = y[2 * n + j]
     skip = int(cfg[CFG_SKIP])
     dynamics = (skip & OBS_SKIP_DYNAMICS) == 0
     errors = (skip & OBS_SKIP_ERRORS) == 0
@@ -245,7 +248,7 @@ def observe(km, cfg, t, y, contact, ws, row):
     if loads and not dynamics:  # the powers and values of the loads, which `accelerations` leaves in ws
         st = applied_forces(km, ws, t, q, qd)
         if st == 0 and nc > 0:
-            st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.Qe, ws.sstats, ws.pw, nf + 1 + nd)
+            st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.z, ws.zd, ws.Qe, ws.sstats, ws.pw, nf + 1 + nd)
         if st != 0:
             return st
     lay = layout(n // 3, nj, nd, nc, nf)  # model.observation_layout, compiled
@@ -288,7 +291,7 @@ def _observe_clearances(km, q, qd, contact, ws, row, col0):
     """The clearance joints' block of an observation row (eccentricity, penetration, forces, contact point)."""
     for k in range(km.clearance_body.shape[0]):
         ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
-        F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact)
+        F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact, ws.z, ws.zd)
         col = col0 + N_CLEARANCE_SIGNALS * k
         row[col + CS_EX] = ex
         row[col + CS_EY] = ey
@@ -303,6 +306,8 @@ def _observe_clearances(km, q, qd, contact, ws, row, col0):
         row[col + CS_SLIP] = vt
         row[col + CS_STICK] = 1.0 if contact[k, CT_FRICTION] == STICK else 0.0
         row[col + CS_FRICTION_POWER] = Ft * vt
+        js = state_index(km.clearance_param[k])
+        row[col + CS_BRISTLE] = ws.z[js] / km.clearance_param[k, CP_BRISTLE_STIFFNESS] if js >= 0 else 0.0
         bj = km.clearance_body[k, 1]
         row[col + CS_POINT_X] = (q[3 * bj] if bj >= 0 else 0.0) + rjx
         row[col + CS_POINT_Y] = (q[3 * bj + 1] if bj >= 0 else 0.0) + rjy
@@ -486,8 +491,8 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
         ws.flags[FL_SWITCH_JOINT] = -1
         restart = True
         if k < contact.shape[0] and contact_mode(contact, k) == TOUCHING:  # (k >= nc: a friction switch)
-            n = y.shape[0] // 2
-            hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:], contact[k, CT_IMPACT_VELOCITY])
+            n = km.minv.shape[0]
+            hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:2 * n], contact[k, CT_IMPACT_VELOCITY])
     if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:
         ws.flags[FL_PROJECTING] = 1  # `projection = auto`: a singular position or redundant joints
         ws.dense[DN_PROJECT_FROM] = t
@@ -503,11 +508,11 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
 def _within_bound(km, cfg, t, y, ws, stats):
     """The state at t meets the constraint check's bounds (`lost_check`), the expressions' branches
     as they are now; stats[ST_INFO] names the first row beyond them."""
-    n = y.shape[0] // 2
+    n = km.minv.shape[0]
     body_trig(y[:n], ws.cs)
-    if constraint_rows_eval(km, y[:n], y[n:], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode) != 0:
+    if constraint_rows_eval(km, y[:n], y[n:2 * n], t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode) != 0:
         return True  # left to the step's own checks
-    return lost_check(cfg, ws, y[n:], stats) == 0
+    return lost_check(cfg, ws, y[n:2 * n], stats) == 0
 
 
 @kernel(inline=True)
@@ -582,7 +587,7 @@ def passage_check(method, km, cfg, t, y, h, contact, ws, stats):
     if st == 0:
         rtol = cfg[CFG_RTOL]
         atol = cfg[CFG_ATOL]
-        for i in range(N // 2):  # positions: a velocity's noise at the passage itself is not an error of the motion
+        for i in range(km.minv.shape[0]):  # positions: a velocity's noise at the passage itself is not an error of the motion
             e = abs(ws.yb[i] - F[1, i]) / RICHARDSON[method] / (atol + rtol * max(abs(y[i]), abs(ws.yb[i])))
             if e > err:
                 err = e
@@ -623,11 +628,11 @@ def _all_finite(a):
 
 
 @kernel
-def _beyond_bound(y):
-    """The first finite component of y = (q, q') beyond every physical bound (ABSURD_STATE; angles are
-    not bounded), or -1.  Once per accepted step: 2n comparisons beside several right-hand sides."""
-    n = y.shape[0] // 2
-    for i in range(y.shape[0]):
+def _beyond_bound(y, n):
+    """The first finite component of (q, q') in y (n coordinates) beyond every physical bound
+    (ABSURD_STATE; angles are not bounded), or -1.  Once per accepted step: 2n comparisons beside
+    several right-hand sides."""
+    for i in range(2 * n):
         if abs(y[i]) >= ABSURD_STATE and math.isfinite(y[i]) and (i >= n or i % 3 != 2):
             return i
     return -1
@@ -639,15 +644,16 @@ def _beyond_bound(y):
 
 
 @kernel(inline=True)
-def _refused(km, cfg, y, stats, out_t, out):
+def _refused(km, cfg, y, stats, ws, out_t, out):
     """BAD_INPUT for arrays that do not fit the model, an unknown method or an unsupported law; else 0."""
     N = y.shape[0]
     nc = km.clearance_body.shape[0]
     cap = out_t.shape[0]
     method = int(cfg[CFG_METHOD])
-    nobs = layout(N // 6, km.joint_type.shape[0], km.driver_type.shape[0], nc, km.force_type.shape[0])[OB_SIZE]
+    n = km.minv.shape[0]
+    nobs = layout(n // 3, km.joint_type.shape[0], km.driver_type.shape[0], nc, km.force_type.shape[0])[OB_SIZE]
     if (cap == 0 or not (cfg[CFG_OUTPUT_STEP] > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
-            or N != 2 * km.minv.shape[0]):
+            or N != 2 * n + ws.z.shape[0]):
         return BAD_INPUT
     if not method_ok(method) or (not ADAPTIVE[method] and not (cfg[CFG_STEP] > 0.0)):
         stats[ST_INFO] = BAD_METHOD  # unknown, without dense output, or fixed-step without a step
@@ -673,12 +679,12 @@ def _resume(km, cfg, t0, t, y, clock, contact, stats, ws, out_t, out, nw):
         if st != 0:
             return st, nw
         clock[1] = min(clock[1], hcap)
-    n = y.shape[0] // 2
+    n = km.minv.shape[0]
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
         init_switches(km, ws.xreg, ws.xmode, ws.xfault, t, y)
     if ws.flags[FL_ENERGY0] == 0:  # the first state of the run (or one a study set): the energy balance's reference
-        energy_start(km, y[:n], y[n:], contact, ws)
+        energy_start(km, y[:n], y[n:2 * n], contact, ws)
     if stats[ST_OUTPUTS] == 0:
         st, nw, pending = _emit(km, cfg, t0, contact, stats, ws, out_t, out, nw, t, y)
         if st != 0:
@@ -744,7 +750,8 @@ def _fixed(method, km, cfg, t, y, h, t_stop, contact, stats, ws):
     ws.flags[FL_STEP_REG] = 0
     st = fixed_step(method, km, cfg, t, y, hh, contact, ws, stats)
     if st == 0:
-        st = drift_check(ws, ws.yb[y.shape[0] // 2:], stats, DRIFT_POSITION, DRIFT_VELOCITY)
+        n = km.minv.shape[0]
+        st = drift_check(ws, ws.yb[n:2 * n], stats, DRIFT_POSITION, DRIFT_VELOCITY)
     if st == 0 and ws.flags[FL_STEP_REG] == 1:
         st = passage_check(method, km, cfg, t, y, hh, contact, ws, stats)
     return st, hh, last
@@ -833,7 +840,8 @@ def _adaptive(method, km, cfg, t, t0, y, h, hmax, t_stop, clock, contact, stats,
 def _held(cfg, t, hh, y, stats, ws):
     """CONSTRAINTS_LOST after an accepted step whose constraints gave way (`lost_check`), else 0."""
     ws.flags[FL_PASSAGE] = ws.flags[FL_STEP_REG]
-    if lost_check(cfg, ws, ws.yb[y.shape[0] // 2:], stats) != 0:
+    n = ws.qdd.shape[0]
+    if lost_check(cfg, ws, ws.yb[n:2 * n], stats) != 0:
         if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0:
             # `projection = auto`: the residuals drifted past the bound without a loss of
             # rank (long runs, hard impacts); projected from the next step on
@@ -923,7 +931,7 @@ def _end_step(method, km, cfg, t0, t, h, y, clock, contact, stats, ws, out_t, ou
     N = y.shape[0]
     clock[0] = t
     clock[1] = h
-    i = _beyond_bound(y)
+    i = _beyond_bound(y, km.minv.shape[0])
     if i >= 0:  # stop before the step's outputs are written: y stays the state beyond the bound
         stats[ST_INFO] = i
         return ABSURD, nw, h
@@ -980,7 +988,7 @@ def _final_sample(km, cfg, t0, t, t_stop, h, y, clock, contact, stats, ws, out_t
 
 @kernel
 def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
-    """Integrate y = (q, q') from clock[0] towards t_stop; see the module docstring.
+    """Integrate y = (q, q', z) (z: the contact elements' own states, LuGre's bristles) from clock[0] towards t_stop; see the module docstring.
 
     clock = [t, h (current step, 0 = automatic), t0 (start of the run), work budget]:
     with clock[3] > 0 (optional) the call returns BUFFER_FULL after the step in which
@@ -992,7 +1000,7 @@ def advance(km, cfg, y, clock, contact, stats, ws, t_stop, out_t, out):
     stats[ST_INFO] is the state component whose error limited the step."""
     cap = out_t.shape[0]
     nw = cap - cap  # 0, but not a constant: `_emit(..., nw, ...)` with a literal 0 is compiled once more
-    st = _refused(km, cfg, y, stats, out_t, out)
+    st = _refused(km, cfg, y, stats, ws, out_t, out)
     if st != 0:
         return st, 0
     method = int(cfg[CFG_METHOD])

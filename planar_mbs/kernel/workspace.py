@@ -7,7 +7,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import catalog
-from ..mechanism.model import JOINT_ROWS, N_STATS, WL_SIZE, KernelModel, frozen, observation_size, work_layout
+from ..mechanism.model import CP_STATE, JOINT_ROWS, N_STATS, WL_SIZE, KernelModel, frozen, observation_size, work_layout
 from .constraints import row_bodies
 from .expressions import expression_scratch
 
@@ -70,7 +70,7 @@ class Workspace(NamedTuple):
     b: np.ndarray  # (m,) right side of the Schur system during `multipliers`
     Qe: np.ndarray  # (n,) applied forces
     qdd: np.ndarray  # (n,) accelerations
-    K: np.ndarray  # (N_STAGES, 2n) stage derivatives; K[0] = f(ya), K[END_STAGE[method]] = f(yb)
+    K: np.ndarray  # (N_STAGES, N) stage derivatives (N = 2n + nstate: y = (q, q', z)); K[0] = f(ya), K[END_STAGE[method]] = f(yb)
     F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output rows of the last step (`integrators.dense_rows`)
     f: np.ndarray  # (2n,) derivative at the current state (the next step's k1)
     ya: np.ndarray  # (2n,) state at the start of the last step
@@ -96,6 +96,8 @@ class Workspace(NamedTuple):
     fsave: np.ndarray  # (6,) scratch of `forces.element_power`
     wF: np.ndarray  # (N_DENSE_ROWS,) scratch of `work.work_at`
     energy0: np.ndarray  # (2 + nclearance,) at the start: T + V, the loads' potential, each clearance's elastic energy
+    z: np.ndarray  # (nstate,) the contact elements' own states (LuGre's sigma_0 z) at the current rhs: y[2n:]
+    zd: np.ndarray  # (nstate,) their rates there (`contact.clearance_force`)
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -123,6 +125,11 @@ def sizes(km: KernelModel) -> tuple[int, int, int, int, int]:
     nc = len(km.clearance_law)
     m = int(JOINT_ROWS[np.asarray(km.joint_type, dtype=np.int64)].sum()) + nd
     return nb, nj, nd, nc, m
+
+
+def state_count(km: KernelModel) -> int:
+    """States of the contact elements' own after (q, q') in y (`Model.nstate`)."""
+    return int(np.count_nonzero(np.asarray(km.clearance_param)[:, CP_STATE] > 0))
 
 
 def nobs(km: KernelModel) -> int:
@@ -174,7 +181,8 @@ def solver_settings() -> np.ndarray:
 def make_workspace(km: KernelModel) -> Workspace:
     nb, nj, nd, nc, m = sizes(km)
     n = 3 * nb
-    N = 2 * n
+    nz = state_count(km)
+    N = 2 * n + nz
     rowbody = row_bodies(km)
     first, lastrow = envelope(rowbody)
     ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
@@ -199,6 +207,7 @@ def make_workspace(km: KernelModel) -> Workspace:
         res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
         pw=np.zeros(nw), pf=np.zeros(nw), pk=np.zeros((N_STAGES, nw)), wk=np.zeros((N_WK, nw)),
         fv=np.zeros((nf, catalog.N_FORCE_VALUES)), fsave=np.zeros(6), wF=np.zeros(N_DENSE_ROWS), energy0=np.zeros(2 + nc),
+        z=np.zeros(nz), zd=np.zeros(nz),
     )
 
 

@@ -297,6 +297,8 @@ DENSITY = Dim("a density", "kg/m**3", "7800 kg/m^3")
 VISCOSITY = Dim("a dynamic viscosity", "Pa*s", "0.04 Pa*s")
 STIFFNESS = Dim("a stiffness", "N/m", "1000 N/m")
 DAMPING = Dim("a damping coefficient", "N*s/m", "5 N*s/m")
+PER_LENGTH = Dim("an inverse length (a stiffness per unit normal force)", "1/m", "1e5 1/m")
+TIME_PER_LENGTH = Dim("a time per length (a damping per unit normal force)", "s/m", "600 s/m")
 ROT_STIFFNESS = Dim("a rotational stiffness", "N*m/radian", "10 N*m/rad")
 ROT_DAMPING = Dim("a rotational damping coefficient", "N*m*s/radian", "0.1 N*m*s/rad")
 

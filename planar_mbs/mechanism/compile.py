@@ -59,6 +59,9 @@ from .model import (
     CP_STRIBECK_EXPONENT,
     CP_STRIBECK_VELOCITY,
     CP_VISCOUS_FRICTION,
+    CP_BRISTLE_DAMPING,
+    CP_BRISTLE_STIFFNESS,
+    CP_STATE,
     CP_R_BEARING,
     CP_R_JOURNAL,
     CP_RESTITUTION,
@@ -139,12 +142,14 @@ MATERIAL_FIELDS = {"E": "Young's modulus, e.g. 207 GPa", "nu": "Poisson's ratio,
 # the friction models' settings (catalog.FRICTION_MODELS), the first meaning of each name
 FRICTION_FIELDS = {"friction_model": f"{catalog.choices(catalog.FRICTION_MODELS)} (default {catalog.DEFAULT_FRICTION})",
                    **{x.name: x.meaning for m in reversed(catalog.FRICTION_MODELS) for x in m.settings}}
-FRICTION_UNITS = {"number": U.NUMBER, "velocity": U.VELOCITY, "damping": U.DAMPING}
+FRICTION_UNITS = {"number": U.NUMBER, "velocity": U.VELOCITY, "damping": U.DAMPING, "per_length": U.PER_LENGTH,
+                  "time_per_length": U.TIME_PER_LENGTH}
 FRICTION_COLUMNS = {"friction": CP_FRICTION, "static_friction": CP_STATIC_FRICTION,
                     "friction_velocity": CP_FRICTION_V0, "friction_velocity_full": CP_FRICTION_V1,
                     "stick_stiffness": CP_STICK_STIFFNESS, "stick_damping": CP_STICK_DAMPING,
                     "stribeck_velocity": CP_STRIBECK_VELOCITY, "stribeck_exponent": CP_STRIBECK_EXPONENT,
-                    "viscous_friction": CP_VISCOUS_FRICTION}
+                    "viscous_friction": CP_VISCOUS_FRICTION, "bristle_stiffness": CP_BRISTLE_STIFFNESS,
+                    "bristle_damping": CP_BRISTLE_DAMPING}
 _CONTACT_FIELDS = {  # every contact element (catalog.ELEMENTS) takes these
     "material": "material of both parts", "law": "contact law name", "restitution": "coefficient of restitution",
     "effective_restitution": "the rebound the law is to give (its own coefficient found from it)",
@@ -990,6 +995,10 @@ class _ClearancePass:
                                                    positive=x.name in _POSITIVE_FRICTION, nonneg=True)
         if name == "ambrosio":
             self._ambrosio_ramp(f, p)
+        elif model.state and not p[CP_FRICTION] > 0:
+            raise (f.expr("friction").pos if f.has("friction") else f.expr("friction_model").pos).error(
+                f"friction_model = {name} needs `friction` > 0 (its Stribeck curve g(v) divides its bristles' rate)",
+                hint="give the kinetic coefficient, e.g. `friction = 0.3`")
         elif p[CP_STATIC_FRICTION] < p[CP_FRICTION]:
             raise f.expr("static_friction").pos.error(
                 "`static_friction` must not be below `friction` (the kinetic coefficient)",
@@ -1007,7 +1016,8 @@ class _ClearancePass:
                 hint="friction ramps from 0 at friction_velocity to its full value at friction_velocity_full")
 
 
-_POSITIVE_FRICTION = ("friction_velocity_full", "stribeck_velocity", "stribeck_exponent", "stick_stiffness")
+_POSITIVE_FRICTION = ("friction_velocity_full", "stribeck_velocity", "stribeck_exponent", "stick_stiffness",
+                      "bristle_stiffness")
 
 
 class _DriverPass:
@@ -1234,6 +1244,18 @@ class _SettingsPass:
         s.max_steps = int(n)
         return s
 
+def _number_states(cp: np.ndarray) -> None:
+    """Each contact element whose friction model has a state of its own (catalog.FrictionSpec.state:
+    LuGre's bristle deflection) gets the next place after (q, q') in the integrated state: CP_STATE = 1 + j."""
+    stateful = {m.code for m in catalog.FRICTION_MODELS if m.state}
+    j = 0
+    for k in range(cp.shape[0]):
+        cp[k, CP_STATE] = 0.0
+        if int(cp[k, CP_FRICTION_MODEL]) in stateful and cp[k, CP_FRICTION] > 0:
+            j += 1
+            cp[k, CP_STATE] = float(j)
+
+
 class _CheckPass:
     """Pass 7: whole-model checks, then the `Model`."""
 
@@ -1247,6 +1269,7 @@ class _CheckPass:
             if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
                 raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
         self.a.update(self.programs.arrays())
+        _number_states(self.a["clearance_param"])
         kernel = frozen(reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()})))
 
         def refs(sts):

@@ -88,7 +88,10 @@ CP_STICK_DAMPING = 20  # damping ratio of a stuck contact's spring-damper
 CP_STRIBECK_VELOCITY = 21  # v_s [m/s]
 CP_STRIBECK_EXPONENT = 22  # exponent of the Stribeck curve
 CP_VISCOUS_FRICTION = 23  # sigma_2 [N s/m]
-N_CLEARANCE_PARAM = 24
+CP_BRISTLE_STIFFNESS = 24  # LuGre's sigma_0 per unit normal force [1/m]
+CP_BRISTLE_DAMPING = 25  # LuGre's sigma_1 per unit normal force [s/m]
+CP_STATE = 26  # 1 + index j of the element's own state (LuGre's sigma_0 z at y[2n + j]); 0: none (`Model.nstate`)
+N_CLEARANCE_PARAM = 27
 # contact geometries of the clearance elements (catalog.PAIRS); R_i = CP_R_BEARING, R_j = CP_R_JOURNAL
 PairKind = IntEnum("PairKind", {s.enum: s.code for s in catalog.PAIRS}, module=__name__)
 PairKind.__doc__ = "Contact geometries of the clearance and contact elements (catalog.PAIRS)."
@@ -226,11 +229,12 @@ CS_IN_CONTACT, CS_IMPACT_VELOCITY, CS_FRICTION, CS_SLIP = 7, 8, 9, 10
 CS_POINT_X, CS_POINT_Y, CS_FILM_PRESSURE = 11, 12, 13
 CS_WORK, CS_DISSIPATED = 14, 15
 CS_STICK, CS_FRICTION_POWER = 16, 17  # 1 while stuck (a stick model); F_T v_T
+CS_BRISTLE = 18  # LuGre's bristle deflection z (0 for the other models)
 # CS_FRICTION: friction force on the journal along t = perp(n) (signed); CS_SLIP: slip velocity v_T;
 # CS_POINT_*: the contact point on the second body (global); CS_FILM_PRESSURE: peak film pressure (LUBRICATED);
 # CS_WORK: work of the element's contact (and film) forces on both bodies since the start; CS_DISSIPATED:
 # the energy it took out, -(CS_WORK + its elastic energy now - at the start)
-N_CLEARANCE_SIGNALS = 18
+N_CLEARANCE_SIGNALS = 19
 SYS_GRAVITY_POWER, SYS_GRAVITY_WORK, SYS_INPUT_WORK, SYS_DISSIPATED, SYS_BALANCE = 0, 1, 2, 3, 4
 SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 5, 6, 7, 8
 # SYS_INPUT_WORK: work of the loads and drivers less what their potentials store (damping, actuators,
@@ -449,6 +453,12 @@ class Model:
     @property
     def nforce(self) -> int:
         return len(self.force_names)
+
+    @property
+    def nstate(self) -> int:
+        """States of the contact elements' own (LuGre's bristles, sigma_0 z), after (q, q') in the
+        integrated state y = (q, q', z): one per element whose friction model has one."""
+        return int(np.count_nonzero(np.asarray(self.kernel.clearance_param)[:, CP_STATE] > 0))
 
     @property
     def ncoord(self) -> int:

@@ -129,7 +129,8 @@ def _force(model: Model, c: int, q, qd, contact) -> float:
     pyconstraints.body_trig(q, cs)
     with np.errstate(all="ignore"):
         try:
-            out = pycontact.clearance_force(model.kernel, c, q, qd, cs, contact)
+            z = np.zeros(model.nstate)  # LuGre's bristles at rest: they change no normal force
+            out = pycontact.clearance_force(model.kernel, c, q, qd, cs, contact, z, z.copy())
         except (ZeroDivisionError, OverflowError, ValueError):
             return math.nan
     return float(out[0]) if out[5] == 0 else math.nan

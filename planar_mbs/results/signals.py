@@ -26,12 +26,14 @@ from ..mechanism.model import (
     CS_SLIP,
     CS_STICK,
     CS_FRICTION_POWER,
+    CS_BRISTLE,
     CS_FILM_PRESSURE,
     CS_POINT_X,
     CS_POINT_Y,
     CP_FRICTION,
     CP_FRICTION_MODEL,
     CP_STATIC_FRICTION,
+    CP_STATE,
     CS_DISSIPATED,
     CS_WORK,
     FS_POWER,
@@ -92,6 +94,7 @@ FRICTION_QUANTITIES = [("friction_force", "N", CS_FRICTION), ("slip_velocity", "
                        ("friction_power", "W", CS_FRICTION_POWER)]
 STICK_QUANTITIES = [("stick", "1", CS_STICK)]  # a friction model that sticks (catalog.FrictionSpec.stick)
 _STICKS = {m.code for m in catalog.FRICTION_MODELS if m.stick}
+BRISTLE_QUANTITIES = [("bristle", "m", CS_BRISTLE)]  # a friction model with a state (LuGre's deflection z)
 # the contact point on the second body (journal, circle, corner), global frame; the film's peak pressure
 POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_Y)]
 FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
@@ -154,6 +157,7 @@ def signal_table(model: Model) -> list[Signal]:
         sticks = int(k.clearance_param[c, CP_FRICTION_MODEL]) in _STICKS and k.clearance_param[c, CP_STATIC_FRICTION] > 0
         if k.clearance_param[c, CP_FRICTION] > 0 or sticks:
             quantities += FRICTION_QUANTITIES + (STICK_QUANTITIES if sticks else [])
+            quantities += BRISTLE_QUANTITIES if k.clearance_param[c, CP_STATE] > 0 else []
         quantities += POINT_QUANTITIES
         if int(k.clearance_param[c, CP_KIND]) == PairKind.LUBRICATED:
             quantities += FILM_QUANTITIES

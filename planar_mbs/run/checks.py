@@ -30,6 +30,8 @@ else:  # each loaded on its first use (see the comments: not on the light paths)
 def state_name(model: Model, i: int) -> str:
     """Name of component i of the state y = (q, q')."""
     n = model.ncoord
+    if 2 * n <= i < 2 * n + model.nstate:
+        return f"bristle deflection {i - 2 * n} of the LuGre contacts"
     if not 0 <= i < 2 * n:
         return "?"
     b, c = divmod(i % n, 3)
@@ -118,7 +120,7 @@ def near_singular(model: Model, y: np.ndarray, t: float, y0: np.ndarray) -> str:
 
     def scaled(state, tt):
         C, Ct, g, Cq = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros((m, n))
-        if kernel.constraint_eval(model.kernel, state[:n], state[n:], tt, C, Cq, Ct, g) != 0:
+        if kernel.constraint_eval(model.kernel, state[:n], state[n:2 * n], tt, C, Cq, Ct, g) != 0:
             return None
         return Cq * np.sqrt(model.kernel.minv)
 

@@ -46,7 +46,7 @@ CLOCK_T, CLOCK_H, CLOCK_T0, CLOCK_BUDGET = range(4)
 class RunData:
     """Everything the kernels write during one trajectory (see the module docstring)."""
 
-    y: np.ndarray  # (2n,) state (q, q')
+    y: np.ndarray  # (2n + nstate,) state (q, q', z): z the contact elements' own (LuGre's bristles)
     clock: np.ndarray  # (4,) CLOCK_* slots
     contact: np.ndarray  # (nclearance, N_CONTACT_STATE) mode and impact velocity per clearance joint
     stats: np.ndarray  # (N_STATS,) int64 counters
@@ -56,7 +56,10 @@ class RunData:
     def make(cls, model: Model, y0: np.ndarray) -> "RunData":
         clock = np.zeros(4)
         clock[CLOCK_BUDGET] = FIRST_BUDGET
-        return cls(y=np.array(y0, dtype=np.float64), clock=clock,
+        y = np.array(y0, dtype=np.float64)
+        if y.shape[0] == 2 * model.ncoord and model.nstate:  # (q, q') given: the elements' own states start at 0
+            y = np.concatenate([y, np.zeros(model.nstate)])
+        return cls(y=y, clock=clock,
                    contact=np.zeros((model.nclearance, N_CONTACT_STATE)),
                    stats=np.zeros(N_STATS, dtype=np.int64), ws=kernel.make_workspace(model.kernel))
 

@@ -77,6 +77,15 @@ NO_FREEDOM = ("the joints and drivers allow no motion: a mechanism without degre
 LENGTH = 1e-3  # m: positions are measured in mm in the distance, angles in rad, rates over one radian of crank
 
 
+BRISTLES = ("a model with LuGre friction (friction_model = lugre) has its bristle deflections as states beside "
+            "(q, q'), which these studies do not perturb: not supported")
+
+
+def _no_bristles(model) -> None:
+    if model.nstate:
+        raise ValueError(BRISTLES)
+
+
 def state_scale(model, omega: float) -> np.ndarray:
     """Weights of (q, q') in the distance: x, y per `LENGTH`, angles as they are, velocities
     times 1/omega (a velocity is measured by the displacement it makes in one radian of crank)."""
@@ -131,6 +140,7 @@ def mechanism_exponent(stepper, period: float, revolutions: int, *, d0: float = 
     renormalisation; unprojected, the drift off the constraints (which neither grows nor
     decays) outlasts an attracting orbit's perturbation and the estimate tends to 0."""
     model = stepper.model
+    _no_bristles(model)
     w = state_scale(model, 2 * np.pi / period)
     rng = np.random.default_rng(seed)
     ref = stepper.copy(projection="on")
@@ -182,6 +192,7 @@ def floquet_exponent(stepper, period: float, periods: int = 1, *, eps: float = 1
     renormalised and no trajectory runs beside another, so it checks Benettin's estimate
     independently (on a periodic orbit the two must agree)."""
     model = stepper.model
+    _no_bristles(model)
     n = 3 * model.nbody
     w = state_scale(model, 2 * np.pi / period)
     y0, t0 = stepper.y.copy(), stepper.t

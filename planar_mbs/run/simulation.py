@@ -558,7 +558,7 @@ class Simulation:
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the coordinates q (x, y, phi per body) and velocities q' at `t`."""
         n, y = self.model.ncoord, self._driver.data.y
-        return y[:n].copy(), y[n:].copy()
+        return y[:n].copy(), y[n:2 * n].copy()
 
     def results(self) -> Results:
         """Everything so far as `Results` (marked complete once `t_end` is reached)."""
