@@ -12,12 +12,13 @@ penetration m g / K, so the normal force is m g throughout."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from planar_mbs import compile_text, simulate
+from planar_mbs import compile_text, load_model, simulate
 from planar_mbs.errors import ModelError
 from planar_mbs.mechanism.model import Settings
 
@@ -180,3 +181,37 @@ def test_lugre_needs_its_kinetic_coefficient_and_its_own_settings():
         extra="", t_end=0.01, dt=1e-3)
     with pytest.raises(ModelError, match="setting of friction_model = lugre"):
         compile_text(text)
+
+
+def test_a_slider_crank_with_lugre_at_its_journal_and_its_slider_corners(tmp_path):
+    """Five LuGre contacts in one mechanism (the revolute clearance A and the four corners of the
+    translational clearance S): five states after (q, q'), each bounded by LuGre's |z| <= mu_s / sigma_0
+    (from z = 0, dz/dt has the sign of -z wherever |z| > g(v) / sigma_0), 0 wherever its contact is open,
+    and the energy balance closed to 12 rtol of the run's energy scale (the run's own rtol)."""
+    mu, ms, s0 = 0.1, 0.15, 1e4
+    lugre = (f"friction_model = lugre  friction = {mu}  static_friction = {ms}  stribeck_velocity = 0.01 m/s  "
+             f"bristle_stiffness = {s0} 1/m  bristle_damping = 5 s/m")
+    models = Path(__file__).resolve().parents[1] / "models"
+    path = tmp_path / "lugre_crank.mbs"
+    path.write_text(f'include "{models / "slider_crank_clearance_as.mbs"}"\n'
+                    "override joint A = clearance_revolute(crank (0.025 m, 0), rod (-0.06 m, 0)) {\n"
+                    "    clearance = clearance_a  bearing_radius = 5 mm  length = 20 mm  material = steel\n"
+                    f"    law = law  restitution = restitution  {lugre}\n}}\n"
+                    "override joint S = clearance_translational(ground (0, 0), slider (0, 0), axis = (1, 0)) {\n"
+                    "    clearance = clearance  length = 30 mm  width = 15 mm  corner_radius = 1 mm\n"
+                    f"    material = steel  law = law  restitution = restitution  {lugre}\n}}\n"
+                    "override simulate { t_end = 20 ms  rtol = 1e-8  atol = 1e-11  output_step = 10 us }\n")
+    model = load_model(path)
+    assert model.nstate == 5
+    res = simulate(model)
+    names = [s for s in res.signals if s.endswith(".bristle")]
+    assert len(names) == 5
+    for name in names:
+        element = name[: -len(".bristle")]
+        z = res[name]
+        assert np.max(np.abs(z)) <= ms / s0 * (1 + 1e-6)
+        assert np.all(z[res[f"{element}.in_contact"] == 0.0] == 0.0)
+    assert np.max(np.abs(res["A.bristle"])) > 0.0
+    scale = max(np.max(res["system.kinetic_energy"]), np.max(np.abs(res["system.input_work"])),
+                np.max(np.abs(res["system.dissipated"])))
+    assert np.max(np.abs(res["system.energy_balance"])) <= 12 * 1e-8 * scale

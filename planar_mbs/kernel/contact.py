@@ -15,9 +15,11 @@ journal centres in their body frames.  Either body may be ground (-1).
 
 Forces (eqs. 13-16): ``+F n - F_T t`` on the bearing body at r_Ci,
 ``-F n + F_T t`` on the journal body at r_Cj, moments about each centre of
-mass; ground takes nothing.  ``F_T = -mu c_d(|v_T|) F sign(v_T)`` is the
-friction force on the journal along t (Ambrosio's dynamic correction
-coefficient c_d: 0 below v0, linear between v0 and v1, 1 above v1).
+mass; ground takes nothing.  F_T is the friction force on the journal along t, by the element's
+friction model (catalog.FRICTION_MODELS): Ambrosio's ``-mu c_d(|v_T|) F sign(v_T)`` (c_d: 0 below
+v0, linear between v0 and v1, 1 above v1), Coulomb or Stribeck with stick (`friction_force`), or
+LuGre's bristles, ``F_T = -F (w + sigma_1 dz/dt) - sigma_2 v_T`` with w = sigma_0 z a state of the run
+(y[2n + j], j = `state_index`) whose rate `bristle_rate` gives.
 
 Contact *mode* (``contact[k, CT_MODE]``: 0 free flight, 1 contact) is switched by the
 event logic of the time loop; in free mode the joint applies no force even if
