@@ -94,6 +94,11 @@ def _status_message(model: Model, settings: Settings, status: int, info: int, t:
                 "the motion would go on wrong (use a shorter step, or dopri5/dop853)")
     if status == Status.MAX_STEPS:
         return f"the step limit max_steps = {settings.max_steps} was reached {at}"
+    if status == Status.JOINT_FRICTION:
+        name = model.jfriction_names[info] if 0 <= info < model.njfriction else "?"
+        return (f"the friction of joint `{name}` found no torque {at}: its friction torque changes its "
+                f"own reaction more than it holds (mu r too large for the mechanism; docs/contact.md, "
+                f"\"Friction in ideal joints\")")
     if status == Status.CONTACT_SOLVE:
         name = model.clearance_names[info] if 0 <= info < model.nclearance else "?"
         return f"the contact law of clearance joint `{name}` found no force {at}"

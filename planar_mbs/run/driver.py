@@ -48,7 +48,7 @@ class RunData:
 
     y: np.ndarray  # (2n,) state (q, q')
     clock: np.ndarray  # (4,) CLOCK_* slots
-    contact: np.ndarray  # (nclearance, N_CONTACT_STATE) mode and impact velocity per clearance joint
+    contact: np.ndarray  # (nclearance + njfriction, N_CONTACT_STATE) modes of the clearance and friction joints
     stats: np.ndarray  # (N_STATS,) int64 counters
     ws: object  # kernel.Workspace: scratch, expression registers and switch modes
 
@@ -57,7 +57,7 @@ class RunData:
         clock = np.zeros(4)
         clock[CLOCK_BUDGET] = FIRST_BUDGET
         return cls(y=np.array(y0, dtype=np.float64), clock=clock,
-                   contact=np.zeros((model.nclearance, N_CONTACT_STATE)),
+                   contact=np.zeros((model.contact_rows, N_CONTACT_STATE)),
                    stats=np.zeros(N_STATS, dtype=np.int64), ws=kernel.make_workspace(model.kernel))
 
     def copy(self) -> "RunData":
