@@ -233,3 +233,121 @@ def test_a_frictionless_joint_has_no_friction_signals_and_bad_settings_are_refus
     with pytest.raises(ModelError, match="below its kinetic friction"):
         compile_text(PENDULUM.format(m=1, ic=0.01, L=0.5, x0=0, y0=-0.5, phi0=-1.57, mu=0.3, mus=0.1, r=0.01,
                                      t_end=1, extra=""))
+
+
+# a double pendulum of very unequal links with friction in both pins: not a shipped model
+M1, I1, L1 = 1.0, 0.02, 0.3  # body 1: pinned to ground at (-L1, 0) of its frame, body 2 at (L1, 0)
+M2, I2, L2 = 0.05, 1e-4, 0.2  # body 2: pinned at (-L2, 0)
+RA, RB, MU2 = 20e-3, 5e-3, 0.25
+DOUBLE = """
+gravity (0, -9.81 m/s^2)
+body one {{ mass = {m1} kg  inertia = {i1} kg*m^2  position = ({x1} m, {y1} m)  angle = {p1}
+           velocity = ({vx1} m/s, {vy1} m/s)  omega = {w1} rad/s }}
+body two {{ mass = {m2} kg  inertia = {i2} kg*m^2  position = ({x2} m, {y2} m)  angle = {p2}
+           velocity = ({vx2} m/s, {vy2} m/s)  omega = {w2} rad/s }}
+joint A = revolute(ground (0, 0), one (-{l1} m, 0)) {{ friction = {mu}  pin_radius = {ra} m }}
+joint B = revolute(one ({l1} m, 0), two (-{l2} m, 0)) {{ friction = {mu}  pin_radius = {rb} m }}
+simulate {{ t_end = {t_end} s  output_step = 5 ms {extra} }}
+"""
+
+
+def _e(p):
+    return np.array([math.cos(p), math.sin(p)]), np.array([-math.sin(p), math.cos(p)])
+
+
+def double_pendulum(p1, p2, w1, w2, t_end, extra=""):
+    e1, n1 = _e(p1)
+    e2, n2 = _e(p2)
+    c1, v1 = L1 * e1, L1 * w1 * n1
+    c2, v2 = 2 * L1 * e1 + L2 * e2, 2 * L1 * w1 * n1 + L2 * w2 * n2
+    text = DOUBLE.format(m1=M1, i1=I1, m2=M2, i2=I2, l1=L1, l2=L2, x1=c1[0], y1=c1[1], x2=c2[0], y2=c2[1],
+                         p1=p1, p2=p2, vx1=v1[0], vy1=v1[1], vx2=v2[0], vy2=v2[1], w1=w1, w2=w2, mu=MU2, ra=RA,
+                         rb=RB, t_end=t_end, extra=extra)
+    return simulate(compile_text(text))
+
+
+def double_accelerations(p1, p2, w1, w2, dA, dB):
+    """Newton-Euler for both links with the pin forces F_A (ground on one), F_B (one on two) and the
+    frictions T_A = -mu r_A |F_A| dA on one, T_B = -mu r_B |F_B| dB on two (-T_B on one): six linear
+    equations for (a1, a2, F_A, F_B) at given frictions, the frictions by fixed point to rounding."""
+    e1, n1 = _e(p1)
+    e2, n2 = _e(p2)
+
+    A = np.zeros((6, 6))
+    # unknowns x = (a1, a2, FAx, FAy, FBx, FBy); m1 c1'' = F_A - F_B + m1 g, m2 c2'' = F_B + m2 g
+    A[0:2, 0] = M1 * L1 * n1
+    A[0:2, 2:4] = -np.eye(2)
+    A[0:2, 4:6] = np.eye(2)
+    A[2:4, 0] = M2 * 2 * L1 * n1
+    A[2:4, 1] = M2 * L2 * n2
+    A[2:4, 4:6] = -np.eye(2)
+    # I1 a1 = (-L1 e1) x F_A + (L1 e1) x (-F_B) + T_A - T_B;  I2 a2 = (-L2 e2) x F_B + T_B
+    A[4, 0] = I1
+    A[4, 2:4] = [-L1 * e1[1], L1 * e1[0]]  # -(-L1 e1) x F_A = L1 (e1x FAy - e1y FAx)
+    A[4, 4:6] = [-L1 * e1[1], L1 * e1[0]]  # -(L1 e1) x (-F_B)
+    A[5, 1] = I2
+    A[5, 4:6] = [-L2 * e2[1], L2 * e2[0]]  # -(-L2 e2) x F_B
+    g = np.array([0.0, -G])
+    b0 = np.concatenate([M1 * (L1 * w1 ** 2 * e1) + M1 * g,
+                         M2 * (2 * L1 * w1 ** 2 * e1 + L2 * w2 ** 2 * e2) + M2 * g, [0.0, 0.0]])
+    TA = TB = 0.0
+    for _ in range(200):
+        x = np.linalg.solve(A, b0 + np.array([0, 0, 0, 0, TA - TB, TB]))
+        nA = -MU2 * RA * math.hypot(x[2], x[3]) * dA
+        nB = -MU2 * RB * math.hypot(x[4], x[5]) * dB
+        if nA == TA and nB == TB:
+            break
+        TA, TB = nA, nB
+    return x[0], x[1]
+
+
+def reference_double(y0, t_end):
+    """The chain by solve_ivp at rtol 1e-12 in slipping segments: a pin whose relative rate crosses zero
+    slips on the other way (the run below never sticks: its hold torques exceed mu r |lambda| at every
+    reversal, which the kernel decides and the comparison confirms).  Returns the segments' solutions."""
+    y = list(y0)
+    d = [math.copysign(1.0, y[2]), math.copysign(1.0, y[3] - y[2])]
+    t, segments = 0.0, []
+    while t < t_end:
+        def f(t, y):
+            a1, a2 = double_accelerations(y[0], y[1], y[2], y[3], d[0], d[1])
+            return [y[2], y[3], a1, a2]
+        turn = [lambda t, y: y[2], lambda t, y: y[3] - y[2]]
+        for k, ev in enumerate(turn):
+            ev.terminal, ev.direction = True, -d[k]
+        sol = solve_ivp(f, (t, t_end), y, rtol=1e-12, atol=1e-13, dense_output=True, events=turn)
+        segments.append(sol)
+        if sol.status != 1:
+            break
+        k = 0 if len(sol.t_events[0]) else 1
+        d[k] = -d[k]
+        t, y = sol.t[-1], list(sol.y[:, -1])
+    return segments
+
+
+def test_a_double_pendulum_with_two_frictional_pins_follows_newton_euler():
+    """Two coupled frictions (each pin's reaction depends on both torques, a light second link, 1:20 in
+    mass): the kernel's solve against Newton-Euler of both links written here, through the reversals."""
+    p1, p2, w1, w2 = -math.pi / 2 + 0.7, -math.pi / 2 + 0.2, 1.0, 2.5
+    res = double_pendulum(p1, p2, w1, w2, t_end=1.0)
+    segments = reference_double([p1, p2, w1, w2], 1.0)
+    assert len(segments) >= 4
+    for sol in segments:
+        keep = (res.time >= sol.t[0]) & (res.time <= sol.t[-1])
+        ref = sol.sol(res.time[keep])
+        np.testing.assert_allclose(res["one.phi"][keep], ref[0], rtol=0, atol=1e-5)
+        np.testing.assert_allclose(res["two.phi"][keep], ref[1], rtol=0, atol=1e-5)
+    assert np.all(res["A.stick"] == 0) and np.all(res["B.stick"] == 0)
+
+
+def test_the_double_pendulums_balance_closes_through_sticks_and_slips():
+    """A long run of the chain: each pin's friction power <= 0, and (T + V) lost = -(W_A + W_B) to
+    10 rtol of the energy lost while the pins reverse many times."""
+    res = double_pendulum(-math.pi / 2 + 0.7, -math.pi / 2 + 0.2, 1.0, 2.5, t_end=8.0)
+    assert np.all(res["A.friction_power"] <= 1e-12) and np.all(res["B.friction_power"] <= 1e-12)
+    E = res["system.kinetic_energy"] + res["system.potential_energy"]
+    W = res["A.friction_work"] + res["B.friction_work"]
+    np.testing.assert_allclose(E - E[0], W, rtol=0, atol=1e-5 * abs(W[-1]))
+    assert np.max(np.abs(res["system.energy_balance"])) < 1e-5 * abs(W[-1])
+    for j in "AB":  # the pins reverse many times
+        assert np.count_nonzero(np.diff(np.sign(res[f"{j}.slip_rate"]))) >= 6
