@@ -13,7 +13,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from planar_mbs import compile_text, simulate
-from planar_mbs.errors import ModelError
+from planar_mbs.errors import ModelError, SimulationError
 
 G = 9.81
 M, IC, L = 1.0, 0.01, 0.5  # the pendulum: mass, inertia about its centre of mass, pin to centre of mass
@@ -351,3 +351,15 @@ def test_the_double_pendulums_balance_closes_through_sticks_and_slips():
     assert np.max(np.abs(res["system.energy_balance"])) < 1e-5 * abs(W[-1])
     for j in "AB":  # the pins reverse many times
         assert np.count_nonzero(np.diff(np.sign(res[f"{j}.slip_rate"]))) >= 6
+
+
+def test_a_pin_whose_friction_outgrows_its_own_load_stops_the_run_with_a_message():
+    """mu r = 0.8 m on a pendulum whose pin load changes by m L per unit phi'': each sweep of the solve
+    multiplies an error by mu r m L / (I_c + m L^2) = 1.5 > 1, so no friction is found: SimulationError (exit
+    3) naming the joint, never a wrong answer."""
+    text = PENDULUM.format(m=1, ic=0.01, L=0.5, x0=0.0, y0=-0.5, phi0=-math.pi / 2, mu=0.8, mus=0.8, r=1.0,
+                           t_end=1, extra="")
+    text = text.replace("angle = -1.5707963267948966", "angle = -1.5707963267948966  omega = 3 rad/s  "
+                        "velocity = (1.5 m/s, 0)")
+    with pytest.raises(SimulationError, match="friction of joint `A` found no torque"):
+        simulate(compile_text(text))
