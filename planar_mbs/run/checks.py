@@ -242,11 +242,11 @@ def known_force_kinds(model: Model) -> None:
 
 
 def _workless(model: Model) -> bool:
-    """No driver, no clearance joint, and every force element one with a potential whose dissipative
-    columns (damping, an actuator: `catalog.ForceSpec.dissipative`) are zero: the total energy is
+    """No driver, no clearance joint, no joint friction, and every force element one with a potential whose
+    dissipative columns (damping, an actuator: `catalog.ForceSpec.dissipative`) are zero: the total energy is
     conserved.  An unknown force kind is an error (`catalog.force_kind`), never counted as workless."""
     k = model.kernel
-    if model.ndriver or model.nclearance:
+    if model.ndriver or model.nclearance or model.njfriction:
         return False
     for code, p in zip(k.force_type, k.force_param):
         spec = catalog.force_kind(int(code))
