@@ -145,6 +145,7 @@ class JointSpec:
     moment: bool = False
     draw: str = "pin"
     slider: bool = False
+    friction: str = ""  # "torque" (a pin: mu r |lambda|), "force" (a slide: mu |lambda_n|) or "" (none)
     example: str = ""  # the call as docs/language.md shows it
 
     @property
@@ -153,15 +154,28 @@ class JointSpec:
         return {s.name: s.meaning for s in self.settings}
 
 
-SETTING_DEFAULTS = ("pose",)  # the named defaults of a JointSetting besides numbers and None
+SETTING_DEFAULTS = ("pose",)  # the named defaults of a JointSetting besides numbers, None and another setting's name
 _AXIS = JointSetting(name="axis", meaning="sliding axis (ux, uy) in the first body's frame", unit="direction")
 _ANGLE = JointSetting(name="angle", meaning="relative angle kept (default: from the initial pose)", unit="angle",
                       column="phi0", default="pose")
+# joint friction (docs/contact.md, "Friction in ideal joints"): Coulomb with stick, the normal load from the
+# joint's own reaction in the constraint solve
+_MU_J = JointSetting(name="friction", meaning="kinetic friction coefficient mu_k (default 0: frictionless)",
+                     unit="number", column="friction", default=0.0)
+_MU_S_J = JointSetting(name="static_friction", meaning="static coefficient mu_s >= mu_k (default mu_k)",
+                       unit="number", column="static_friction", default="friction")
+_PIN = JointSetting(name="pin_radius", meaning="pin radius r: the friction torque is mu r times the pin's "
+                    "reaction (needed with friction)", unit="length", column="pin_radius", default=0.0)
+_BLOCK = JointSetting(name="block_length", meaning="length l of the sliding block, centred on the second body's "
+                      "point: the friction is mu max(normal reaction, 2 moment / l) (default 0: mu times the normal "
+                      "reaction)",
+                      unit="length", column="block_length", default=0.0)
 JOINTS: tuple[JointSpec, ...] = (
     JointSpec(code=0, enum="REVOLUTE", name="revolute", rows=2, equations="P_i - P_j = 0",
-              example="revolute(a (p), b (p))"),
+              settings=(_MU_J, _MU_S_J, _PIN), friction="torque", example="revolute(a (p), b (p))"),
     JointSpec(code=1, enum="TRANSLATIONAL", name="translational", rows=2,
-              equations="phi_j - phi_i - phi0 = 0;  n_i . (P_j - P_i) = 0", settings=(_AXIS, _ANGLE),
+              equations="phi_j - phi_i - phi0 = 0;  n_i . (P_j - P_i) = 0",
+              settings=(_AXIS, _ANGLE, _MU_J, _MU_S_J, _BLOCK), friction="force",
               moment=True, draw="slide", slider=True, example="translational(a (p), b (p), axis = (ux, uy))"),
     JointSpec(code=2, enum="WELD", name="weld", rows=3, equations="P_i - P_j = 0;  phi_j - phi_i - phi0 = 0",
               settings=(_ANGLE,), moment=True, example="weld(a (p), b (p))"),
@@ -738,7 +752,8 @@ def _check_force(s: ForceSpec) -> None:
 
 def _check_joint(s: JointSpec) -> None:
     """A joint type's settings are ones the compiler can read and store."""
-    assert s.rows >= 1 and s.draw in ("pin", "link", "slide"), s.name
+    assert s.rows >= 1 and s.draw in ("pin", "link", "slide") and s.friction in ("", "torque", "force"), s.name
+    assert not s.friction or {"friction", "static_friction"} <= {x.name for x in s.settings}, s.name
     directions = [x for x in s.settings if x.unit == "direction"]
     assert len(directions) <= 1 and not any(x.column or x.default is not None for x in directions), \
         f"{s.name}: one direction at most, stored in joint_axis"
@@ -746,7 +761,8 @@ def _check_joint(s: JointSpec) -> None:
     assert len({x.name for x in s.settings}) == len(s.settings), f"{s.name}: setting names must be unique"
     for x in s.settings:
         assert x.unit == "direction" or re.fullmatch(r"[a-z_][a-z0-9_]*", x.column), f"{s.name}.{x.name}: no column"
-        assert x.default is None or isinstance(x.default, (int, float)) or x.default in SETTING_DEFAULTS
+        assert (x.default is None or isinstance(x.default, (int, float)) or x.default in SETTING_DEFAULTS
+                or x.default in [y.name for y in s.settings[:s.settings.index(x)]]), f"{s.name}.{x.name}: default"
         assert x.default != "pose" or x.unit in ("angle", "length"), f"{s.name}.{x.name}: no value in the pose"
     units = {}
     for spec in JOINTS:

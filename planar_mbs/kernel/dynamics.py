@@ -38,14 +38,21 @@ import math
 
 from .jit import kernel
 
-from ..mechanism.model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
+from ..mechanism.model import (CFG_ALPHA, CFG_BETA, CT_ANCHOR, CT_FRICTION, CT_SLIP_DIRECTION, JP_FRICTION,
+                               JP_STATIC_FRICTION, SLIP, ST_INFO, ST_RHS, STICK, WL_JFRICTION, Status, work_layout)
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
+from .joint_friction import friction_load, slip_row, small_solve
 from .workspace import FL_REG_SEEN, FL_SCHUR_REG, FL_STEP_REG  # REG, REFINE, ...: workspace.solver_settings
+from .workspace import JW_A0, JW_FREE, JW_LIMIT, JW_S, JW_T, JW_TARGET, JW_V
 
 SINGULAR = 4
 DRIFT = 8
+JOINT_FRICTION = int(Status.JOINT_FRICTION)
+FRICTION_ITER = 100  # fixed-point sweeps of the friction joints' solve (each contracts by about mu r / L)
+FRICTION_RTOL = 1e-15  # ... until a sweep changes no friction by more than this, relative: rounding
+_work_layout = kernel(work_layout)  # the work channels' first indices, compiled
 
 
 @kernel
@@ -259,10 +266,181 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     multipliers(km, ws, ws.lam)
     for r in range(m):
         jac_t_sub(ws, r, ws.lam[r], minv, 1.0, ws.qdd)
+    if km.joint_friction.shape[0] > 0:
+        st = joint_friction(km, cfg, q, qd, contact, ws, stats)
+        if st != 0:
+            return st
     for d in range(nd):  # a driver's power: its row's constraint force -J_r^T lam_r times q'
         r = km.driver_row[d]
         ws.pw[nf + 1 + d] = -ws.lam[r] * jac_dot(ws, r, qd)
     return 0
+
+
+@kernel
+def joint_friction(km, cfg, q, qd, contact, ws, stats):
+    """The friction of the ideal joints (`kernel.joint_friction`), solved with the multipliers it changes.
+
+    ws.lam and ws.qdd hold the frictionless solution.  A friction T_f adds J_f^T T_f to Qe, so lambda and
+    q'' are linear in the frictions: lambda = lambda_0 + sum U_f T_f, q'' = q''_0 + sum D_f T_f (one Schur
+    solve per friction joint on the factor already made).  A slipping joint's friction is
+    -mu_k load(lambda) d, d its slip direction; a stuck joint's holds its slip acceleration at
+    -2 alpha s' - beta^2 (s - anchor) (the Baumgarte feedback of the joints: it stays at its anchor).  Fixed-point
+    sweeps, each solving the stuck joints' small linear system exactly, until no friction changes by more
+    than rounding: the friction is that of the reaction it makes, never one step late.  Returns 0, or
+    JOINT_FRICTION (stats[ST_INFO] = the friction joint) when the sweeps do not converge."""
+    nfj = km.joint_friction.shape[0]
+    nc = km.clearance_body.shape[0]
+    alpha = cfg[CFG_ALPHA]
+    beta = cfg[CFG_BETA]
+    for f in range(nfj):
+        s, v, gam = slip_row(km, f, q, qd, ws.cs, ws.fJ)
+        ws.fs[f, JW_S] = s
+        ws.fs[f, JW_V] = v
+        a0, free = _friction_response(km, ws, f, gam)
+        ws.fs[f, JW_A0] = a0
+        ws.fs[f, JW_FREE] = free
+        ws.fs[f, JW_T] = 0.0
+        ws.fs[f, JW_TARGET] = -2.0 * alpha * v - beta * beta * (s - contact[nc + f, CT_ANCHOR])
+    for f in range(nfj):
+        for k in range(nfj):
+            ws.fG[f, k] = _slip_dot(km, ws, f, ws.fD[k])
+    nslip = 0
+    for f in range(nfj):
+        if int(contact[nc + f, CT_FRICTION]) == SLIP:
+            nslip += 1
+    for it in range(FRICTION_ITER):
+        change = _friction_sweep(km, contact, ws)
+        if change < 0.0:
+            return _friction_failed(ws, stats, -change - 1.0)
+        tmax = 0.0
+        for f in range(nfj):
+            tmax = max(tmax, abs(ws.fs[f, JW_T]))
+        if nslip == 0 or (it > 0 and not (change > FRICTION_RTOL * tmax)):
+            break
+        if it == FRICTION_ITER - 1:
+            return _friction_failed(ws, stats, 0.0)
+    _friction_apply(km, ws, nc)
+    return 0
+
+
+@kernel
+def _friction_failed(ws, stats, f):
+    stats[ST_INFO] = int(f)
+    return JOINT_FRICTION
+
+
+@kernel
+def _friction_response(km, ws, f, gam):
+    """ws.fD[f] = M^-1 (J_f^T - Cq^T U_f) and ws.fU[f] = U_f = S^-1 Cq M^-1 J_f^T; returns (the slip
+    acceleration J_f q''_0 - gamma without friction, J_f M^-1 J_f^T)."""
+    minv = km.minv
+    D = ws.fD[f]
+    U = ws.fU[f]
+    for k in range(D.shape[0]):
+        D[k] = 0.0
+    a0 = -gam
+    free = 0.0
+    jt = km.joint_friction[f]
+    for a in range(2):
+        b = km.joint_body[jt, a]
+        if b >= 0:
+            for i in range(3):
+                g = ws.fJ[f, a, i]
+                D[3 * b + i] = minv[3 * b + i] * g
+                a0 += g * ws.qdd[3 * b + i]
+                free += g * minv[3 * b + i] * g
+    for r in range(U.shape[0]):
+        U[r] = jac_dot(ws, r, D)
+    multipliers(km, ws, U)
+    for r in range(U.shape[0]):
+        jac_t_sub(ws, r, U[r], minv, 1.0, D)
+    return a0, free
+
+
+@kernel
+def _slip_dot(km, ws, f, x):
+    """J_f x: the rate of friction joint f's slip coordinate for the coordinate rates x."""
+    jt = km.joint_friction[f]
+    s = 0.0
+    for a in range(2):
+        b = km.joint_body[jt, a]
+        if b >= 0:
+            for i in range(3):
+                s += ws.fJ[f, a, i] * x[3 * b + i]
+    return s
+
+
+@kernel
+def _friction_rows(km, ws, f):
+    """The multipliers (l0, l1) of friction joint f's two rows at the frictions ws.fs[:, JW_T]."""
+    r = km.joint_row[km.joint_friction[f]]
+    l0 = ws.lam[r]
+    l1 = ws.lam[r + 1]
+    for k in range(km.joint_friction.shape[0]):
+        t = ws.fs[k, JW_T]
+        l0 += ws.fU[k, r] * t
+        l1 += ws.fU[k, r + 1] * t
+    return l0, l1
+
+
+@kernel
+def _friction_sweep(km, contact, ws):
+    """One sweep: each slipping joint's friction from its load now, then the stuck joints' frictions that
+    meet their targets.  Returns the largest change, or -(1 + f) when stuck joint f's slip is already
+    fixed by the other constraints (no friction can hold it)."""
+    nfj = km.joint_friction.shape[0]
+    nc = km.clearance_body.shape[0]
+    change = 0.0
+    ns = 0
+    for f in range(nfj):
+        mode = int(contact[nc + f, CT_FRICTION])
+        if mode == SLIP:
+            l0, l1 = _friction_rows(km, ws, f)
+            jt = km.joint_friction[f]
+            t = -km.joint_param[jt, JP_FRICTION] * friction_load(km, f, l0, l1) * contact[nc + f, CT_SLIP_DIRECTION]
+            change = max(change, abs(t - ws.fs[f, JW_T]))
+            ws.fs[f, JW_T] = t
+        elif mode == STICK:
+            ws.fi[ns] = f
+            ns += 1
+    if ns == 0:
+        return change
+    A = ws.fA
+    for a in range(ns):
+        f = ws.fi[a]
+        rhs_f = ws.fs[f, JW_TARGET] - ws.fs[f, JW_A0]
+        for k in range(nfj):
+            if int(contact[nc + k, CT_FRICTION]) != STICK:
+                rhs_f -= ws.fG[f, k] * ws.fs[k, JW_T]
+        for b in range(ns):
+            A[a, b] = ws.fG[f, ws.fi[b]]
+        A[a, ns] = rhs_f
+    bad = small_solve(A, ns, ws.fs, ws.fi, JW_FREE)
+    if bad >= 0:
+        return -(1.0 + ws.fi[bad])
+    for a in range(ns):
+        f = ws.fi[a]
+        change = max(change, abs(A[a, ns] - ws.fs[f, JW_T]))
+        ws.fs[f, JW_T] = A[a, ns]
+    return change
+
+
+@kernel
+def _friction_apply(km, ws, nc):
+    """lambda and q'' with the frictions found; each joint's bound mu_s load(lambda) and its power."""
+    nfj = km.joint_friction.shape[0]
+    for k in range(nfj):
+        t = ws.fs[k, JW_T]
+        for r in range(ws.lam.shape[0]):
+            ws.lam[r] += ws.fU[k, r] * t
+        for i in range(ws.qdd.shape[0]):
+            ws.qdd[i] += ws.fD[k, i] * t
+    w0 = _work_layout(km.force_type.shape[0], km.driver_type.shape[0], nc, nfj)[WL_JFRICTION]
+    for f in range(nfj):
+        r = km.joint_row[km.joint_friction[f]]
+        jt = km.joint_friction[f]
+        ws.fs[f, JW_LIMIT] = km.joint_param[jt, JP_STATIC_FRICTION] * friction_load(km, f, ws.lam[r], ws.lam[r + 1])
+        ws.pw[w0 + f] = ws.fs[f, JW_T] * ws.fs[f, JW_V]
 
 
 @kernel

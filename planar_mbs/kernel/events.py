@@ -22,6 +22,11 @@ spring-damper's force reaches mu_s F_N (g = |F_T| - mu_s F_N), a slipping one st
 velocity crosses zero (g = -d v_T, d the slip direction); these are found from a sign change over the
 step and refined by the same regula falsi (`locate_friction`), event index nc + k for element k.
 
+The friction of an ideal joint (`kernel.joint_friction`) switches alike, event index 2 nc + f for friction
+joint f: a slipping joint sticks where its slip rate crosses zero, if the friction that holds it stays
+within mu_s times its load (else it slips on the other way); a stuck one slips when that friction reaches
+mu_s times its load (g = |T| - mu_s load, from the constraint solve at the state: `accelerations`).
+
 The comparisons of expressions (`kernel.expressions`) are switches of the same kind: `locate_switch`
 finds the earliest one whose live value differs from its frozen value at the step's end, by
 bisection on the dense output to the same relative time ROOT_RTOL.
@@ -35,11 +40,13 @@ from ..mechanism.model import (CP_STATIC_FRICTION, CT_FRICTION, CT_IMPACT_VELOCI
                                NO_FRICTION_MODE, SLIP, STICK, TOUCHING)
 from .contact import contact_mode, normal_force, pair_kinematics, set_anchor, state_index, stick_force, sticks
 
-from ..mechanism.model import ST_CONTACT_EVENTS
+from ..mechanism.model import CT_ANCHOR, ST_CONTACT_EVENTS
 from .contact import IMPACT_VELOCITY_FLOOR, clearance_kinematics
+from .dynamics import accelerations
 from .integrators import dense_eval
 from .expressions import live_switch
-from .workspace import DN_H, DN_TA
+from .joint_friction import slip_state
+from .workspace import DN_H, DN_TA, JW_LIMIT, JW_T
 
 ROOT_RTOL = 1e-12
 PEAK_TOL = 1e-9  # step fraction to which the deepest point is located
@@ -441,3 +448,120 @@ def locate_switch(km, ws, best):
             best = hi
             sbest = s
     return sbest, best
+
+
+@kernel
+def _friction_solve(km, cfg, t, y, contact, ws):
+    """The constraint solve at state y, for its joint frictions (ws.fs): one inlined copy of
+    `accelerations` for the events of every friction joint.  Returns its status."""
+    n = km.minv.shape[0]
+    for j in range(ws.z.shape[0]):  # the contact elements' own states (LuGre's bristles) at y
+        ws.z[j] = y[2 * n + j]
+    return accelerations(km, cfg, t, y[:n], y[n:2 * n], contact, ws, ws.sstats)
+
+
+@kernel
+def joint_friction_g(km, cfg, t, y, contact, ws, f):
+    """Event function of friction joint f at (t, y), positive past its switch: slipping, -d s'; stuck,
+    |T| - mu_s load (the solve at y); -1 without a friction mode (or a solve that fails: the time loop's own
+    right-hand side reports it)."""
+    row = km.clearance_body.shape[0] + f
+    mode = int(contact[row, CT_FRICTION])
+    n = km.minv.shape[0]
+    if mode == SLIP:
+        s, v = slip_state(km, f, y[:n], y[n:2 * n])
+        return -contact[row, CT_SLIP_DIRECTION] * v
+    if mode != STICK or _friction_solve(km, cfg, t, y, contact, ws) != 0:
+        return -1.0
+    return abs(ws.fs[f, JW_T]) - ws.fs[f, JW_LIMIT]
+
+
+@kernel
+def joint_friction_possible(km, cfg, ws, contact):
+    """True when some friction joint's event function is positive at the step end."""
+    t1 = ws.dense[DN_TA] + ws.dense[DN_H]
+    for f in range(km.joint_friction.shape[0]):
+        if joint_friction_g(km, cfg, t1, ws.yb, contact, ws, f) > 0.0:
+            return True
+    return False
+
+
+@kernel
+def locate_joint_friction(km, cfg, ws, contact, kbest, best):
+    """Earliest switch of a joint's friction inside the last step before step fraction `best` (the contact
+    events'): (event index 2 nc + f, or kbest when none is earlier; its step fraction on the new side)."""
+    nc = km.clearance_body.shape[0]
+    ta = ws.dense[DN_TA]
+    h = ws.dense[DN_H]
+    tol = ROOT_RTOL * max(abs(ta), h) / h
+    for f in range(km.joint_friction.shape[0]):
+        g1 = joint_friction_g(km, cfg, ta + h, ws.yb, contact, ws, f)
+        if not (g1 > 0.0):
+            continue
+        lo = 0.0
+        flo = joint_friction_g(km, cfg, ta, ws.ya, contact, ws, f)
+        hi = 1.0
+        fhi = g1
+        if flo > 0.0:  # already past the switch at the step start (roundoff at a switch)
+            hi = 0.0
+        side = 0
+        for it in range(MAX_ROOT_ITER):
+            if hi - lo <= tol:
+                break
+            x = _illinois_trial(it, lo, flo, hi, fhi)
+            dense_eval(ws, x, ws.yt)
+            fx = joint_friction_g(km, cfg, ta + x * h, ws.yt, contact, ws, f)
+            lo, flo, hi, fhi, side = _illinois_narrow(x, fx, lo, flo, hi, fhi, side)
+        if hi < best:
+            best = hi
+            kbest = 2 * nc + f
+    return kbest, best
+
+
+@kernel
+def try_stick(km, cfg, t, y, contact, ws, f, d):
+    """Friction joint f sticks at state y (its anchor there) when the friction that holds it stays within
+    mu_s times its load; else it slips in direction d (0: against that friction)."""
+    row = km.clearance_body.shape[0] + f
+    n = km.minv.shape[0]
+    s, v = slip_state(km, f, y[:n], y[n:2 * n])
+    contact[row, CT_FRICTION] = STICK
+    contact[row, CT_ANCHOR] = s
+    st = _friction_solve(km, cfg, t, y, contact, ws)
+    T = ws.fs[f, JW_T]
+    if st != 0 or abs(T) > ws.fs[f, JW_LIMIT]:
+        contact[row, CT_FRICTION] = SLIP
+        if d == 0.0:
+            d = -1.0 if T > 0.0 else 1.0
+        contact[row, CT_SLIP_DIRECTION] = d
+
+
+@kernel
+def switch_joint_friction(km, cfg, t, y, contact, ws, stats, f):
+    """Switch friction joint f at state y (on the new side): stuck, it slips against the friction that held
+    it; slipping, its slip rate crossed zero: it sticks, or slips on the other way (`try_stick`)."""
+    row = km.clearance_body.shape[0] + f
+    if int(contact[row, CT_FRICTION]) == STICK:
+        _friction_solve(km, cfg, t, y, contact, ws)
+        contact[row, CT_FRICTION] = SLIP
+        contact[row, CT_SLIP_DIRECTION] = -1.0 if ws.fs[f, JW_T] > 0.0 else 1.0
+    else:
+        try_stick(km, cfg, t, y, contact, ws, f, -contact[row, CT_SLIP_DIRECTION])
+    stats[ST_CONTACT_EVENTS] += 1
+
+
+@kernel
+def init_joint_friction(km, cfg, t, y, contact, ws):
+    """At the start of a run, each friction joint without a mode: at rest, it sticks if it can
+    (`try_stick`); moving, it slips its way."""
+    nc = km.clearance_body.shape[0]
+    n = km.minv.shape[0]
+    for f in range(km.joint_friction.shape[0]):
+        if int(contact[nc + f, CT_FRICTION]) != NO_FRICTION_MODE:
+            continue
+        s, v = slip_state(km, f, y[:n], y[n:2 * n])
+        if v == 0.0:
+            try_stick(km, cfg, t, y, contact, ws, f, 0.0)
+        else:
+            contact[nc + f, CT_FRICTION] = SLIP
+            contact[nc + f, CT_SLIP_DIRECTION] = 1.0 if v > 0.0 else -1.0

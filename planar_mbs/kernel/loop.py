@@ -52,6 +52,7 @@ from .workspace import (
     FL_STEP_REG,
     FL_SWITCH_EXPR,
     FL_SWITCH_JOINT,
+    JW_T,
     WK_NOW,
     WK_SAVE,
     WK_T,
@@ -117,8 +118,15 @@ from ..mechanism.model import (
     OB_Q,
     OB_QD,
     OB_QDD,
+    OB_JFRICTION,
     OB_SIZE,
     OB_SYSTEM,
+    JF_FRICTION,
+    JF_POWER,
+    JF_RATE,
+    JF_STICK,
+    JF_WORK,
+    N_JFRICTION_SIGNALS,
     SYS_KINETIC,
     SYS_POSITION_ERROR,
     SYS_POTENTIAL,
@@ -145,7 +153,9 @@ from .contact import (
     state_index,
 )
 from .dynamics import DRIFT_POSITION, DRIFT_VELOCITY, accelerations, drift_check, jac_dot, project, rhs
-from .events import event_possible, init_modes, locate_event, locate_switch, switch_mode
+from .events import (event_possible, init_joint_friction, init_modes, joint_friction_possible, locate_event,
+                     locate_joint_friction, locate_switch, switch_joint_friction, switch_mode)
+from .joint_friction import slip_state
 from .expressions import flip_switch, init_switches
 from .forces import applied_forces, force_potential
 from .work import energy_start, kinetic_energy, work_accept, work_at, work_end, work_restore
@@ -251,7 +261,7 @@ def observe(km, cfg, t, y, contact, ws, row):
             st = add_clearance_forces(km, q, qd, ws.cs, contact, ws.z, ws.zd, ws.Qe, ws.sstats, ws.pw, nf + 1 + nd)
         if st != 0:
             return st
-    lay = layout(n // 3, nj, nd, nc, nf)  # model.observation_layout, compiled
+    lay = layout(n // 3, nj, nd, nc, nf, km.joint_friction.shape[0])  # model.observation_layout, compiled
     for i in range(n):
         row[lay[OB_Q] + i] = q[i]
         row[lay[OB_QD] + i] = qd[i]
@@ -267,7 +277,27 @@ def observe(km, cfg, t, y, contact, ws, row):
             row[i] = math.nan
     _observe_system(km, q, qd, contact, ws, row, lay[OB_SYSTEM], (skip & OBS_SKIP_ENERGY) == 0, errors, loads)
     _observe_loads(km, ws, row, lay[OB_FORCE], lay[OB_DRIVER_WORK], loads)
+    if km.joint_friction.shape[0] > 0:
+        _observe_joint_friction(km, q, qd, contact, ws, row, lay[OB_JFRICTION], dynamics)
     return 0
+
+
+@kernel
+def _observe_joint_friction(km, q, qd, contact, ws, row, col0, dynamics):
+    """The friction joints' block: friction (from the solve `accelerations` just made), slip rate, power,
+    stick flag, work."""
+    nc = km.clearance_body.shape[0]
+    nfj = km.joint_friction.shape[0]
+    w0 = km.force_type.shape[0] + 1 + km.driver_type.shape[0] + nc
+    for f in range(nfj):
+        col = col0 + N_JFRICTION_SIGNALS * f
+        s, v = slip_state(km, f, q, qd)
+        T = ws.fs[f, JW_T] if dynamics else math.nan
+        row[col + JF_FRICTION] = T
+        row[col + JF_RATE] = v
+        row[col + JF_POWER] = T * v
+        row[col + JF_STICK] = 1.0 if int(contact[nc + f, CT_FRICTION]) == STICK else 0.0
+        row[col + JF_WORK] = ws.wk[WK_T, w0 + f]
 
 
 @kernel(inline=True)
@@ -339,8 +369,11 @@ def _observe_system(km, q, qd, contact, ws, row, col, energy, errors, loads):
         for i in range(nf + 1 + nd):
             Win += w[i]
         Wd = 0.0
-        for k in range(km.clearance_body.shape[0]):
+        nc = km.clearance_body.shape[0]
+        for k in range(nc):
             Wd -= w[nf + 1 + nd + k] + clearance_energy(km, k, q, qd, contact) - ws.energy0[2 + k]
+        for f in range(km.joint_friction.shape[0]):  # the joints' friction work (<= 0) is dissipated
+            Wd -= w[nf + 1 + nd + nc + f]
     row[col + SYS_GRAVITY_POWER] = ws.pw[nf] if loads else math.nan
     row[col + SYS_GRAVITY_WORK] = w[nf]
     row[col + SYS_INPUT_WORK] = Win
@@ -486,11 +519,15 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
             if st != 0:
                 return st, True, hcap
     k = ws.flags[FL_SWITCH_JOINT]
+    nc = km.clearance_body.shape[0]
     if k >= 0:
-        switch_mode(km, k, y, contact, stats)
+        if k >= 2 * nc:
+            switch_joint_friction(km, cfg, t, y, contact, ws, stats, k - 2 * nc)
+        else:
+            switch_mode(km, k, y, contact, stats)
         ws.flags[FL_SWITCH_JOINT] = -1
         restart = True
-        if k < contact.shape[0] and contact_mode(contact, k) == TOUCHING:  # (k >= nc: a friction switch)
+        if k < nc and contact_mode(contact, k) == TOUCHING:  # (k >= nc: a friction switch)
             n = km.minv.shape[0]
             hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:2 * n], contact[k, CT_IMPACT_VELOCITY])
     if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:
@@ -651,7 +688,8 @@ def _refused(km, cfg, y, stats, ws, out_t, out):
     cap = out_t.shape[0]
     method = int(cfg[CFG_METHOD])
     n = km.minv.shape[0]
-    nobs = layout(n // 3, km.joint_type.shape[0], km.driver_type.shape[0], nc, km.force_type.shape[0])[OB_SIZE]
+    nobs = layout(n // 3, km.joint_type.shape[0], km.driver_type.shape[0], nc, km.force_type.shape[0],
+                  km.joint_friction.shape[0])[OB_SIZE]
     if (cap == 0 or not (cfg[CFG_OUTPUT_STEP] > 0.0) or out.shape[0] < cap or out.shape[1] != nobs
             or N != 2 * n + ws.z.shape[0]):
         return BAD_INPUT
@@ -683,6 +721,8 @@ def _resume(km, cfg, t0, t, y, clock, contact, stats, ws, out_t, out, nw):
     if stats[ST_OUTPUTS] == 0:
         init_modes(km, y, contact)
         init_switches(km, ws.xreg, ws.xmode, ws.xfault, t, y)
+        if km.joint_friction.shape[0] > 0:
+            init_joint_friction(km, cfg, t, y, contact, ws)
     if ws.flags[FL_ENERGY0] == 0:  # the first state of the run (or one a study set): the energy balance's reference
         energy_start(km, y[:n], y[n:2 * n], contact, ws)
     if stats[ST_OUTPUTS] == 0:
@@ -874,15 +914,21 @@ def _contact_event(method, km, cfg, t, hh, tnew, y, contact, stats, ws):
     Returns (status, joint or -1, theta, end time)."""
     kev = -1
     th = 1.0
-    if km.clearance_body.shape[0] > 0:
+    nfj = km.joint_friction.shape[0]
+    if km.clearance_body.shape[0] > 0 or nfj > 0:
         if EXTRA_STAGES[method] > 0:  # screen first: its dense output costs stages
-            if event_possible(km, ws, contact, END_STAGE[method]):
+            if event_possible(km, ws, contact, END_STAGE[method]) or (
+                    nfj > 0 and joint_friction_possible(km, cfg, ws, contact)):
                 st = dense_prepare(km, cfg, contact, ws, stats)
                 if st != 0:
                     return st, kev, th, tnew
                 kev, th = locate_event(km, ws, contact)
+                if nfj > 0:
+                    kev, th = locate_joint_friction(km, cfg, ws, contact, kev, th)
         else:
             kev, th = locate_event(km, ws, contact)
+            if nfj > 0:
+                kev, th = locate_joint_friction(km, cfg, ws, contact, kev, th)
         if kev >= 0 and th < 1.0:
             tnew = t + th * hh
             dense_eval(ws, th, y)

@@ -43,6 +43,10 @@ DN_SPEED = 6  # largest speed |v| + L |omega| of a body seen by the constraint c
 DN_JUMP_AT = 7  # time of the first switch at which a driver's motion jumped (NaN: none; `loop.motion_jump`)
 DN_CUT = 8  # theta at which an event cut the last accepted step (1: not cut)
 N_DENSE = 9
+# ws.fs slots of a friction joint: slip coordinate, its rate, slip acceleration without friction, friction,
+# its bound mu_s x load, the stuck target acceleration, J_s M^-1 J_s^T
+JW_S, JW_V, JW_A0, JW_T, JW_LIMIT, JW_TARGET, JW_FREE = range(7)
+N_JW = 7
 # ws.wk rows (float64, one column per work channel, `model.work_layout`): the cumulative works
 WK_A = 0  # at the start of the last accepted step
 WK_B = 1  # at the end of its full step (the quadrature of its stages' powers)
@@ -98,6 +102,14 @@ class Workspace(NamedTuple):
     energy0: np.ndarray  # (2 + nclearance,) at the start: T + V, the loads' potential, each clearance's elastic energy
     z: np.ndarray  # (nstate,) the contact elements' own states (LuGre's sigma_0 z) at the current rhs: y[2n:]
     zd: np.ndarray  # (nstate,) their rates there (`contact.clearance_force`)
+    # the friction joints' solve (`dynamics.joint_friction`, njf = len(km.joint_friction); empty without)
+    fJ: np.ndarray  # (njf, 2, 3) Jacobian of each slip coordinate on the joint's two bodies
+    fU: np.ndarray  # (njf, m) S^-1 Cq M^-1 J_s^T: the multipliers' response to a unit friction torque
+    fD: np.ndarray  # (njf, n) M^-1 (J_s^T - Cq^T fU): the accelerations' response
+    fA: np.ndarray  # (njf, njf + 1) the stuck joints' linear system
+    fG: np.ndarray  # (njf, njf) slip accelerations' response J_s fD
+    fi: np.ndarray  # (njf,) int: the stuck joints of the solve
+    fs: np.ndarray  # (njf, N_JW) per friction joint, slots JW_*
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -109,7 +121,7 @@ def kernel_model(km: KernelModel) -> KernelModel:
         if np.issubdtype(arr.dtype, np.integer) or name in {
             "joint_type", "joint_body", "joint_row", "driver_type", "driver_body",
             "driver_motion", "driver_row", "clearance_body", "clearance_law",
-            "force_type", "force_body",
+            "force_type", "force_body", "joint_friction",
         }:
             fields[name] = np.ascontiguousarray(arr, dtype=np.int64)
         else:
@@ -135,7 +147,7 @@ def state_count(km: KernelModel) -> int:
 def nobs(km: KernelModel) -> int:
     """Columns of one observation row (model.observation_size)."""
     nb, nj, nd, nc, _ = sizes(km)
-    return observation_size(nb, nj, nd, nc, len(km.force_type))
+    return observation_size(nb, nj, nd, nc, len(km.force_type), len(km.joint_friction))
 
 
 def envelope(rowbody: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -196,7 +208,8 @@ def make_workspace(km: KernelModel) -> Workspace:
     dense[DN_JUMP_AT] = np.nan
     dense[DN_CUT] = 1.0
     nf = len(km.force_type)
-    nw = work_layout(nf, nd, nc)[WL_SIZE]
+    njf = len(km.joint_friction)
+    nw = work_layout(nf, nd, nc, njf)[WL_SIZE]
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
@@ -208,6 +221,8 @@ def make_workspace(km: KernelModel) -> Workspace:
         pw=np.zeros(nw), pf=np.zeros(nw), pk=np.zeros((N_STAGES, nw)), wk=np.zeros((N_WK, nw)),
         fv=np.zeros((nf, catalog.N_FORCE_VALUES)), fsave=np.zeros(6), wF=np.zeros(N_DENSE_ROWS), energy0=np.zeros(2 + nc),
         z=np.zeros(nz), zd=np.zeros(nz),
+        fJ=np.zeros((njf, 2, 3)), fU=np.zeros((njf, m)), fD=np.zeros((njf, n)), fA=np.zeros((njf, njf + 1)),
+        fG=np.zeros((njf, njf)), fi=np.zeros(njf, dtype=np.int64), fs=np.zeros((njf, N_JW)),
     )
 
 

@@ -397,8 +397,10 @@ class _LayoutPasses:
         self._sigma_cache: dict[str, float] = {}
         for st in self.materials.values():
             self._sigma(st.name, st.name_pos)
+        self.jfriction: list[int] = []
         for k, st in enumerate(self.ideal):
             self._fill_joint(k, st)
+        self.a["joint_friction"] = np.array(self.jfriction, dtype=np.int64)
         self.clearance_assembly = []
         for st in self.clearance:
             self._fill_element(len(self.clearance_assembly), st)
@@ -574,16 +576,44 @@ class _JointPass:
         a["joint_type"][k] = int(jt)
         a["joint_body"][k] = (bi, bj)
         a["joint_point"][k] = (pi, pj)
-        for setting in catalog.JOINTS[int(jt)].settings:  # read and stored as the catalog says
+        spec = catalog.JOINTS[int(jt)]
+        values: dict[str, float] = {}
+        for setting in spec.settings:  # read and stored as the catalog says
             if setting.unit == "direction":
                 a["joint_axis"][k] = self._unit_axis(f, setting.name)
             else:
-                a["joint_param"][k, JP[setting.column]] = self._joint_setting(f, st, label, setting, bi, pi, bj, pj)
+                values[setting.name] = self._joint_setting(f, st, label, setting, bi, pi, bj, pj, values)
+                a["joint_param"][k, JP[setting.column]] = values[setting.name]
+        if spec.friction:
+            self._joint_friction(f, st, label, spec, values, k)
 
-    def _joint_setting(self, f: Fields, st: Statement, label: str, setting, bi, pi, bj, pj) -> float:
-        """A number setting of a joint (catalog.JointSetting) in SI, its default taken from the pose."""
+    def _joint_friction(self, f: Fields, st: Statement, label: str, spec, values: dict, k: int) -> None:
+        """A joint's friction settings are physical: mu_k >= 0, mu_s >= mu_k, a pin radius when a pin has
+        friction (docs/contact.md, "Friction in ideal joints")."""
+        mu, mus = values["friction"], values["static_friction"]
+        if mu < 0:
+            raise f.expr("friction").pos.error(f"the friction of {label} must not be negative",
+                                               hint="a coefficient such as `friction = 0.1`")
+        if mus < mu:
+            where = f.expr("static_friction").pos if f.has("static_friction") else f.expr("friction").pos
+            raise where.error(f"the static friction of {label} ({mus:g}) is below its kinetic friction ({mu:g})",
+                              hint="give `static_friction` at least `friction` (it defaults to it)")
+        if spec.friction == "torque" and mus > 0 and not values["pin_radius"] > 0:
+            raise (f.expr("pin_radius").pos if f.has("pin_radius") else st.name_pos).error(
+                f"{label} has friction but no pin radius", hint="give the pin's radius, e.g. `pin_radius = 10 mm`")
+        if values.get("block_length", 0.0) < 0:
+            raise f.expr("block_length").pos.error(f"the block length of {label} must not be negative",
+                                                   hint="the length of the sliding block, e.g. `block_length = 50 mm`")
+        if mus > 0:
+            self.jfriction.append(k)
+
+    def _joint_setting(self, f: Fields, st: Statement, label: str, setting, bi, pi, bj, pj, values) -> float:
+        """A number setting of a joint (catalog.JointSetting) in SI, its default taken from the pose or
+        from a setting read before it."""
         default = setting.default
-        if default == "pose":
+        if isinstance(default, str) and default in values:
+            default = values[default]
+        elif default == "pose":
             default = (self._angle0(bj) - self._angle0(bi) if setting.unit == "angle"
                        else float(np.linalg.norm(self._world(bj, pj) - self._world(bi, pi))))
         dim = getattr(U, setting.unit.upper())

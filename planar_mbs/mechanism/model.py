@@ -46,6 +46,10 @@ JOINT_NAMES = {JointType(s.code): s.name for s in catalog.JOINTS}
 JP = {name: i for i, name in enumerate(catalog.joint_param_columns())}
 JP_PHI0 = JP["phi0"]  # relative angle phi_j - phi_i kept by translational and weld joints
 JP_LENGTH = JP["length"]  # link length L of a revolute-revolute joint
+JP_FRICTION = JP["friction"]  # joint friction (catalog.JointSpec.friction): mu_k, mu_s, pin radius, block length
+JP_STATIC_FRICTION = JP["static_friction"]
+JP_PIN_RADIUS = JP["pin_radius"]
+JP_BLOCK_LENGTH = JP["block_length"]
 N_JOINT_PARAM = len(JP)
 
 
@@ -188,13 +192,14 @@ class Status(IntEnum):
     CONSTRAINTS_LOST = 9  # an adaptive run left its constraints beyond the bound scaled to the mechanism
     PASSAGE = 10  # a fixed RK4 step across a singular position that step halving does not confirm
     ABSURD = 11  # an accepted step left every physical bound (ABSURD_STATE); y is that state
+    JOINT_FRICTION = 12  # the friction of the ideal joints found no torques (stats[ST_INFO]: the friction joint)
 
 
 # beyond it (m, m/s, rad/s) no planar mechanism is being simulated (light: 3e8 m/s); angles are not bounded
 ABSURD_STATE = 1e9
 
 
-# contact state of the clearance joints, `contact` (nclearance, N_CONTACT_STATE) float64, kept across calls
+# contact state of the clearance joints, `contact` (nclearance + njfriction, N_CONTACT_STATE) float64, kept across calls
 CT_MODE = 0  # contact mode, an integer code (FREE / TOUCHING) read through kernel.contact.contact_mode
 CT_IMPACT_VELOCITY = 1  # delta'(-) of the current contact
 CT_LAST_FORCE = 2  # unused (once the warm start of the implicit laws)
@@ -204,6 +209,9 @@ CT_SLIP_DIRECTION = 4  # sign (+1 / -1) of the slip velocity v_T while slipping
 CT_ANCHOR = 5  # 5, 6: the slip coordinates where it stuck (kernel.contact.slip_coordinates)
 N_CONTACT_STATE = 7
 NO_FRICTION_MODE, STICK, SLIP = 0, 1, 2
+# the friction joints' memory (`KernelModel.joint_friction`) follows as rows nclearance + f of `contact`:
+# CT_FRICTION its mode (NO_FRICTION_MODE: frictionless), CT_SLIP_DIRECTION, CT_ANCHOR its slip coordinate
+# (relative angle or sliding distance) where it stuck
 FREE = 0  # free flight: no contact force even if delta > 0
 TOUCHING = 1  # in contact: the law's force while delta > 0
 
@@ -243,12 +251,16 @@ SYS_KINETIC, SYS_POTENTIAL, SYS_POSITION_ERROR, SYS_VELOCITY_ERROR = 5, 6, 7, 8
 N_SYSTEM_SIGNALS = 9
 FS_VALUE, FS_POWER, FS_WORK = 0, 3, 4  # a force element's values (catalog.ForceSpec.signals), power, work
 N_FORCE_SIGNALS = 5
+# a friction joint's block (after the driver works): its friction torque or force on the second body along
+# its slip coordinate, the slip rate, the friction power (<= 0), 1 while stuck, the work since the start
+JF_FRICTION, JF_RATE, JF_POWER, JF_STICK, JF_WORK = 0, 1, 2, 3, 4
+N_JFRICTION_SIGNALS = 5
 # indices into `observation_layout`'s tuple
-OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_FORCE, OB_DRIVER_WORK, OB_SYSTEM, OB_SIZE = \
-    range(11)
+(OB_Q, OB_QD, OB_QDD, OB_JOINT, OB_EFFORT, OB_POWER, OB_CLEARANCE, OB_FORCE, OB_DRIVER_WORK, OB_JFRICTION,
+ OB_SYSTEM, OB_SIZE) = range(12)
 
 
-def observation_layout(nbody, njoint, ndriver, nclearance, nforce):
+def observation_layout(nbody, njoint, ndriver, nclearance, nforce, njfriction=0):
     """First column of each block of the observation row, and the row size, as a tuple indexed
     by OB_*.  Plain integer arithmetic: the kernels compile this same function (`kernel.loop`)."""
     q = 0
@@ -260,21 +272,24 @@ def observation_layout(nbody, njoint, ndriver, nclearance, nforce):
     clearance = power + ndriver
     force = clearance + N_CLEARANCE_SIGNALS * nclearance
     dwork = force + N_FORCE_SIGNALS * nforce
-    system = dwork + ndriver
-    return q, qd, qdd, joint, effort, power, clearance, force, dwork, system, system + N_SYSTEM_SIGNALS
+    jfriction = dwork + ndriver
+    system = jfriction + N_JFRICTION_SIGNALS * njfriction
+    return q, qd, qdd, joint, effort, power, clearance, force, dwork, jfriction, system, system + N_SYSTEM_SIGNALS
 
 
 # ---- work channels: the powers whose integrals the time loop keeps (`kernel.work`), one per force element,
-# then gravity, one per driver, one per clearance element; `work_layout` gives their first indices.
-WL_FORCE, WL_GRAVITY, WL_DRIVER, WL_CLEARANCE, WL_SIZE = range(5)
+# then gravity, one per driver, one per clearance element, one per friction joint; `work_layout` gives their
+# first indices.
+WL_FORCE, WL_GRAVITY, WL_DRIVER, WL_CLEARANCE, WL_JFRICTION, WL_SIZE = range(6)
 
 
-def work_layout(nforce, ndriver, nclearance):
+def work_layout(nforce, ndriver, nclearance, njfriction=0):
     """First work channel of each group, and their count, as a tuple indexed by WL_* (compiled too)."""
     gravity = nforce
     driver = gravity + 1
     clearance = driver + ndriver
-    return 0, gravity, driver, clearance, clearance + nclearance
+    jfriction = clearance + nclearance
+    return 0, gravity, driver, clearance, jfriction, jfriction + njfriction
 
 
 class KernelModel(NamedTuple):
@@ -314,6 +329,7 @@ class KernelModel(NamedTuple):
     table_info: np.ndarray = np.zeros((0, 2), dtype=np.int64)  # (ntable, 2) int: first row in table_seg and the number of knots
     table_period: np.ndarray = np.zeros(0)  # (ntable,) period of a periodic table (0: held at its end values outside)
     table_seg: np.ndarray = np.zeros((0, 5))  # (nknot, 5) knot x_k and y = c0 + c1 d + c2 d^2 + c3 d^3, d = x - x_k
+    joint_friction: np.ndarray = np.zeros(0, dtype=np.int64)  # (njfriction,) int: the joints with friction, in order
 
 
 def read_only(arr: np.ndarray) -> np.ndarray:
@@ -329,9 +345,10 @@ def frozen(km: KernelModel) -> KernelModel:
     return KernelModel(*(read_only(np.asarray(a)) for a in km))
 
 
-def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int, nforce: int) -> int:
+def observation_size(nbody: int, njoint: int, ndriver: int, nclearance: int, nforce: int,
+                     njfriction: int = 0) -> int:
     """Columns of one observation row (`observation_layout`)."""
-    return observation_layout(nbody, njoint, ndriver, nclearance, nforce)[OB_SIZE]
+    return observation_layout(nbody, njoint, ndriver, nclearance, nforce, njfriction)[OB_SIZE]
 
 
 @dataclass(frozen=True)
@@ -459,6 +476,20 @@ class Model:
         """States of the contact elements' own (LuGre's bristles, sigma_0 z), after (q, q') in the
         integrated state y = (q, q', z): one per element whose friction model has one."""
         return int(np.count_nonzero(np.asarray(self.kernel.clearance_param)[:, CP_STATE] > 0))
+
+    @property
+    def njfriction(self) -> int:
+        """Ideal joints with friction (`KernelModel.joint_friction`)."""
+        return len(self.kernel.joint_friction)
+
+    @property
+    def jfriction_names(self) -> list[str]:
+        return [self.joint_names[int(j)] for j in self.kernel.joint_friction]
+
+    @property
+    def contact_rows(self) -> int:
+        """Rows of a run's contact memory: the clearance elements', then the friction joints'."""
+        return self.nclearance + self.njfriction
 
     @property
     def ncoord(self) -> int:

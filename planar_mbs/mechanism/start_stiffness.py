@@ -98,7 +98,7 @@ def _start_contact(model: Model, c: int, q, qd, P) -> StartContact:
     G = np.array([pycontact.pair_kinematics(k, c, q, e)[6] for e in np.eye(n)])  # vn is linear in q'
     d = P @ G
     w = float(G @ d)  # 1 / the effective mass along the normal
-    contact = np.zeros((model.nclearance, N_CONTACT_STATE))
+    contact = np.zeros((model.contact_rows, N_CONTACT_STATE))
     depth, vn = float(pycontact.pair_kinematics(k, c, q, qd)[3]), float(pycontact.pair_kinematics(k, c, q, qd)[6])
     if depth > 0:  # as the time loop starts it (`kernel.events.init_modes`)
         contact[c, CT_MODE] = TOUCHING

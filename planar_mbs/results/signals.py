@@ -66,6 +66,13 @@ from ..mechanism.model import (
     OB_QD,
     OB_QDD,
     OB_SYSTEM,
+    OB_JFRICTION,
+    JF_FRICTION,
+    JF_POWER,
+    JF_RATE,
+    JF_STICK,
+    JF_WORK,
+    N_JFRICTION_SIGNALS,
     SYS_KINETIC,
     SYS_POSITION_ERROR,
     SYS_POTENTIAL,
@@ -100,6 +107,19 @@ POINT_QUANTITIES = [("contact_x", "m", CS_POINT_X), ("contact_y", "m", CS_POINT_
 FILM_QUANTITIES = [("film_pressure", "Pa", CS_FILM_PRESSURE)]
 # joints whose reaction includes a moment (they lock the relative rotation; catalog.JointSpec.moment)
 MOMENT_JOINTS = tuple(JointType(s.code) for s in catalog.JOINTS if s.moment)
+# a joint with friction (catalog.JointSpec.friction: "torque" for a pin, "force" for a slide)
+_JOINT_FRICTION = {s.code: s.friction for s in catalog.JOINTS}
+
+
+def _friction_signals(name: str, kind: str, col: int) -> list:
+    """A friction joint's signals: its friction on the second body along the slip coordinate, the slip
+    rate, the friction power (<= 0 while slipping), 1 while stuck, the friction's work since the start."""
+    torque = kind == "torque"
+    return [Signal(name, "friction_torque" if torque else "friction_force", "N*m" if torque else "N",
+                   (col + JF_FRICTION,)),
+            Signal(name, "slip_rate" if torque else "slip_velocity", "rad/s" if torque else "m/s", (col + JF_RATE,)),
+            Signal(name, "friction_power", "W", (col + JF_POWER,)), Signal(name, "stick", "1", (col + JF_STICK,)),
+            Signal(name, "friction_work", "J", (col + JF_WORK,))]
 _KINDS = {s.code: s for s in catalog.FORCES}
 
 
@@ -131,8 +151,9 @@ def signal_table(model: Model) -> list[Signal]:
     """Every signal the model produces, in observation-row order (`model.observation_layout`)."""
     nb = model.nbody
     k = model.kernel
-    lay = observation_layout(nb, model.njoint, model.ndriver, model.nclearance, model.nforce)
+    lay = observation_layout(nb, model.njoint, model.ndriver, model.nclearance, model.nforce, model.njfriction)
     table: list[Signal] = []
+    friction = {int(j): f for f, j in enumerate(k.joint_friction)}
     for b, name in enumerate(model.body_names):
         for block, (qty, unit) in enumerate(BODY_QUANTITIES):
             part, comp = divmod(block, 3)  # q, qd, qdd blocks of 3 nb columns
@@ -146,6 +167,9 @@ def signal_table(model: Model) -> list[Signal]:
         ]
         if JointType(int(k.joint_type[j])) in MOMENT_JOINTS:
             table.append(Signal(name, "moment", "N*m", (c + JS_MOMENT,)))
+        if j in friction:
+            table += _friction_signals(name, _JOINT_FRICTION[int(k.joint_type[j])],
+                                       lay[OB_JFRICTION] + N_JFRICTION_SIGNALS * friction[j])
     for d, name in enumerate(model.driver_names):
         angle = int(k.driver_type[d]) == DriverType.ANGLE
         effort = ("torque", "N*m") if angle else ("force", "N")
@@ -198,11 +222,14 @@ def skip_bits(model: Model, columns=None) -> int:
     efforts).  0 when every signal is kept."""
     if columns is None:
         return 0
-    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce)
+    lay = observation_layout(model.nbody, model.njoint, model.ndriver, model.nclearance, model.nforce,
+                             model.njfriction)
     s = lay[OB_SYSTEM]
+    jf = [lay[OB_JFRICTION] + N_JFRICTION_SIGNALS * f + i for f in range(model.njfriction) for i in (JF_FRICTION,
+                                                                                                    JF_POWER)]
     loads = [lay[OB_FORCE] + N_FORCE_SIGNALS * e + i for e in range(model.nforce) for i in range(FS_WORK)]
     groups = (
-        (OBS_SKIP_DYNAMICS, range(lay[OB_QDD], lay[OB_CLEARANCE])),
+        (OBS_SKIP_DYNAMICS, [*range(lay[OB_QDD], lay[OB_CLEARANCE]), *jf]),
         (OBS_SKIP_CLEARANCE, range(lay[OB_CLEARANCE], lay[OB_FORCE])),
         (OBS_SKIP_ENERGY, (s + SYS_KINETIC, s + SYS_POTENTIAL, s + SYS_INPUT_WORK, s + SYS_DISSIPATED,
                            s + SYS_BALANCE)),

@@ -96,6 +96,11 @@ def _status_message(model: Model, settings: Settings, status: int, info: int, t:
                 "the motion would go on wrong (use a shorter step, or dopri5/dop853)")
     if status == Status.MAX_STEPS:
         return f"the step limit max_steps = {settings.max_steps} was reached {at}"
+    if status == Status.JOINT_FRICTION:
+        name = model.jfriction_names[info] if 0 <= info < model.njfriction else "?"
+        return (f"the friction of joint `{name}` found no torque {at}: its friction torque changes its "
+                f"own reaction more than it holds (mu r too large for the mechanism; docs/contact.md, "
+                f"\"Friction in ideal joints\")")
     if status == Status.CONTACT_SOLVE:
         name = model.clearance_names[info] if 0 <= info < model.nclearance else "?"
         return f"the contact law of clearance joint `{name}` found no force {at}"
@@ -239,11 +244,11 @@ def known_force_kinds(model: Model) -> None:
 
 
 def _workless(model: Model) -> bool:
-    """No driver, no clearance joint, and every force element one with a potential whose dissipative
-    columns (damping, an actuator: `catalog.ForceSpec.dissipative`) are zero: the total energy is
+    """No driver, no clearance joint, no joint friction, and every force element one with a potential whose
+    dissipative columns (damping, an actuator: `catalog.ForceSpec.dissipative`) are zero: the total energy is
     conserved.  An unknown force kind is an error (`catalog.force_kind`), never counted as workless."""
     k = model.kernel
-    if model.ndriver or model.nclearance:
+    if model.ndriver or model.nclearance or model.njfriction:
         return False
     for code, p in zip(k.force_type, k.force_param):
         spec = catalog.force_kind(int(code))

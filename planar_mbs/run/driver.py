@@ -48,7 +48,7 @@ class RunData:
 
     y: np.ndarray  # (2n + nstate,) state (q, q', z): z the contact elements' own (LuGre's bristles)
     clock: np.ndarray  # (4,) CLOCK_* slots
-    contact: np.ndarray  # (nclearance, N_CONTACT_STATE) mode and impact velocity per clearance joint
+    contact: np.ndarray  # (nclearance + njfriction, N_CONTACT_STATE) modes of the clearance and friction joints
     stats: np.ndarray  # (N_STATS,) int64 counters
     ws: object  # kernel.Workspace: scratch, expression registers and switch modes
 
@@ -60,7 +60,7 @@ class RunData:
         if y.shape[0] == 2 * model.ncoord and model.nstate:  # (q, q') given: the elements' own states start at 0
             y = np.concatenate([y, np.zeros(model.nstate)])
         return cls(y=y, clock=clock,
-                   contact=np.zeros((model.nclearance, N_CONTACT_STATE)),
+                   contact=np.zeros((model.contact_rows, N_CONTACT_STATE)),
                    stats=np.zeros(N_STATS, dtype=np.int64), ws=kernel.make_workspace(model.kernel))
 
     def copy(self) -> "RunData":

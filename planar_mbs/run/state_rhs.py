@@ -49,7 +49,7 @@ COLD_NOTE = ("note: compiling the right-hand side for Python calls (numba, once:
 
 def contact_memory(model: Model, impact_velocity: float | None = None) -> np.ndarray:
     """Every clearance element in contact mode with the impact velocity given (default: the floor)."""
-    contact = np.zeros((model.nclearance, N_CONTACT_STATE))
+    contact = np.zeros((model.contact_rows, N_CONTACT_STATE))
     contact[:, CT_MODE] = TOUCHING
     floor = float(kcontact.IMPACT_VELOCITY_FLOOR)
     contact[:, CT_IMPACT_VELOCITY] = floor if impact_velocity is None else max(float(impact_velocity), floor)
