@@ -311,20 +311,23 @@ def joint_friction(km, cfg, q, qd, contact, ws, stats):
     for it in range(FRICTION_ITER):
         change = _friction_sweep(km, contact, ws)
         if change < 0.0:
-            return _friction_failed(ws, stats, -change - 1.0)
+            return _friction_failed(stats, -change - 1.0)
+        if not (change < math.inf):  # diverged (each sweep multiplies an error by more than one)
+            return _friction_failed(stats, 0.0)
         tmax = 0.0
         for f in range(nfj):
             tmax = max(tmax, abs(ws.fs[f, JW_T]))
         if nslip == 0 or (it > 0 and not (change > FRICTION_RTOL * tmax)):
             break
         if it == FRICTION_ITER - 1:
-            return _friction_failed(ws, stats, 0.0)
+            return _friction_failed(stats, 0.0)
     _friction_apply(km, ws, nc)
     return 0
 
 
 @kernel
-def _friction_failed(ws, stats, f):
+def _friction_failed(stats, f):
+    """JOINT_FRICTION, with friction joint f in stats[ST_INFO]."""
     stats[ST_INFO] = int(f)
     return JOINT_FRICTION
 

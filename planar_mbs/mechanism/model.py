@@ -229,7 +229,8 @@ N_STATS = 8
 # Blocks in order (`observation_layout` gives their first columns): q, q', q'' (3 nbody each), joint
 # reactions (N_JOINT_SIGNALS per ideal joint), driver efforts, driver powers (one per driver),
 # clearance signals (N_CLEARANCE_SIGNALS per clearance joint), force elements (N_FORCE_SIGNALS each),
-# driver works (one per driver), system signals (N_SYSTEM_SIGNALS: last, its energies and errors at the end).
+# driver works (one per driver), friction joints (N_JFRICTION_SIGNALS each), system signals (N_SYSTEM_SIGNALS:
+# last, its energies and errors at the end).
 JS_FX, JS_FY, JS_MOMENT = 0, 1, 2  # reaction on the joint's second body (moment about its joint point)
 N_JOINT_SIGNALS = 3
 CS_EX, CS_EY, CS_E, CS_PENETRATION, CS_FN, CS_FX, CS_FY = 0, 1, 2, 3, 4, 5, 6
