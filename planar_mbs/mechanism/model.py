@@ -200,6 +200,9 @@ CT_FRICTION = 3  # NO_FRICTION_MODE, STICK or SLIP
 CT_SLIP_DIRECTION = 4  # sign (+1 / -1) of the slip velocity v_T while slipping
 CT_ANCHOR = 5  # 5, 6: the slip coordinates where it stuck (kernel.contact.slip_coordinates)
 N_CONTACT_STATE = 7
+# a worn bearing (`kernel.wear`): columns past N_CONTACT_STATE, present only in a run that wears
+CT_WEAR_NODES = N_CONTACT_STATE  # N, the nodes of the worn profile (0: the circle)
+CT_WEAR_TABLE = N_CONTACT_STATE + 1  # N node depths, then N second derivatives of the periodic spline
 NO_FRICTION_MODE, STICK, SLIP = 0, 1, 2
 FREE = 0  # free flight: no contact force even if delta > 0
 TOUCHING = 1  # in contact: the law's force while delta > 0
