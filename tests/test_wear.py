@@ -191,3 +191,36 @@ def test_halving_the_extrapolation_step_changes_the_wear_little_and_converges_at
     c1, c2 = first["depth_change"], second["depth_change"]
     assert c2 < 0.015 and 1.6 < c1 / c2 < 2.6, (c1, c2)
     assert second["max_depth"][1] < first["max_depth"][0]  # the wider patch wears more slowly at its peak
+
+
+# ----------------------------------------------------------------------------- the language
+WORN = """
+param speed = 600 rpm
+body b {{ mass = 1 kg  inertia = 1e-3 kg*m^2 }}
+joint J = clearance_revolute(ground (0, 0), b) {{ clearance = 0.1 mm  bearing_radius = 5 mm  {length}
+    stiffness = 1e9 N/m^1.5  law = hertz  wear = {wear} }}
+"""
+
+
+def test_a_joint_writes_its_wear_and_k_d_is_k_over_h():
+    m = compile_text(WORN.format(length="length = 10 mm", wear="archard(coefficient = 1e-4, hardness = 2 GPa, "
+                                 "update = 2 rev / speed, factor = 50, updates = 3, nodes = 180)"))
+    w = Archard.of(m, "J")
+    assert w.coefficient == pytest.approx(1e-4 / 2e9, rel=1e-15)
+    assert w.interval == pytest.approx(2 / 10.0, rel=1e-15)  # 2 revolutions at 10 rev/s
+    assert (w.factor, w.updates, w.nodes) == (50.0, 3, 180)
+
+
+@pytest.mark.parametrize("length, wear, message", [
+    ("length = 10 mm", "archard(coefficient = 1e-4, update = 1 s)", "needs `hardness`"),
+    ("length = 10 mm", "archard(coefficient = 1e-4, hardness = 2 GPa, update = 1 m)", "update"),
+    ("length = 10 mm", "archard(coefficient = -1, hardness = 2 GPa, update = 1 s)", "must be >= 0"),
+    ("length = 10 mm", "archard(coefficient = 1e-4, hardness = 2 GPa, update = 1 s, nodes = 4)", "at least 8"),
+    ("length = 10 mm", "archad(coefficient = 1e-4, hardness = 2 GPa, update = 1 s)", "did you mean|archard"),
+    ("", "archard(coefficient = 1e-4, hardness = 2 GPa, update = 1 s)", "needs `length`"),
+])
+def test_bad_wear_settings_are_model_errors_at_their_place(length, wear, message):
+    from planar_mbs.errors import ModelError
+    with pytest.raises(ModelError, match=message) as info:
+        compile_text(WORN.format(length=length, wear=wear), "w.mbs")
+    assert "w.mbs:" in str(info.value)

@@ -429,6 +429,9 @@ class Model:
     # (offset, tilt, relative_velocity, tilt_rate), NaN where not given) on the first pair of a translational
     # clearance joint (kinematics.slide_joints); ("none",) no rows
     clearance_assembly: list = field(default_factory=list)
+    # per revolute clearance joint that wears (`wear = archard(...)`): its wear run's settings in SI,
+    # {"model", "coefficient" (k_d = k / H, 1/Pa), "update" (s), "factor", "updates", "nodes"} (run/wear.py)
+    clearance_wear: dict = field(default_factory=dict)
     # what the compiler took but warns about (a number without a unit taken in SI), each rendered as
     # `file:line:col: warning: ...` with its line and hint; `mbs check` and `mbs run` print them
     warnings: list = field(default_factory=list)

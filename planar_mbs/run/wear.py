@@ -62,6 +62,15 @@ class Archard:
     updates: int = 1
     nodes: int = 360
 
+    @classmethod
+    def of(cls, model: Model, joint: str) -> "Archard":
+        """The wear the model writes on `joint` (`wear = archard(...)`)."""
+        w = model.clearance_wear.get(joint)
+        if w is None:
+            raise ModelError(f"clearance joint `{joint}` has no `wear`",
+                             hint="add `wear = archard(coefficient = 1e-4, hardness = 2 GPa, update = 2 rev / speed)`")
+        return cls(w["coefficient"], w["update"], w["factor"], int(w["updates"]), int(w["nodes"]))
+
     def __post_init__(self):
         if not (self.coefficient >= 0 and math.isfinite(self.coefficient)):
             raise ModelError(f"wear coefficient must be >= 0 (got {self.coefficient})")
@@ -221,7 +230,9 @@ class WearRun:
     """One trajectory whose joint wears (`Archard`), advanced update by update (see the module
     docstring); `history` holds the profiles."""
 
-    def __init__(self, model: Model, joint: str, wear: Archard, stepper: Stepper | None = None, **settings):
+    def __init__(self, model: Model, joint: str, wear: Archard | None = None, stepper: Stepper | None = None,
+                 **settings):
+        wear = Archard.of(model, joint) if wear is None else wear
         self.model, self.wear = model, wear
         self.k = clearance_index(model, joint)
         self.stepper = Stepper(model, **settings) if stepper is None else stepper
@@ -260,7 +271,7 @@ class WearRun:
         return self.history
 
 
-def run_wear(model: Model, joint: str, wear: Archard, **settings) -> WearHistory:
+def run_wear(model: Model, joint: str, wear: Archard | None = None, **settings) -> WearHistory:
     """The profiles of `joint` after each of `wear.updates` updates (settings as in `simulate`)."""
     return WearRun(model, joint, wear, **settings).run()
 
