@@ -224,3 +224,33 @@ def test_bad_wear_settings_are_model_errors_at_their_place(length, wear, message
     with pytest.raises(ModelError, match=message) as info:
         compile_text(WORN.format(length=length, wear=wear), "w.mbs")
     assert "w.mbs:" in str(info.value)
+
+
+# ----------------------------------------------------------------------------- file, resume, figure
+def test_a_wear_run_saved_and_resumed_goes_on_as_one_run(tmp_path):
+    """4 updates in one go against 2, stopped, resumed from the file to 4: the same history (the resumed
+    integrator restarts its step, so equal to the integration's tolerance, not bit for bit)."""
+    from planar_mbs.run.wear import load_history
+    model = _spin("kelvin_voigt", "stiffness = 2e6 N/m  restitution = 0.05")
+    wear = Archard(2e-11, 0.01, factor=10, updates=4, nodes=180)
+    whole = WearRun(model, "J", wear, _at_rest(model, 5e-6)).run(output=tmp_path / "a.h5")
+    part = WearRun(model, "J", Archard(2e-11, 0.01, factor=10, updates=2, nodes=180), _at_rest(model, 5e-6))
+    part.run(output=tmp_path / "b.h5")
+    assert len(load_history(tmp_path / "b.h5").depths) == 3
+    resumed = WearRun.resume(model, tmp_path / "b.h5", updates=4).run(output=tmp_path / "b.h5")
+    back = load_history(tmp_path / "a.h5")
+    assert len(back.depths) == len(resumed.depths) == 5
+    np.testing.assert_array_equal(back.depths[-1], whole.depths[-1])
+    np.testing.assert_allclose(resumed.depths[-1], whole.depths[-1], rtol=0, atol=1e-6 * whole.max_depth())
+    assert resumed.worn_times[-1] == pytest.approx(0.4)
+
+
+def test_the_polar_figure_draws_each_chosen_profile():
+    from planar_mbs.outputs.wear_plot import wear_figure
+    model = _spin()
+    h = WearRun(model, "J", Archard(1e-12, 0.01, factor=5, updates=3, nodes=90), stepper=_at_rest(model)).run()
+    fig = wear_figure(h, period=2 * math.pi / OMEGA, curves=3)
+    polar = fig.axes[0]
+    assert len(polar.lines) == 3
+    r = polar.lines[-1].get_ydata()
+    assert r.max() == pytest.approx(h.max_depth() * 1e6)

@@ -40,10 +40,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
+from ..files import replace_atomically
+from ..lazy import lazy
 from ..mechanism.model import (CP_KIND, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CS_EX, CS_EY, CS_FN, CS_SLIP,
                                CT_WEAR_NODES, CT_WEAR_TABLE, N_CLEARANCE_SIGNALS, N_CONTACT_STATE, OB_CLEARANCE,
                                OB_Q, Model, PairKind, observation_layout)
 from .stepper import Stepper
+
+h5py = lazy("h5py")  # heavy: `import planar_mbs.run.wear` for the geometry alone loads no h5py
 
 WINDOW = 1.0 / 12.0  # half-width of the nodes searched for the patch around the journal's direction (a turn)
 
@@ -263,12 +267,62 @@ class WearRun:
         self._record(self.history.worn_times[-1] + self.wear.interval * self.wear.factor)
         return dh
 
-    def run(self, callback=None) -> WearHistory:
-        for u in range(self.wear.updates):
+    def run(self, callback=None, output=None) -> WearHistory:
+        """The updates still to do (all of `wear.updates` from the start); ``callback(self)`` after each;
+        with `output`, the history and the state written there after each (`save`), so that a long run
+        stopped at any point goes on from its file (`WearRun.resume`)."""
+        while len(self.history.depths) <= self.wear.updates:
             self.step()
+            if output is not None:
+                self.save(output)
             if callback is not None:
                 callback(self)
         return self.history
+
+    def save(self, path) -> None:
+        """The profiles so far, the wear's settings and the trajectory's state (y, contact memory, t), in
+        group ``wear/<joint>`` of an HDF5 file written whole (a kill leaves the previous one)."""
+        path = str(path)
+        h, d = self.history, self.stepper.driver.data
+        with h5py.File(path + ".part", "w") as f:
+            g = f.create_group(f"wear/{h.joint}")
+            g["theta"], g["depth"] = h.theta, np.array(h.depths)
+            g["time"], g["worn_time"] = np.array(h.times), np.array(h.worn_times)
+            g["state/y"], g["state/contact"] = d.y, d.contact[:, :N_CONTACT_STATE]
+            g["state"].attrs["t"] = self.stepper.t
+            for key in ("coefficient", "interval", "factor", "updates", "nodes"):
+                g.attrs[key] = getattr(self.wear, key)
+            g.attrs["radius"], g.attrs["model"] = h.radius, self.model.source_path or ""
+        replace_atomically(path + ".part", path)
+
+    @classmethod
+    def resume(cls, model: Model, path, updates: int | None = None, **settings) -> "WearRun":
+        """The wear run saved in `path` (`save`), continued from its last update; `updates`: a new total."""
+        h = load_history(path)
+        with h5py.File(str(path), "r") as f:
+            g = f[f"wear/{h.joint}/state"]
+            y, contact, t = g["y"][()], g["contact"][()], float(g.attrs["t"])
+        wear = h.wear if updates is None else Archard(h.wear.coefficient, h.wear.interval, h.wear.factor, updates,
+                                                      h.wear.nodes)
+        run = cls(model, h.joint, wear, Stepper.restore(model, y, contact, t, **settings))
+        run.history = WearHistory(h.joint, wear, h.radius, h.times, h.worn_times, h.depths)
+        run.depth = h.depths[-1].copy()
+        run.install()
+        return run
+
+
+def load_history(path, joint: str | None = None) -> WearHistory:
+    """The `WearHistory` a wear run saved (`WearRun.save`); `joint`: which, where the file holds several."""
+    with h5py.File(str(path), "r") as f:
+        joints = list(f["wear"]) if "wear" in f else []
+        if not joints or (joint is not None and joint not in joints):
+            raise ModelError(f"{path} holds no wear history" + (f" of `{joint}`" if joint else ""))
+        g = f[f"wear/{joint or joints[0]}"]
+        a = g.attrs
+        wear = Archard(float(a["coefficient"]), float(a["interval"]), float(a["factor"]), int(a["updates"]),
+                       int(a["nodes"]))
+        return WearHistory(joint or joints[0], wear, float(a["radius"]), list(g["time"][()]),
+                           list(g["worn_time"][()]), list(g["depth"][()]))
 
 
 def run_wear(model: Model, joint: str, wear: Archard | None = None, **settings) -> WearHistory:
