@@ -2,10 +2,11 @@
 
     .venv/bin/python docs/scripts/wear_slider_crank.py
 
-models/slider_crank_clearance_a.mbs (5000 rpm, c = 0.3 mm, R_B = 5 mm, L = 20 mm, steel, Lankarani-Nikravesh,
+models/slider_crank_clearance_a.mbs (at 5000 and 1200 rpm, c = 0.3 mm, R_B = 5 mm, L = 20 mm, steel, Lankarani-Nikravesh,
 c_e = 0.9) with `wear = archard(...)` on A: 4 revolutions to leave the start-up, then WEAR's updates, each
 2 revolutions of motion standing for FACTOR; the same worn time with the factor halved (the halving check).
-Writes docs/images/wear_slider_crank.png and docs/wear_slider_crank.json (the numbers docs/wear.md quotes).
+Writes docs/images/wear_slider_crank_<speed>rpm.png and docs/wear_slider_crank.json (the numbers docs/wear.md
+quotes).
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 K, H, FACTOR, UPDATES, NODES = 1e-5, 2e9, 1000, 20, 360  # Archard's k, hardness (Pa), cycles per cycle, updates
+SPEEDS = (5000, 1200)  # rpm
 WARM_UP = 4  # revolutions before the wear starts
 TEXT = """include "slider_crank_clearance_a.mbs"
 override joint A = clearance_revolute(crank (0.025 m, 0), rod (-0.06 m, 0)) {{
@@ -31,17 +33,17 @@ override joint A = clearance_revolute(crank (0.025 m, 0), rod (-0.06 m, 0)) {{
 """
 
 
-def model(factor=FACTOR, updates=UPDATES):
+def model(rpm, factor=FACTOR, updates=UPDATES, k=K):
     from planar_mbs import compile_text
-    return compile_text(TEXT.format(k=K, h=H, f=factor, u=updates, n=NODES),
-                        str(ROOT / "models" / "wear_slider_crank.mbs"))
+    return compile_text(TEXT.format(k=k, h=H, f=factor, u=updates, n=NODES),
+                        str(ROOT / "models" / "wear_slider_crank.mbs"), speed=f"{rpm} rpm")
 
 
-def wear_run(factor=FACTOR, updates=UPDATES):
+def wear_run(rpm, factor=FACTOR, updates=UPDATES, k=K):
     from planar_mbs.run.stepper import Stepper
     from planar_mbs.run.wear import WearRun
-    m = model(factor, updates)
-    period = 60.0 / 5000.0
+    m = model(rpm, factor, updates, k)
+    period = 60.0 / rpm
     st = Stepper(m)
     st.run_to(WARM_UP * period)
     run = WearRun(m, "A", stepper=st)
@@ -64,12 +66,13 @@ def peaks(depth: np.ndarray, theta: np.ndarray, rel=0.25) -> list[float]:
     return [round(math.degrees(theta[i]), 1) for i in out]
 
 
-def main() -> None:
+def study(rpm: int) -> dict:
     from planar_mbs.outputs.wear_plot import wear_figure
-    run, period, impacts = wear_run()
+    run, period, impacts = wear_run(rpm)
     h = run.history
-    half, _, _ = wear_run(FACTOR / 2, 2 * UPDATES)
+    half, _, _ = wear_run(rpm, FACTOR / 2, 2 * UPDATES)
     hh = half.history
+    control = wear_run(rpm, k=0.0)[0].history  # the same motion on the unworn bearing
     d = h.depths[-1]
     facts = {
         "k": K, "hardness_pa": H, "k_d_per_pa": K / H, "factor": FACTOR, "updates": UPDATES, "nodes": NODES,
@@ -86,10 +89,20 @@ def main() -> None:
         "contact_events": impacts,
         "volume_first_update_mm2": round(h.volume(1) * 1e6, 5),
         "volume_last_update_mm2": round((h.volume(-1) - h.volume(-2)) * 1e6, 5),
+        "peak_force_first_update_n": round(h.peak_forces[1], 1), "peak_force_last_update_n": round(h.peak_forces[-1], 1),
+        "in_contact_first_update": round(h.in_contact[1], 3), "in_contact_last_update": round(h.in_contact[-1], 3),
+        "unworn_peak_force_first_n": round(control.peak_forces[1], 1),
+        "unworn_peak_force_last_n": round(control.peak_forces[-1], 1),
+        "unworn_in_contact_last": round(control.in_contact[-1], 3),
     }
     fig = wear_figure(h, period=period, curves=5,
-                      title=f"slider-crank joint A, 5000 rpm: Archard k = {K:g}, H = {H / 1e9:g} GPa")
-    fig.savefig(ROOT / "docs" / "images" / "wear_slider_crank.png", dpi=110)
+                      title=f"slider-crank joint A, {rpm} rpm: Archard k = {K:g}, H = {H / 1e9:g} GPa")
+    fig.savefig(ROOT / "docs" / "images" / f"wear_slider_crank_{rpm}rpm.png", dpi=110)
+    return facts
+
+
+def main() -> None:
+    facts = {f"{rpm} rpm": study(rpm) for rpm in SPEEDS}
     (ROOT / "docs" / "wear_slider_crank.json").write_text(json.dumps(facts, indent=1) + "\n")
     print(json.dumps(facts, indent=1))
 

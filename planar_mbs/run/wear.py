@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import ModelError
 from ..files import replace_atomically
 from ..lazy import lazy
-from ..mechanism.model import (CP_KIND, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CS_EX, CS_EY, CS_FN, CS_SLIP,
+from ..mechanism.model import (CP_KIND, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CS_EX, CS_EY, CS_FN, CS_IN_CONTACT, CS_SLIP,
                                CT_WEAR_NODES, CT_WEAR_TABLE, N_CLEARANCE_SIGNALS, N_CONTACT_STATE, OB_CLEARANCE,
                                OB_Q, Model, PairKind, observation_layout)
 from .stepper import Stepper
@@ -165,6 +165,8 @@ class WearHistory:
     times: list = field(default_factory=list)
     worn_times: list = field(default_factory=list)
     depths: list = field(default_factory=list)
+    peak_forces: list = field(default_factory=list)  # largest contact force of each update's motion (N; NaN first)
+    in_contact: list = field(default_factory=list)  # share of its samples in contact (NaN first)
 
     @property
     def theta(self) -> np.ndarray:
@@ -188,7 +190,9 @@ class WearHistory:
         return {"worn_time": np.array(self.worn_times), "time": np.array(self.times),
                 f"{self.joint}.worn_volume": np.array([self.volume(i) for i in r]),
                 f"{self.joint}.max_wear_depth": np.array([self.max_depth(i) for i in r]),
-                f"{self.joint}.max_wear_angle": np.array([self.max_angle(i) for i in r])}
+                f"{self.joint}.max_wear_angle": np.array([self.max_angle(i) for i in r]),
+                f"{self.joint}.peak_contact_force": np.array(self.peak_forces),
+                f"{self.joint}.in_contact_share": np.array(self.in_contact)}
 
 
 def clearance_index(model: Model, joint: str) -> int:
@@ -203,6 +207,12 @@ def clearance_index(model: Model, joint: str) -> int:
     return k
 
 
+def _layout(model: Model) -> tuple:
+    km = model.kernel
+    return observation_layout(len(km.body_mass), len(km.joint_type), len(km.driver_type), model.nclearance,
+                              len(km.force_type))
+
+
 def wear_increment(model: Model, k: int, t_start: float, times: np.ndarray, rows: np.ndarray, depth: np.ndarray,
                    coefficient: float) -> np.ndarray:
     """Worn depth per node over the rows of one interval on the fixed profile `depth`: the sum over
@@ -210,8 +220,7 @@ def wear_increment(model: Model, k: int, t_start: float, times: np.ndarray, rows
     p = model.kernel.clearance_param[k]
     rb, rj, length = float(p[CP_R_BEARING]), float(p[CP_R_JOURNAL]), float(p[CP_LENGTH])
     km = model.kernel
-    lay = observation_layout(len(km.body_mass), len(km.joint_type), len(km.driver_type), model.nclearance,
-                             len(km.force_type))
+    lay = _layout(model)
     col = lay[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * k
     bi = int(km.clearance_body[k, 0])
     F = rows[:, col + CS_FN]
@@ -255,12 +264,18 @@ class WearRun:
         self.history.times.append(self.stepper.t)
         self.history.worn_times.append(worn_time)
         self.history.depths.append(self.depth.copy())
+        if len(self.history.depths) == 1:
+            self.history.peak_forces.append(math.nan)
+            self.history.in_contact.append(math.nan)
 
     def step(self) -> np.ndarray:
         """One update: the motion of one interval on the fixed profile, its wear x factor added.
         Returns the interval's wear (before the factor)."""
         t0 = self.stepper.t
         times, rows = self.stepper.run_to(t0 + self.wear.interval)
+        col = _layout(self.model)[OB_CLEARANCE] + N_CLEARANCE_SIGNALS * self.k
+        self.history.peak_forces.append(float(np.max(rows[:, col + CS_FN], initial=0.0)))
+        self.history.in_contact.append(float(np.mean(rows[:, col + CS_IN_CONTACT] > 0)) if len(rows) else math.nan)
         dh = wear_increment(self.model, self.k, t0, times, rows, self.depth, self.wear.coefficient)
         self.depth = self.depth + self.wear.factor * dh
         self.install()
@@ -288,6 +303,7 @@ class WearRun:
             g = f.create_group(f"wear/{h.joint}")
             g["theta"], g["depth"] = h.theta, np.array(h.depths)
             g["time"], g["worn_time"] = np.array(h.times), np.array(h.worn_times)
+            g["peak_contact_force"], g["in_contact_share"] = np.array(h.peak_forces), np.array(h.in_contact)
             g["state/y"], g["state/contact"] = d.y, d.contact[:, :N_CONTACT_STATE]
             g["state"].attrs["t"] = self.stepper.t
             for key in ("coefficient", "interval", "factor", "updates", "nodes"):
@@ -305,7 +321,8 @@ class WearRun:
         wear = h.wear if updates is None else Archard(h.wear.coefficient, h.wear.interval, h.wear.factor, updates,
                                                       h.wear.nodes)
         run = cls(model, h.joint, wear, Stepper.restore(model, y, contact, t, **settings))
-        run.history = WearHistory(h.joint, wear, h.radius, h.times, h.worn_times, h.depths)
+        run.history = h
+        run.history.wear = wear
         run.depth = h.depths[-1].copy()
         run.install()
         return run
@@ -322,7 +339,8 @@ def load_history(path, joint: str | None = None) -> WearHistory:
         wear = Archard(float(a["coefficient"]), float(a["interval"]), float(a["factor"]), int(a["updates"]),
                        int(a["nodes"]))
         return WearHistory(joint or joints[0], wear, float(a["radius"]), list(g["time"][()]),
-                           list(g["worn_time"][()]), list(g["depth"][()]))
+                           list(g["worn_time"][()]), list(g["depth"][()]), list(g["peak_contact_force"][()]),
+                           list(g["in_contact_share"][()]))
 
 
 def run_wear(model: Model, joint: str, wear: Archard | None = None, **settings) -> WearHistory:
