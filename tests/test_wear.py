@@ -254,3 +254,37 @@ def test_the_polar_figure_draws_each_chosen_profile():
     assert len(polar.lines) == 3
     r = polar.lines[-1].get_ydata()
     assert r.max() == pytest.approx(h.max_depth() * 1e6)
+
+
+def test_a_chain_with_two_clearance_joints_wears_the_chosen_one_by_archard_s_volume():
+    """A double pendulum hanging by two clearance joints (the second bearing on the swinging first bar),
+    with friction (so the slip velocity is a signal): only the second wears, and its worn volume per unit
+    width is k_d sum(F |v_T| dt) / L over the samples whatever the distribution over the nodes."""
+    model = compile_text("""
+body a { mass = 1 kg  inertia = 0.01 kg*m^2  position = (0.1 m, 0) }
+body b { mass = 0.5 kg  inertia = 0.005 kg*m^2  position = (0.3 m, 0) }
+joint O = clearance_revolute(ground (0, 0), a (-0.1 m, 0)) { clearance = 0.1 mm  bearing_radius = 5 mm
+    length = 10 mm  stiffness = 1e10 N/m^1.5  law = lankarani_nikravesh  restitution = 0.8  friction = 0.1 }
+joint P = clearance_revolute(a (0.1 m, 0), b (-0.1 m, 0)) { clearance = 0.1 mm  bearing_radius = 5 mm
+    length = 10 mm  stiffness = 1e10 N/m^1.5  law = lankarani_nikravesh  restitution = 0.8  friction = 0.1 }
+gravity (0, -9.81 m/s^2)
+simulate { t_end = 1 s  rtol = 1e-9  atol = 1e-12  output_step = 0.1 ms }
+""", "chain.mbs")
+    kd = 1e-12
+    run = WearRun(model, "P", Archard(kd, 0.15, factor=1, updates=2, nodes=180))
+    st = run.stepper
+    volumes = []
+    for _ in range(2):
+        dh = run.step()
+        volumes.append(float(dh.sum()) * 5e-3 * 2 * math.pi / 180)
+    assert run.history.volume() > 0 and not np.any(st.contact[0, CT_WEAR_NODES:])
+    assert st.contact[1, CT_WEAR_NODES] == 180
+    # the second interval again, from the same start, on a plain trajectory with the same profile: the signals
+    again = WearRun(model, "P", Archard(kd, 0.15, factor=1, updates=2, nodes=180))
+    again.step()
+    t0 = again.stepper.t
+    times, rows = again.stepper.run_to(t0 + 0.15)
+    sig = again.stepper.signals(rows)
+    dt = np.diff(np.concatenate([[t0], times]))
+    expected = kd * np.sum(sig["P.contact_force"] * np.abs(sig["P.slip_velocity"]) * dt) / 1e-2
+    assert volumes[1] == pytest.approx(expected, rel=1e-12)
