@@ -288,3 +288,18 @@ simulate { t_end = 1 s  rtol = 1e-9  atol = 1e-12  output_step = 0.1 ms }
     dt = np.diff(np.concatenate([[t0], times]))
     expected = kd * np.sum(sig["P.contact_force"] * np.abs(sig["P.slip_velocity"]) * dt) / 1e-2
     assert volumes[1] == pytest.approx(expected, rel=1e-12)
+
+
+def test_the_numbers_of_the_wear_page_are_the_script_s():
+    """docs/wear.md quotes docs/wear_slider_crank.json (written by docs/scripts/wear_slider_crank.py)."""
+    import json
+    from pathlib import Path
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    page = (docs / "wear.md").read_text(encoding="utf-8")
+    facts = json.loads((docs / "wear_slider_crank.json").read_text())
+    for speed, f in facts.items():
+        assert f"{f['max_depth_um']} µm at {f['max_angle_deg']:.0f}°" in page, speed
+        assert f"{f['mean_depth_um']} µm" in page and f"{f['clearance_max_mm']:.3f} mm" in page
+        assert f"{f['share_50_circumference'] * 100:.1f} % / {f['share_90_circumference'] * 100:.1f} %" in page
+        assert f"{f['halving_depth_change'] * 100:.2f} %" in page
+        assert f"{f['cycles_worn']:,} cycles".replace(",", " ") in page
