@@ -390,7 +390,9 @@ WEAR_MODELS: tuple[WearSpec, ...] = (
                        WearSetting("update", "time", None, "motion simulated per profile update (`2 rev / speed`)"),
                        WearSetting("factor", "number", 1.0, "cycles each update stands for per cycle simulated"),
                        WearSetting("updates", "number", 1.0, "profile updates of a wear run"),
-                       WearSetting("nodes", "number", 360.0, "points of the profile on [0, 2 pi)")),
+                       WearSetting("nodes", "number", 360.0, "points of the profile on [0, 2 pi)"),
+                       WearSetting("depth_step", "length", 0.0, "worn depth of the deepest node per update, "
+                                   "instead of `factor` (0: off)")),
              reference="Archard, J. Appl. Phys. 24 (1953); Flores, Mech. Mach. Theory 44 (2009); "
                        "Mukras et al., Wear 268 (2010)"),
 )

@@ -303,3 +303,22 @@ def test_the_numbers_of_the_wear_page_are_the_script_s():
         assert f"{f['share_50_circumference'] * 100:.1f} % / {f['share_90_circumference'] * 100:.1f} %" in page
         assert f"{f['halving_depth_change'] * 100:.2f} %" in page
         assert f"{f['cycles_worn']:,} cycles".replace(",", " ") in page
+
+
+def test_a_depth_step_updates_the_profile_every_stated_worn_depth():
+    """`depth_step`: each update's deepest increment is the step, and the first update stands for the time
+    the Winkler peak needs to wear it at the closed-form rate k_d (W/L) R_J omega max(delta)/(R_B dtheta
+    sum(delta)) (the journal at e = c + delta_0 under W)."""
+    model = _spin()
+    step = 2e-7
+    h = WearRun(model, "J", Archard(1e-12, 0.01, updates=3, nodes=360, depth_step=step), _at_rest(model)).run()
+    for i in range(1, 4):
+        assert np.max(h.depths[i] - h.depths[i - 1]) == pytest.approx(step, rel=1e-12)
+    psi = h.theta - 1.5 * math.pi
+    e = C + DELTA0
+    overlap = np.maximum(e * np.cos(psi) + np.sqrt(RJ ** 2 - (e * np.sin(psi)) ** 2) - RB, 0.0)
+    rate = 1e-12 * W / L * RJ * OMEGA * overlap.max() / (RB * (2 * math.pi / 360) * overlap.sum())
+    assert h.worn_times[1] == pytest.approx(step / rate, rel=1e-6)
+    m = compile_text(WORN.format(length="length = 10 mm", wear="archard(coefficient = 1e-4, hardness = 2 GPa, "
+                                 "update = 1 s, depth_step = 2 um)"))
+    assert Archard.of(m, "J").depth_step == pytest.approx(2e-6)

@@ -170,7 +170,7 @@ JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
 JOINT_FIELDS["lubricated_revolute"] = {**JOINT_FIELDS["clearance_revolute"],
                                        **catalog.element("lubricated_revolute").fields}
 JOINT_FIELDS["clearance_revolute"]["wear"] = (f"{catalog.choices(catalog.WEAR_MODELS)}(coefficient, hardness, update, "
-                                            "factor, updates, nodes): the bearing wears (docs/wear.md)")
+                                            "factor, updates, nodes, depth_step): the bearing wears (docs/wear.md)")
 JOINT_FIELDS["clearance_translational"] = {**catalog.element("clearance_translational").fields, **_CONTACT_FIELDS}
 JOINT_FIELDS["contact"] = {**catalog.element("contact").fields, **_CONTACT_FIELDS}
 CONTACT_ELEMENTS = tuple(e.name for e in catalog.ELEMENTS)
@@ -804,7 +804,7 @@ class _ClearancePass:
                             CP_R_BEARING=r1, CP_R_JOURNAL=r, CP_CLEARANCE=r1 - r if inside else 0.0)
         self.clearance_assembly.append(("none",))
 
-    WEAR_UNITS = {"number": U.NUMBER, "pressure": U.PRESSURE, "time": U.TIME}
+    WEAR_UNITS = {"number": U.NUMBER, "pressure": U.PRESSURE, "time": U.TIME, "length": U.LENGTH}
 
     def _clearance_wear(self, e: Expr, label: str, length: float, f: Fields) -> dict:
         """`wear = archard(coefficient = k, hardness = H, update = T, factor, updates, nodes)`: the settings of
@@ -826,11 +826,12 @@ class _ClearancePass:
                 out[x.name] = float(x.default)
                 continue
             out[x.name] = scalar_si(self.ev, given[x.name], self.WEAR_UNITS[x.unit], x.name)
-            bad = out[x.name] < 0 if x.name == "coefficient" else not out[x.name] > 0
+            bad = out[x.name] < 0 if x.name in ("coefficient", "depth_step") else not out[x.name] > 0
             if bad or (x.name in ("updates", "nodes") and out[x.name] != int(out[x.name])):
                 raise given[x.name].pos.error(f"`{x.name}` of the wear of {label} must be "
                                               + ("a whole number > 0" if x.name in ("updates", "nodes") else
-                                                 ">= 0" if x.name == "coefficient" else "> 0"), hint=x.meaning)
+                                                 ">= 0" if x.name in ("coefficient", "depth_step") else "> 0"),
+                                              hint=x.meaning)
         if out["nodes"] < 8:
             raise given["nodes"].pos.error("a worn profile needs at least 8 nodes", hint="e.g. `nodes = 360`")
         if not length > 0:

@@ -25,7 +25,9 @@ elastic constant, follows the worn shape without a closed form, and is the one o
 on the nodes (the rectangle rule on the output grid: output_step sets its accuracy); the wear of the
 interval, multiplied by `factor` (the cycles one update stands for per cycle simulated), is added to
 the profile, the profile is given to the kernel (`kernel.wear`) and the motion goes on from its state.
-`factor = 1` is plain integration with the profile updated every interval.  `halving_check` runs the
+`factor = 1` is plain integration with the profile updated every interval.  With `depth_step` the factor
+of each update is chosen instead so that the deepest node wears `depth_step` (the profile is updated
+every stated worn depth, the extrapolation step following the wear rate).  `halving_check` runs the
 same worn time with the extrapolation step halved.
 
 The profile lives in the run's contact memory (columns past N_CONTACT_STATE, `kernel.wear`), never in
@@ -58,13 +60,15 @@ class Archard:
 
     coefficient: k_d = k / H [1/Pa]; nodes: N points of the profile on [0, 2 pi); interval: seconds of
     motion per profile update; factor: the interval's wear is multiplied by it before each update
-    (extrapolation); updates: how many."""
+    (extrapolation); updates: how many; depth_step (m, 0: off): each update's factor chosen so that the
+    deepest node wears this much instead."""
 
     coefficient: float
     interval: float
     factor: float = 1.0
     updates: int = 1
     nodes: int = 360
+    depth_step: float = 0.0
 
     @classmethod
     def of(cls, model: Model, joint: str) -> "Archard":
@@ -73,12 +77,14 @@ class Archard:
         if w is None:
             raise ModelError(f"clearance joint `{joint}` has no `wear`",
                              hint="add `wear = archard(coefficient = 1e-4, hardness = 2 GPa, update = 2 rev / speed)`")
-        return cls(w["coefficient"], w["update"], w["factor"], int(w["updates"]), int(w["nodes"]))
+        return cls(w["coefficient"], w["update"], w["factor"], int(w["updates"]), int(w["nodes"]),
+                   w.get("depth_step", 0.0))
 
     def __post_init__(self):
         if not (self.coefficient >= 0 and math.isfinite(self.coefficient)):
             raise ModelError(f"wear coefficient must be >= 0 (got {self.coefficient})")
-        if not (self.interval > 0 and self.factor > 0 and self.updates >= 1 and self.nodes >= 8):
+        if not (self.interval > 0 and self.factor > 0 and self.updates >= 1 and self.nodes >= 8
+                and self.depth_step >= 0):
             raise ModelError("wear needs interval > 0, factor > 0, updates >= 1 and at least 8 nodes",
                              hint="e.g. Archard(coefficient=1e-14, interval=2 * 60 / 5000, factor=100, updates=10)")
 
@@ -277,9 +283,12 @@ class WearRun:
         self.history.peak_forces.append(float(np.max(rows[:, col + CS_FN], initial=0.0)))
         self.history.in_contact.append(float(np.mean(rows[:, col + CS_IN_CONTACT] > 0)) if len(rows) else math.nan)
         dh = wear_increment(self.model, self.k, t0, times, rows, self.depth, self.wear.coefficient)
-        self.depth = self.depth + self.wear.factor * dh
+        factor = self.wear.factor
+        if self.wear.depth_step > 0 and dh.max() > 0:
+            factor = self.wear.depth_step / dh.max()
+        self.depth = self.depth + factor * dh
         self.install()
-        self._record(self.history.worn_times[-1] + self.wear.interval * self.wear.factor)
+        self._record(self.history.worn_times[-1] + self.wear.interval * factor)
         return dh
 
     def run(self, callback=None, output=None) -> WearHistory:
@@ -306,7 +315,7 @@ class WearRun:
             g["peak_contact_force"], g["in_contact_share"] = np.array(h.peak_forces), np.array(h.in_contact)
             g["state/y"], g["state/contact"] = d.y, d.contact[:, :N_CONTACT_STATE]
             g["state"].attrs["t"] = self.stepper.t
-            for key in ("coefficient", "interval", "factor", "updates", "nodes"):
+            for key in ("coefficient", "interval", "factor", "updates", "nodes", "depth_step"):
                 g.attrs[key] = getattr(self.wear, key)
             g.attrs["radius"], g.attrs["model"] = h.radius, self.model.source_path or ""
         replace_atomically(path + ".part", path)
@@ -319,7 +328,7 @@ class WearRun:
             g = f[f"wear/{h.joint}/state"]
             y, contact, t = g["y"][()], g["contact"][()], float(g.attrs["t"])
         wear = h.wear if updates is None else Archard(h.wear.coefficient, h.wear.interval, h.wear.factor, updates,
-                                                      h.wear.nodes)
+                                                      h.wear.nodes, h.wear.depth_step)
         run = cls(model, h.joint, wear, Stepper.restore(model, y, contact, t, **settings))
         run.history = h
         run.history.wear = wear
@@ -337,7 +346,7 @@ def load_history(path, joint: str | None = None) -> WearHistory:
         g = f[f"wear/{joint or joints[0]}"]
         a = g.attrs
         wear = Archard(float(a["coefficient"]), float(a["interval"]), float(a["factor"]), int(a["updates"]),
-                       int(a["nodes"]))
+                       int(a["nodes"]), float(a.get("depth_step", 0.0)))
         return WearHistory(joint or joints[0], wear, float(a["radius"]), list(g["time"][()]),
                            list(g["worn_time"][()]), list(g["depth"][()]), list(g["peak_contact_force"][()]),
                            list(g["in_contact_share"][()]))
@@ -352,7 +361,7 @@ def halving_check(model: Model, joint: str, wear: Archard, start=None, **setting
     """The same worn time with the extrapolation factor halved (twice the updates): the final worn
     volume and maximum depth of both, and their relative changes.  ``start()``, where given, makes
     the trajectory each run begins from (a `Stepper`; default: the model's assembled start)."""
-    half = Archard(wear.coefficient, wear.interval, wear.factor / 2, 2 * wear.updates, wear.nodes)
+    half = Archard(wear.coefficient, wear.interval, wear.factor / 2, 2 * wear.updates, wear.nodes, wear.depth_step / 2)
     a, b = (WearRun(model, joint, w, None if start is None else start(), **settings).run() for w in (wear, half))
     return {"volume": (a.volume(), b.volume()), "max_depth": (a.max_depth(), b.max_depth()),
             "volume_change": abs(a.volume() - b.volume()) / b.volume(),
