@@ -385,6 +385,51 @@ def friction_settings() -> tuple[str, ...]:
     return tuple(dict.fromkeys(s.name for m in FRICTION_MODELS for s in m.settings))
 
 
+# ------------------------------------------------------------------ wear models
+
+
+@dataclass(frozen=True)
+class WearSetting:
+    """A setting of a wear model (`wear = NAME(...)` on a revolute clearance joint): its name, unit kind
+    ("number", "pressure", "time"), default (None: required) and meaning."""
+
+    name: str
+    unit: str
+    default: float | None
+    meaning: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class WearSpec:
+    """A wear model of a revolute clearance joint's bearing (docs/wear.md; run/wear.py runs it)."""
+
+    name: str
+    title: str
+    formula: str
+    settings: tuple[WearSetting, ...]
+    reference: str
+
+
+WEAR_MODELS: tuple[WearSpec, ...] = (
+    WearSpec(name="archard", title="Archard's law, a Winkler pressure over the patch",
+             formula="h' = (k / H) p v on the bearing's profile; profile updated every `update`, its wear x `factor`",
+             settings=(WearSetting("coefficient", "number", None, "Archard's dimensionless wear coefficient k"),
+                       WearSetting("hardness", "pressure", None, "hardness H of the bearing (k_d = k / H)"),
+                       WearSetting("update", "time", None, "motion simulated per profile update (`2 rev / speed`)"),
+                       WearSetting("factor", "number", 1.0, "cycles each update stands for per cycle simulated"),
+                       WearSetting("updates", "number", 1.0, "profile updates of a wear run"),
+                       WearSetting("nodes", "number", 360.0, "points of the profile on [0, 2 pi)"),
+                       WearSetting("depth_step", "length", 0.0, "worn depth of the deepest node per update, "
+                                   "instead of `factor` (0: off)")),
+             reference="Archard, J. Appl. Phys. 24 (1953); Flores, Mech. Mach. Theory 44 (2009); "
+                       "Mukras et al., Wear 268 (2010)"),
+)
+
+
+def wear_model(name: str) -> WearSpec:
+    return _by_name(WEAR_MODELS, name, "wear model")
+
+
 # ------------------------------------------------------------------ integrators
 
 
@@ -818,6 +863,10 @@ def docs_lists() -> dict[str, str]:
                 f"`{x.name}`: {x.meaning}" + ("" if x.default is None else f" (default {x.default}"
                                                    f"{FRICTION_UNIT_TEXT[x.unit]})")
                 for x in m.settings) + " |" for m in FRICTION_MODELS),
+        "wear": "| model | formula | settings |\n| --- | --- | --- |\n" + "\n".join(
+            f"| `{m.name}` | {m.formula} | " + "; ".join(
+                f"`{x.name}`: {x.meaning}" + ("" if x.default is None else f" (default {x.default:g})")
+                for x in m.settings) + " |" for m in WEAR_MODELS),
         "forces": "| force | formula | settings | potential energy |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.example or s.name}` | {s.formula} | " + ("; ".join(f"`{k}`: {v}" for k, v in s.fields.items())
                                                           or "—") + f" | {'yes' if s.potential else 'no'} |"

@@ -107,6 +107,7 @@ from ..mechanism.model import (
 )
 from .constraints import point_cs, point_state
 from .forces import add_point_force
+from .wear import worn, worn_kinematics
 
 HERTZ = int(ContactLaw.HERTZ)
 LANKARANI_NIKRAVESH = int(ContactLaw.LANKARANI_NIKRAVESH)
@@ -431,11 +432,12 @@ def friction_coefficient(p, vt):
 
 
 @kernel
-def _pair_kin(km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj):
+def _pair_kin(km, k, contact, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj):
     """(ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy) of contact pair k: relative position
     ex, ey = P_j - P_i, its measure e, penetration delta, normal n (the force on the second body is
     -F n), normal and slip velocities, and the arms r from the bodies' centres of mass to the
-    contact points.  ci, si: cos/sin of the first body's angle (read by the line only).
+    contact points.  ci, si: cos/sin of the first body's angle (read by the line and a worn bearing).
+    A circle-in-circle joint whose run holds a worn profile (`wear.worn`) takes `wear.worn_kinematics`.
 
     Circle in circle and lubricated (Muvengei et al. eqs. 3-12): n = e/|e| ((1, 0) at e = 0).
     Circle on line: m = the line's outward normal, d = (P_j - P_i).m, delta = R_j - d, n = -m, contact
@@ -467,6 +469,9 @@ def _pair_kin(km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, aj
         delta = p[CP_R_BEARING] + rj - e
         cix = -p[CP_R_BEARING] * nx
         ciy = -p[CP_R_BEARING] * ny
+    elif kind == CIRCLE_IN_CIRCLE and worn(contact, k):  # a worn bearing (kernel.wear)
+        return worn_kinematics(contact, k, p[CP_R_BEARING], rj, ex, ey, ci, si, vjx - vix, vjy - viy, wi, wj,
+                               aix, aiy, ajx, ajy)
     else:
         e = math.sqrt(ex * ex + ey * ey)
         if e > 0.0:
@@ -503,7 +508,7 @@ def _trig(q, b):
 
 
 @kernel
-def pair_kinematics(km, k, q, qd):
+def pair_kinematics(km, k, q, qd, contact):
     """`_pair_kin` of pair k at (q, q')."""
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
@@ -511,17 +516,17 @@ def pair_kinematics(km, k, q, qd):
     Pjx, Pjy, ajx, ajy, vjx, vjy, wj = point_state(q, qd, bj, km.clearance_point[k, 1, 0], km.clearance_point[k, 1, 1])
     ci = 1.0
     si = 0.0
-    if int(km.clearance_param[k, CP_KIND]) == CIRCLE_ON_LINE:
+    if int(km.clearance_param[k, CP_KIND]) == CIRCLE_ON_LINE or worn(contact, k):
         ci, si = _trig(q, bi)
-    return _pair_kin(km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj)
+    return _pair_kin(km, k, contact, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj)
 
 
 @kernel
-def clearance_kinematics(km, k, q, qd):
+def clearance_kinematics(km, k, q, qd, contact):
     """(ex, ey, e, delta, nx, ny, vn, vt) of clearance element k (delta: the event function).
 
     At e = 0 (centred journal) the normal is undefined: n = (1, 0) is used."""
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, q, qd)
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, q, qd, contact)
     return ex, ey, e, delta, nx, ny, vn, vt
 
 
@@ -619,11 +624,11 @@ def clearance_force(km, k, q, qd, cs, contact, z, zd):
     kind = int(p[CP_KIND])
     ci = 1.0
     si = 0.0
-    if kind == CIRCLE_ON_LINE and bi >= 0:
+    if (kind == CIRCLE_ON_LINE or worn(contact, k)) and bi >= 0:
         ci = cs[bi, 0]
         si = cs[bi, 1]
     ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = _pair_kin(
-        km, k, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj)
+        km, k, contact, Pix, Piy, aix, aiy, vix, viy, wi, ci, si, Pjx, Pjy, ajx, ajy, vjx, vjy, wj)
     F0 = 0.0
     Ft0 = 0.0
     if kind == LUBRICATED:
@@ -693,7 +698,7 @@ def clearance_energy(km, k, q, qd, contact):
     """Elastic energy of clearance element k (0 unless in contact mode)."""
     if contact_mode(contact, k) == FREE:
         return 0.0
-    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd, contact)
     if delta > 0.0:
         return elastic_energy(km.clearance_law[k], km.clearance_param[k], delta, contact[k, CT_LAST_FORCE])
     return 0.0
@@ -707,7 +712,7 @@ def contact_energy(km, q, qd, contact):
     for k in range(nc):
         if contact_mode(contact, k) == FREE:
             continue
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd, contact)
         if delta > 0.0:
             V += elastic_energy(km.clearance_law[k], km.clearance_param[k], delta, contact[k, CT_LAST_FORCE])
     return V
@@ -748,7 +753,7 @@ def peak_penetration(law, p, m, v):
 
 
 @kernel
-def contact_time_scale(km, k, q, qd, v_impact):
+def contact_time_scale(km, k, q, qd, v_impact, contact):
     """Time scale of the contact of joint k that has just begun: d_max / v_impact, with d_max
     the peak penetration of an elastic impact of the two bodies' effective mass along the
     normal (constraints ignored: they only add mass, so this is never longer than the real
@@ -757,7 +762,7 @@ def contact_time_scale(km, k, q, qd, v_impact):
     bi = km.clearance_body[k, 0]
     bj = km.clearance_body[k, 1]
     p = km.clearance_param[k]
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, q, qd)
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, q, qd, contact)
     w = _inverse_mass_along(km, bi, rix, riy, nx, ny)
     w += _inverse_mass_along(km, bj, rjx, rjy, nx, ny)
     if not (w > 0.0) or not (v_impact > 0.0):

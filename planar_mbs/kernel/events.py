@@ -54,10 +54,10 @@ MAX_ROOT_ITER = 200
 
 
 @kernel
-def _g(km, k, y, sgn):
+def _g(km, k, y, sgn, contact):
     """(g, dg/dt) of joint k at state y, signed so that the event is g becoming positive."""
     n = km.minv.shape[0]
-    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n])
+    ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n], contact)
     return sgn * delta, sgn * vn
 
 
@@ -88,11 +88,11 @@ def _cubic_peak(g0, d0, g1, d1):
 
 
 @kernel
-def _ends(km, ws, k, sgn):
+def _ends(km, ws, k, sgn, contact):
     """(g0, d0, g1, d1): g and dg/dtheta of joint k at the start and end of the last step."""
     h = ws.dense[DN_H]
-    g0, v0 = _g(km, k, ws.ya, sgn)
-    g1, v1 = _g(km, k, ws.yb, sgn)
+    g0, v0 = _g(km, k, ws.ya, sgn, contact)
+    g1, v1 = _g(km, k, ws.yb, sgn, contact)
     return g0, h * v0, g1, h * v1
 
 
@@ -105,7 +105,7 @@ def event_possible(km, ws, contact, kend):
     nc = km.clearance_body.shape[0]
     for k in range(nc):
         sgn = 1.0 if contact_mode(contact, k) == FREE else -1.0
-        g0, d0, g1, d1 = _ends(km, ws, k, sgn)
+        g0, d0, g1, d1 = _ends(km, ws, k, sgn, contact)
         if g1 > 0.0:
             return True
         x, p = _cubic_peak(g0, d0, g1, d1)
@@ -115,15 +115,15 @@ def event_possible(km, ws, contact, kend):
 
 
 @kernel
-def _rate(km, ws, k, sgn, x):
+def _rate(km, ws, k, sgn, x, contact):
     """dg/dtheta of joint k on the dense output at step fraction x."""
     dense_eval(ws, x, ws.yt)
-    g, v = _g(km, k, ws.yt, sgn)
+    g, v = _g(km, k, ws.yt, sgn, contact)
     return ws.dense[DN_H] * v
 
 
 @kernel(inline=True)
-def _peak(km, ws, k, sgn, g0, d0, g1, d1):
+def _peak(km, ws, k, sgn, g0, d0, g1, d1, contact):
     """Step fraction of the deepest interior point of g (the zero of dg/dtheta where it turns
     from + to -, on the dense output), or -1 when g has no interior maximum that could reach
     g > 0 (the same screening as `event_possible`)."""
@@ -141,28 +141,28 @@ def _peak(km, ws, k, sgn, g0, d0, g1, d1):
         if d0 > 0.0:  # maximum, then minimum
             lo, flo = 0.0, d0
             hi = min(1.0, 0.5 * (xc + max(xc, xo)))
-            fhi = _rate(km, ws, k, sgn, hi)
+            fhi = _rate(km, ws, k, sgn, hi, contact)
         else:  # minimum, then maximum
             lo = 0.5 * (xc + max(0.0, min(xc, xo)))
-            flo = _rate(km, ws, k, sgn, lo)
+            flo = _rate(km, ws, k, sgn, lo, contact)
             hi, fhi = 1.0, d1
         if not (flo > 0.0 and fhi < 0.0):
             return -1.0
     else:
         return -1.0
     if xc > lo and xc < hi:  # the cubic's estimate as the first point
-        fx = _rate(km, ws, k, sgn, xc)
+        fx = _rate(km, ws, k, sgn, xc, contact)
         if fx > 0.0:
             lo, flo = xc, fx
         elif fx < 0.0:
             hi, fhi = xc, fx
         else:
             return xc
-    return _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi)
+    return _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi, contact)
 
 
 @kernel(inline=True)
-def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi):
+def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi, contact):
     """Zero of dg/dtheta in [lo, hi] (flo > 0 > fhi), Illinois regula falsi."""
     side = 0
     for it in range(MAX_ROOT_ITER):
@@ -171,7 +171,7 @@ def _illinois_rate(km, ws, k, sgn, lo, flo, hi, fhi):
         x = (lo * fhi - hi * flo) / (fhi - flo) if it % 4 != 3 else 0.5 * (lo + hi)
         if not (x > lo and x < hi):
             x = 0.5 * (lo + hi)
-        fx = _rate(km, ws, k, sgn, x)
+        fx = _rate(km, ws, k, sgn, x, contact)
         if fx > 0.0:
             lo = x
             flo = fx
@@ -217,7 +217,7 @@ def _illinois_narrow(x, fx, lo, flo, hi, fhi, side):
 
 
 @kernel(inline=True)
-def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
+def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol, contact):
     """Bracket end on the new side (g > 0) of the crossing of g in [lo, hi] (flo <= 0 < fhi),
     refined by Illinois regula falsi (bisection safeguard) to tol."""
     side = 0
@@ -226,7 +226,7 @@ def _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol):
             break
         x = _illinois_trial(it, lo, flo, hi, fhi)
         dense_eval(ws, x, ws.yt)
-        fx, v = _g(km, k, ws.yt, sgn)
+        fx, v = _g(km, k, ws.yt, sgn, contact)
         lo, flo, hi, fhi, side = _illinois_narrow(x, fx, lo, flo, hi, fhi, side)
     return hi
 
@@ -245,15 +245,15 @@ def locate_event(km, ws, contact):
     tol = ROOT_RTOL * max(abs(ta), h) / h
     for k in range(nc):
         sgn = 1.0 if contact_mode(contact, k) == FREE else -1.0
-        g0, d0, g1, d1 = _ends(km, ws, k, sgn)
-        x = _peak(km, ws, k, sgn, g0, d0, g1, d1)
+        g0, d0, g1, d1 = _ends(km, ws, k, sgn, contact)
+        x = _peak(km, ws, k, sgn, g0, d0, g1, d1, contact)
         lo = 0.0
         flo = min(g0, 0.0)
         hi = 2.0
         fhi = 0.0
         if x > 0.0:
             dense_eval(ws, x, ws.yt)
-            gx, v = _g(km, k, ws.yt, sgn)
+            gx, v = _g(km, k, ws.yt, sgn, contact)
             if gx > 0.0:
                 hi = x
                 fhi = gx
@@ -268,7 +268,7 @@ def locate_event(km, ws, contact):
         if g0 > 0.0:  # already on the new side at the step start (roundoff at a switch)
             hi = 0.0
         else:
-            hi = _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol)
+            hi = _crossing(km, ws, k, sgn, lo, flo, hi, fhi, tol, contact)
         if hi < best:
             best = hi
             kbest = k
@@ -283,7 +283,7 @@ def friction_g(km, k, y, contact):
     if mode == NO_FRICTION_MODE or contact_mode(contact, k) == FREE:
         return -1.0
     n = km.minv.shape[0]
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n])
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n], contact)
     if mode == SLIP:
         return -contact[k, CT_SLIP_DIRECTION] * vt
     if not (delta > 0.0):
@@ -350,7 +350,7 @@ def start_friction(km, k, y, contact):
     if not sticks(km.clearance_param[k]):
         return
     n = km.minv.shape[0]
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n])
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n], contact)
     if vt == 0.0:
         set_anchor(km, k, y[:n], contact, ex, ey, nx, ny)
     else:
@@ -363,7 +363,7 @@ def switch_friction(km, k, y, contact, stats):
     """Switch element k's friction mode at state y (on the new side): a stuck contact slips against
     its spring-damper's force; a slipping one sticks where it is (its anchor)."""
     n = km.minv.shape[0]
-    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n])
+    ex, ey, e, delta, nx, ny, vn, vt, rix, riy, rjx, rjy = pair_kinematics(km, k, y[:n], y[n:2 * n], contact)
     if int(contact[k, CT_FRICTION]) == STICK:
         law = km.clearance_law[k]
         F, st = normal_force(law, km.clearance_param[k], max(delta, 0.0), vn, contact[k, CT_IMPACT_VELOCITY], 0.0)
@@ -387,7 +387,7 @@ def switch_mode(km, k, y, contact, stats):
     if k >= nc:
         switch_friction(km, k - nc, y, contact, stats)
     elif contact_mode(contact, k) == FREE:
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n])
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n], contact)
         contact[k, CT_MODE] = TOUCHING
         contact[k, CT_IMPACT_VELOCITY] = max(vn, IMPACT_VELOCITY_FLOOR)
         stats[ST_CONTACT_EVENTS] += 1
@@ -408,7 +408,7 @@ def init_modes(km, y, contact):
     n = km.minv.shape[0]
     nc = km.clearance_body.shape[0]
     for k in range(nc):
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n])
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, y[:n], y[n:2 * n], contact)
         if contact_mode(contact, k) == FREE and delta > 0.0:
             contact[k, CT_MODE] = TOUCHING
             contact[k, CT_IMPACT_VELOCITY] = vn

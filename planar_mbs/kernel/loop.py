@@ -320,7 +320,7 @@ def _observe_loads(km, ws, row, cforce, cdwork, loads):
 def _observe_clearances(km, q, qd, contact, ws, row, col0):
     """The clearance joints' block of an observation row (eccentricity, penetration, forces, contact point)."""
     for k in range(km.clearance_body.shape[0]):
-        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd)
+        ex, ey, e, delta, nx, ny, vn, vt = clearance_kinematics(km, k, q, qd, contact)
         F, Ft, nx, ny, vt, st, rix, riy, rjx, rjy = clearance_force(km, k, q, qd, ws.cs, contact, ws.z, ws.zd)
         col = col0 + N_CLEARANCE_SIGNALS * k
         row[col + CS_EX] = ex
@@ -529,7 +529,7 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
         restart = True
         if k < nc and contact_mode(contact, k) == TOUCHING:  # (k >= nc: a friction switch)
             n = km.minv.shape[0]
-            hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:2 * n], contact[k, CT_IMPACT_VELOCITY])
+            hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:2 * n], contact[k, CT_IMPACT_VELOCITY], contact)
     if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:
         ws.flags[FL_PROJECTING] = 1  # `projection = auto`: a singular position or redundant joints
         ws.dense[DN_PROJECT_FROM] = t

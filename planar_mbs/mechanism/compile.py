@@ -174,6 +174,8 @@ JOINT_FIELDS = {  # per joint type (catalog.JOINTS), then the clearance joint
 }
 JOINT_FIELDS["lubricated_revolute"] = {**JOINT_FIELDS["clearance_revolute"],
                                        **catalog.element("lubricated_revolute").fields}
+JOINT_FIELDS["clearance_revolute"]["wear"] = (f"{catalog.choices(catalog.WEAR_MODELS)}(coefficient, hardness, update, "
+                                            "factor, updates, nodes, depth_step): the bearing wears (docs/wear.md)")
 JOINT_FIELDS["clearance_translational"] = {**catalog.element("clearance_translational").fields, **_CONTACT_FIELDS}
 JOINT_FIELDS["contact"] = {**catalog.element("contact").fields, **_CONTACT_FIELDS}
 CONTACT_ELEMENTS = tuple(e.name for e in catalog.ELEMENTS)
@@ -402,6 +404,7 @@ class _LayoutPasses:
             self._fill_joint(k, st)
         self.a["joint_friction"] = np.array(self.jfriction, dtype=np.int64)
         self.clearance_assembly = []
+        self.clearance_wear = {}
         for st in self.clearance:
             self._fill_element(len(self.clearance_assembly), st)
         self.programs = Programs(self.ev, self._expression_context())
@@ -696,6 +699,8 @@ class _ClearancePass:
         self.a["clearance_point"][k] = (pi, pj)
         self.a["clearance_law"][k] = int(law)
         self.clearance_assembly.append(("revolute",))
+        if f.has("wear"):
+            self.clearance_wear[st.name] = self._clearance_wear(f.expr("wear"), label, length, f)
         if lubricated:
             p[CP_KIND] = int(PairKind.LUBRICATED)
             if not length > 0:
@@ -833,6 +838,41 @@ class _ClearancePass:
             self._fill_pair(k, int(kind), (bi, bj), (pi, pj), law, K, n, ce, sigma, c, f,
                             CP_R_BEARING=r1, CP_R_JOURNAL=r, CP_CLEARANCE=r1 - r if inside else 0.0)
         self.clearance_assembly.append(("none",))
+
+    WEAR_UNITS = {"number": U.NUMBER, "pressure": U.PRESSURE, "time": U.TIME, "length": U.LENGTH}
+
+    def _clearance_wear(self, e: Expr, label: str, length: float, f: Fields) -> dict:
+        """`wear = archard(coefficient = k, hardness = H, update = T, factor, updates, nodes)`: the settings of
+        a wear run (run/wear.py) in SI, with k_d = k / H."""
+        v = self.ev.value(e)
+        names = catalog.names(catalog.WEAR_MODELS)
+        if not isinstance(v, CallVal) or v.call.name not in names:
+            name = v.call.name if isinstance(v, CallVal) else e.pos.text
+            raise e.pos.error(f"unknown wear model `{name}` of {label}", hint=did_you_mean(name, names) or
+                              "e.g. `wear = archard(coefficient = 1e-4, hardness = 2 GPa, update = 2 rev / speed)`")
+        spec = catalog.wear_model(v.call.name)
+        given = self._call_args(v.call, [x.name for x in spec.settings])
+        out = {"model": spec.name}
+        for x in spec.settings:
+            if x.name not in given:
+                if x.default is None:
+                    raise v.call.pos.error(f"`{spec.name}(...)` of {label} needs `{x.name}`",
+                                           hint=f"{x.name}: {x.meaning}")
+                out[x.name] = float(x.default)
+                continue
+            out[x.name] = scalar_si(self.ev, given[x.name], self.WEAR_UNITS[x.unit], x.name)
+            bad = out[x.name] < 0 if x.name in ("coefficient", "depth_step") else not out[x.name] > 0
+            if bad or (x.name in ("updates", "nodes") and out[x.name] != int(out[x.name])):
+                raise given[x.name].pos.error(f"`{x.name}` of the wear of {label} must be "
+                                              + ("a whole number > 0" if x.name in ("updates", "nodes") else
+                                                 ">= 0" if x.name in ("coefficient", "depth_step") else "> 0"),
+                                              hint=x.meaning)
+        if out["nodes"] < 8:
+            raise given["nodes"].pos.error("a worn profile needs at least 8 nodes", hint="e.g. `nodes = 360`")
+        if not length > 0:
+            raise f.missing("length")
+        out["coefficient"] = out["coefficient"] / out.pop("hardness")  # k_d = k / H [1/Pa]
+        return out
 
     def _clearance_start(self, f: Fields, k: int, cl: float):
         """The journal's initial `offset` and `relative_velocity` (bearing frame), when given."""
@@ -1312,7 +1352,7 @@ class _CheckPass:
             force_names=[s.name for s in self.forces], body_geometry=self.geometry,
             body_source=refs(self.bodies), joint_source=refs(self.ideal),
             driver_source=refs(self.drivers), clearance_source=refs([s for _, s in self.pairs]),
-            clearance_assembly=self.clearance_assembly,
+            clearance_assembly=self.clearance_assembly, clearance_wear=self.clearance_wear,
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
             source_key=self.spec.key, source_includes=dict(self.spec.includes),
             source_files=list(self.spec.include_files), source_tables=dict(self.programs.table_files),

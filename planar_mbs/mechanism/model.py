@@ -208,6 +208,9 @@ CT_FRICTION = 3  # NO_FRICTION_MODE, STICK or SLIP
 CT_SLIP_DIRECTION = 4  # sign (+1 / -1) of the slip velocity v_T while slipping
 CT_ANCHOR = 5  # 5, 6: the slip coordinates where it stuck (kernel.contact.slip_coordinates)
 N_CONTACT_STATE = 7
+# a worn bearing (`kernel.wear`): columns past N_CONTACT_STATE, present only in a run that wears
+CT_WEAR_NODES = N_CONTACT_STATE  # N, the nodes of the worn profile (0: the circle)
+CT_WEAR_TABLE = N_CONTACT_STATE + 1  # N node depths, then N second derivatives of the periodic spline
 NO_FRICTION_MODE, STICK, SLIP = 0, 1, 2
 # the friction joints' memory (`KernelModel.joint_friction`) follows as rows nclearance + f of `contact`:
 # CT_FRICTION its mode (NO_FRICTION_MODE: frictionless), CT_SLIP_DIRECTION, CT_ANCHOR its slip coordinate
@@ -448,6 +451,9 @@ class Model:
     # (offset, tilt, relative_velocity, tilt_rate), NaN where not given) on the first pair of a translational
     # clearance joint (kinematics.slide_joints); ("none",) no rows
     clearance_assembly: list = field(default_factory=list)
+    # per revolute clearance joint that wears (`wear = archard(...)`): its wear run's settings in SI,
+    # {"model", "coefficient" (k_d = k / H, 1/Pa), "update" (s), "factor", "updates", "nodes"} (run/wear.py)
+    clearance_wear: dict = field(default_factory=dict)
     # what the compiler took but warns about (a number without a unit taken in SI), each rendered as
     # `file:line:col: warning: ...` with its line and hint; `mbs check` and `mbs run` print them
     warnings: list = field(default_factory=list)

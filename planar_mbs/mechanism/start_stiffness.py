@@ -95,11 +95,12 @@ def _start_contact(model: Model, c: int, q, qd, P) -> StartContact:
     k = model.kernel
     p = k.clearance_param[c]
     n = len(q)
-    G = np.array([pycontact.pair_kinematics(k, c, q, e)[6] for e in np.eye(n)])  # vn is linear in q'
+    contact = np.zeros((model.contact_rows, N_CONTACT_STATE))
+    G = np.array([pycontact.pair_kinematics(k, c, q, e, contact)[6] for e in np.eye(n)])  # vn is linear in q'
     d = P @ G
     w = float(G @ d)  # 1 / the effective mass along the normal
-    contact = np.zeros((model.contact_rows, N_CONTACT_STATE))
-    depth, vn = float(pycontact.pair_kinematics(k, c, q, qd)[3]), float(pycontact.pair_kinematics(k, c, q, qd)[6])
+    kin = pycontact.pair_kinematics(k, c, q, qd, contact)
+    depth, vn = float(kin[3]), float(kin[6])
     if depth > 0:  # as the time loop starts it (`kernel.events.init_modes`)
         contact[c, CT_MODE] = TOUCHING
         contact[c, CT_IMPACT_VELOCITY] = max(vn, pycontact.IMPACT_VELOCITY_FLOOR)
