@@ -1,0 +1,76 @@
+"""A beam's constant matrices, formed once when the model is compiled (the kernel's ANCF cable
+element, `kernel/beam.py`, run as plain Python).
+
+A beam of n elements of length L_e has n + 1 nodes of 4 coordinates (x, y, dx/ds, dy/ds), node k's
+at ``4 k .. 4 k + 3`` of the beam's own coordinate vector.  Its consistent mass matrix is constant
+and banded (each element couples two nodes); the time loop reads its inverse (`inverse_mass`,
+from its Cholesky factor: symmetric positive definite), so the accelerations of a beam cost one
+dense product per right-hand side and nothing is factored while a run goes.  The time loop holds
+each node as two bodies of the rigid-body layout with no mass of their own: its position (x, y) and
+its slope (dx/ds, dy/ds), the third coordinate of each unused.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..lazy import lazy
+
+# the kernel's element as plain Python, without numba (`mbs check` stays light)
+pybeam = lazy("..pykernel.beam", __package__)
+
+NODE_COORDS = 4
+
+
+def beam_mass(nel: int, Le: float, rho_a: float) -> np.ndarray:
+    """The assembled consistent mass matrix (4 (nel + 1) square)."""
+    n = NODE_COORDS * (nel + 1)
+    M = np.zeros((n, n))
+    me = np.zeros((8, 8))
+    pybeam.element_mass(Le, rho_a, np.zeros((3, 4)), me)
+    for k in range(nel):
+        o = NODE_COORDS * k
+        M[o:o + 8, o:o + 8] += me
+    return M
+
+
+def inverse_mass(M: np.ndarray) -> np.ndarray:
+    """M^-1 through its Cholesky factor (M is symmetric positive definite), symmetrised."""
+    L = np.linalg.cholesky(M)
+    Linv = np.linalg.solve(L, np.eye(M.shape[0]))
+    Minv = Linv.T @ Linv
+    return 0.5 * (Minv + Minv.T)
+
+
+def gravity_force(nel: int, Le: float, rho_a: float, g) -> np.ndarray:
+    """The constant generalised weight rho A int S^T g ds of the whole beam."""
+    n = NODE_COORDS * (nel + 1)
+    Q = np.zeros(n)
+    w = rho_a * Le * np.array([0.5, Le / 12.0, 0.5, -Le / 12.0])  # int_0^1 (S1, L S2, S3, L S4) dxi
+    for k in range(nel):
+        o = NODE_COORDS * k
+        for a in range(4):
+            Q[o + 2 * a] += w[a] * g[0]
+            Q[o + 2 * a + 1] += w[a] * g[1]
+    return Q
+
+
+def straight_coordinates(nel: int, length: float, start, angle: float) -> np.ndarray:
+    """The nodal coordinates of a straight, unstretched beam from `start` at `angle`."""
+    c, s = np.cos(angle), np.sin(angle)
+    e = np.zeros(NODE_COORDS * (nel + 1))
+    for k in range(nel + 1):
+        d = length * k / nel
+        e[4 * k:4 * k + 4] = (start[0] + d * c, start[1] + d * s, c, s)
+    return e
+
+
+def elastic_forces(e, ed, nel: int, Le: float, ea: float, ei: float, eta: float = 0.0) -> np.ndarray:
+    """The elastic (and damping) generalised force of the whole beam, in plain Python."""
+    Q = np.zeros_like(e)
+    pybeam.beam_forces(e, ed, 0, nel, Le, ea, ei, eta, np.zeros((3, 4)), np.zeros(8), np.zeros(8),
+                       np.zeros(8), Q)
+    return Q
+
+
+def strain_energy(e, nel: int, Le: float, ea: float, ei: float) -> float:
+    return pybeam.beam_energy(e, 0, nel, Le, ea, ei, np.zeros((3, 4)))
