@@ -13,10 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..lazy import lazy
-
-# the kernel's element as plain Python, without numba (`mbs check` stays light)
-pybeam = lazy("..pykernel.beam", __package__)
+from ..pykernel import beam as pybeam  # the kernel's element as plain Python, without numba
 
 NODE_COORDS = 4
 
