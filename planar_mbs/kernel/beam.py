@@ -168,3 +168,162 @@ def beam_energy(q, first, nel, L, ea, ei, sh):
         o = first + NODE_COORDS * k
         u += element_energy(q[o:o + ELEMENT_COORDS], L, ea, ei, sh)
     return u
+
+
+# ---- beams in the time loop.  A beam's node k is two bodies of the rigid layout without mass of their
+# own: its position body (x, y, unused) and its slope body (dx/ds, dy/ds, unused), at first + 2 k and
+# first + 2 k + 1 (km.beam_info[bm] = first body, elements, offset in beam_mass / beam_minv, offset in
+# beam_weight; km.beam_param[bm] = element length, EA, EI, eta, rho A).  Their rows of km.minv are zero:
+# the beam's own constant mass acts through its inverse, formed once by the compiler.
+
+@kernel
+def beam_qindex(first, i):
+    """Index in q of a beam's coordinate i (node i // 4, (x, y, dx/ds, dy/ds)[i % 4])."""
+    return 3 * (first + 2 * (i // NODE_COORDS) + (i % NODE_COORDS) // 2) + i % 2
+
+
+@kernel
+def beam_local(first, b, c):
+    """A beam's own index of component c (0, 1) of its node body b."""
+    return 2 * (b - first) + c
+
+
+@kernel
+def beam_minv_mul(km, f, sign, out):
+    """out += sign M^-1 f on the coordinates of every beam (f, out over the whole q)."""
+    for bm in range(km.beam_info.shape[0]):
+        first = km.beam_info[bm, 0]
+        nb = NODE_COORDS * (km.beam_info[bm, 1] + 1)
+        mo = km.beam_info[bm, 2]
+        for i in range(nb):
+            s = 0.0
+            for j in range(nb):
+                s += km.beam_minv[mo + i * nb + j] * f[beam_qindex(first, j)]
+            out[beam_qindex(first, i)] += sign * s
+
+
+@kernel
+def beam_schur_entry(body_beam, beam_info, beam_minv, J, rb, r, c):
+    """The beams' part of S[r, c] = Cq_r M^-1 Cq_c^T: pairs of node bodies of one beam in rows r, c."""
+    s = 0.0
+    for a1 in range(2):
+        b1 = rb[r, a1]
+        if b1 < 0 or body_beam[b1] < 0:
+            continue
+        bm = body_beam[b1]
+        first = beam_info[bm, 0]
+        nb = NODE_COORDS * (beam_info[bm, 1] + 1)
+        mo = beam_info[bm, 2]
+        for a2 in range(2):
+            b2 = rb[c, a2]
+            if b2 < 0 or body_beam[b2] != bm:
+                continue
+            for i in range(2):
+                li = beam_local(first, b1, i)
+                for j in range(2):
+                    s += J[r, a1, i] * beam_minv[mo + li * nb + beam_local(first, b2, j)] * J[c, a2, j]
+    return s
+
+
+@kernel
+def beam_constraint_force(ws, x, out):
+    """out = -Cq^T x over the whole q (zeroed first)."""
+    for k in range(out.shape[0]):
+        out[k] = 0.0
+    for r in range(x.shape[0]):
+        for a in range(2):
+            b = ws.rowbody[r, a]
+            if b >= 0:
+                for i in range(3):
+                    out[3 * b + i] -= ws.J[r, a, i] * x[r]
+
+
+@kernel
+def beam_applied(km, ws, q, qd):
+    """ws.Qe += every beam's weight and elastic and damping forces; returns the weight's power."""
+    pg = 0.0
+    for bm in range(km.beam_info.shape[0]):
+        first = km.beam_info[bm, 0]
+        nel = km.beam_info[bm, 1]
+        nb = NODE_COORDS * (nel + 1)
+        wo = km.beam_info[bm, 3]
+        for i in range(nb):
+            k = beam_qindex(first, i)
+            ws.be[0, i] = q[k]
+            ws.be[1, i] = qd[k]
+            ws.be[2, i] = km.beam_weight[wo + i]
+            pg += ws.be[2, i] * qd[k]
+        p = km.beam_param[bm]
+        beam_forces(ws.be[0], ws.be[1], 0, nel, p[0], p[1], p[2], p[3], ws.bsh, ws.bde[0], ws.bde[1],
+                    ws.bde[2], ws.be[2])
+        for i in range(nb):
+            ws.Qe[beam_qindex(first, i)] += ws.be[2, i]
+    return pg
+
+
+@kernel
+def _slope_curv(q, first, o, xi, L):
+    """(x', y', x'', y'') at xi of the element whose first coordinate is the beam's o, read from q."""
+    x2 = xi * xi
+    d1 = ((-6.0 * xi + 6.0 * x2) / L, 1.0 - 4.0 * xi + 3.0 * x2, (6.0 * xi - 6.0 * x2) / L, 3.0 * x2 - 2.0 * xi)
+    d2 = ((-6.0 + 12.0 * xi) / (L * L), (-4.0 + 6.0 * xi) / L, (6.0 - 12.0 * xi) / (L * L), (6.0 * xi - 2.0) / L)
+    x1 = 0.0
+    y1 = 0.0
+    xx = 0.0
+    yy = 0.0
+    for a in range(4):
+        ex = q[beam_qindex(first, o + 2 * a)]
+        ey = q[beam_qindex(first, o + 2 * a + 1)]
+        x1 += d1[a] * ex
+        y1 += d1[a] * ey
+        xx += d2[a] * ex
+        yy += d2[a] * ey
+    return x1, y1, xx, yy
+
+
+@kernel
+def beam_strains_q(km, bm, q, k, xi):
+    """(eps, kappa) at xi of element k of beam bm, read from q."""
+    x1, y1, xx, yy = _slope_curv(q, km.beam_info[bm, 0], NODE_COORDS * k, xi, km.beam_param[bm, 0])
+    g = x1 * x1 + y1 * y1
+    return 0.5 * (g - 1.0), (x1 * yy - y1 * xx) / (g * math.sqrt(g))
+
+
+@kernel
+def beam_weight_potential(km, q):
+    """The potential -Q_g . q of every beam's constant weight (its work is gravity's)."""
+    V = 0.0
+    for bm in range(km.beam_info.shape[0]):
+        first = km.beam_info[bm, 0]
+        wo = km.beam_info[bm, 3]
+        for i in range(NODE_COORDS * (km.beam_info[bm, 1] + 1)):
+            V -= km.beam_weight[wo + i] * q[beam_qindex(first, i)]
+    return V
+
+
+@kernel
+def beam_strain_energy(km, q):
+    """Every beam's strain energy, read from q (an internal energy: no load's work)."""
+    V = 0.0
+    for bm in range(km.beam_info.shape[0]):
+        p = km.beam_param[bm]
+        for k in range(km.beam_info[bm, 1]):
+            for g in range(GAUSS_POINTS):
+                eps, kap = beam_strains_q(km, bm, q, k, GAUSS_XI[g])
+                V += 0.5 * p[0] * GAUSS_W[g] * (p[1] * eps * eps + p[2] * kap * kap)
+    return V
+
+
+@kernel
+def beam_kinetic(km, qd):
+    """Every beam's kinetic energy q'^T M q' / 2 (its constant mass)."""
+    T = 0.0
+    for bm in range(km.beam_info.shape[0]):
+        first = km.beam_info[bm, 0]
+        nb = NODE_COORDS * (km.beam_info[bm, 1] + 1)
+        mo = km.beam_info[bm, 2]
+        for i in range(nb):
+            vi = qd[beam_qindex(first, i)]
+            for j in range(nb):
+                T += 0.5 * vi * km.beam_mass[mo + i * nb + j] * qd[beam_qindex(first, j)]
+    return T

@@ -96,6 +96,10 @@ class Workspace(NamedTuple):
     fsave: np.ndarray  # (6,) scratch of `forces.element_power`
     wF: np.ndarray  # (N_DENSE_ROWS,) scratch of `work.work_at`
     energy0: np.ndarray  # (2 + nclearance,) at the start: T + V, the loads' potential, each clearance's elastic energy
+    bq: np.ndarray  # (n,) scratch of the beams' constraint forces (`beam.beam_constraint_force`)
+    be: np.ndarray  # (3, largest beam's coordinates) a beam's coordinates, velocities and forces (`beam.beam_applied`)
+    bsh: np.ndarray  # (3, 4) the shape functions and their derivatives at a point
+    bde: np.ndarray  # (3, 8) an element's d eps / de, d kappa / de and forces
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -171,12 +175,20 @@ def solver_settings() -> np.ndarray:
     return settings
 
 
+def grouped(rowbody: np.ndarray, km: KernelModel) -> np.ndarray:
+    """The rows' bodies as their coupling groups (`body_groups`): ground stays -1."""
+    if not np.asarray(km.body_beam).size:
+        return rowbody
+    g = body_groups(km)
+    return np.where(rowbody >= 0, g[np.maximum(rowbody, 0)], -1)
+
+
 def make_workspace(km: KernelModel) -> Workspace:
     nb, nj, nd, nc, m = sizes(km)
     n = 3 * nb
     N = 2 * n
     rowbody = row_bodies(km)
-    first, lastrow = envelope(rowbody)
+    first, lastrow = envelope(grouped(rowbody, km))
     ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
     xreg, xmode, xfault = expression_scratch(km)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
@@ -199,11 +211,29 @@ def make_workspace(km: KernelModel) -> Workspace:
         res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
         pw=np.zeros(nw), pf=np.zeros(nw), pk=np.zeros((N_STAGES, nw)), wk=np.zeros((N_WK, nw)),
         fv=np.zeros((nf, catalog.N_FORCE_VALUES)), fsave=np.zeros(6), wF=np.zeros(N_DENSE_ROWS), energy0=np.zeros(2 + nc),
+        bq=np.zeros(n), be=np.zeros((3, beam_coords(km))), bsh=np.zeros((3, 4)), bde=np.zeros((3, 8)),
     )
+
+
+def beam_coords(km: KernelModel) -> int:
+    """The coordinates of the largest beam (0: none)."""
+    info = np.asarray(km.beam_info).reshape(-1, 4)
+    return int(4 * (info[:, 1].max() + 1)) if len(info) else 0
+
+
+def body_groups(km: KernelModel) -> np.ndarray:
+    """Each body's group in the Schur complement's coupling: itself, or its beam (the node bodies of one
+    beam all couple through its mass)."""
+    nb = len(km.body_mass)
+    groups = np.arange(nb, dtype=np.int64)
+    bb = np.asarray(km.body_beam, dtype=np.int64)
+    if bb.size:
+        groups[bb >= 0] = nb + bb[bb >= 0]
+    return groups
 
 
 def envelope_size(km: KernelModel) -> int:
     """Entries of the envelope of S (sum over rows of r - first[r] + 1): the memory and,
     squared per row, the work of one envelope factorisation."""
-    first, _ = envelope(row_bodies(km))
+    first, _ = envelope(grouped(row_bodies(km), km))
     return int(np.sum(np.arange(len(first)) - first + 1))

@@ -71,3 +71,29 @@ def elastic_forces(e, ed, nel: int, Le: float, ea: float, ei: float, eta: float 
 
 def strain_energy(e, nel: int, Le: float, ea: float, ei: float) -> float:
     return pybeam.beam_energy(e, 0, nel, Le, ea, ei, np.zeros((3, 4)))
+
+
+def q_index(first: int, i: int) -> int:
+    """Index in q of a beam's coordinate i (as `kernel.beam.beam_qindex`: node i // 4 is the bodies
+    first + 2 (i // 4) (position) and the next (slope))."""
+    return 3 * (first + 2 * (i // NODE_COORDS) + (i % NODE_COORDS) // 2) + i % 2
+
+
+def strains_rows(E: np.ndarray, Le: float, xi: float) -> tuple[np.ndarray, np.ndarray]:
+    """(eps, kappa) at xi of one element for each row of its coordinates E (rows, 8)."""
+    sh = np.zeros((3, 4))
+    pybeam.shape(xi, Le, sh)
+    x1, y1 = E[:, 0::2] @ sh[1], E[:, 1::2] @ sh[1]
+    x2, y2 = E[:, 0::2] @ sh[2], E[:, 1::2] @ sh[2]
+    g = x1 * x1 + y1 * y1
+    return 0.5 * (g - 1.0), (x1 * y2 - y1 * x2) / (g * np.sqrt(g))
+
+
+def energy_rows(E: np.ndarray, nel: int, Le: float, ea: float, ei: float) -> np.ndarray:
+    """The strain energy of a whole beam for each row of its coordinates E (rows, 4 (nel + 1))."""
+    U = np.zeros(E.shape[0])
+    for k in range(nel):
+        for xi, w in zip(pybeam.GAUSS_XI, pybeam.GAUSS_W):
+            eps, kap = strains_rows(E[:, NODE_COORDS * k:NODE_COORDS * k + 8], Le, xi)
+            U += 0.5 * Le * w * (ea * eps * eps + ei * kap * kap)
+    return U
