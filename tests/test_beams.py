@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
+from planar_mbs.errors import ModelError
 
 STEEL = "material steel { E = 210 GPa  nu = 0.3  density = 7800 kg/m^3 }\n"
 
@@ -40,14 +41,14 @@ def test_cantilever_under_its_weight_follows_the_modal_solution():
     """A steel cantilever (welded to ground) released straight under gravity swings about its static
     deflection w L^4 / (8 EI); its tip follows the modal sum of the continuum (six modes) to 1 % of that
     deflection over two periods of the first mode (4 elements: the first frequency is 3e-5 high)."""
-    L, w, h = 0.5, 0.01, 0.01
+    L, w, h = 0.5, 0.01, 0.02
     ei, rho_a, g = 210e9 * w * h ** 3 / 12, 7800 * w * h, 9.81
     T1 = 2 * math.pi / (1.8751041 ** 2 * math.sqrt(ei / (rho_a * L ** 4)))
     text = STEEL + f"""
 body rod = beam {{ length = {L} m  section = rectangle({w * 1e3} mm, {h * 1e3} mm)  material = steel  elements = 4 }}
 joint clamp = weld(ground (0, 0), rod (start))
 gravity (0, -{g} m/s^2)
-simulate {{ t_end = {2 * T1} s  output_step = {T1 / 200} s  rtol = 1e-9  atol = 1e-13 }}
+simulate {{ t_end = {2 * T1} s  output_step = {T1 / 200} s  rtol = 1e-8  atol = 1e-13 }}
 """
     res = mbs.simulate(mbs.compile_text(text))
     t = np.asarray(res.time)
@@ -132,3 +133,37 @@ def test_a_stiff_beam_reproduces_the_rigid_connecting_rod():
     assert np.ptp(tq1) > 0
     assert np.abs(tq2 - tq1).max() < 5e-3 * np.ptp(tq1), np.abs(tq2 - tq1).max() / np.ptp(tq1)
     assert np.abs(r2["slider.x"] - r1["slider.x"]).max() < 1e-6
+
+
+BEAM = "body rod = beam {{ length = 1 m  section = rectangle(1 mm, 1 mm)  material = steel  {extra} }}\n"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("body rod = bream { length = 1 m }", "unknown kind of body `bream`"),
+    ("body rod = beam { length = 1 m  material = steel }", "beam `rod` needs `section`"),
+    (BEAM.format(extra="elements = 2") + "joint p = revolute(ground, rod (5))", "has nodes 0 to 2, not `5`"),
+    (BEAM.format(extra="") + "joint p = revolute(ground, rod)", "names beam `rod` without a node"),
+    (BEAM.format(extra="elements = 2.5"), "must be a whole number"),
+    (BEAM.format(extra="area = 1 mm^2"), "has a `section` and `area`"),
+    (BEAM.format(extra="length = 2 m"), "given twice"),
+    ("material soft { E = 1 GPa  nu = 0.3 }\nbody rod = beam { length = 1 m  section = circle(1 mm)  material = soft }",
+     "needs a `density`"),
+])
+def test_bad_beams_are_model_errors(text, message):
+    with pytest.raises(ModelError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        mbs.compile_text(STEEL + text)
+
+
+def test_check_counts_four_coordinates_per_node_and_the_weld_its_slope_row():
+    """Two rigid bodies (3 each) and a beam of 3 elements (4 nodes of 4 coordinates): 22 coordinates;
+    a revolute (2 rows) and a weld on the beam (2 + 1 rows): 17 degrees of freedom."""
+    m = mbs.compile_text(STEEL + BEAM.format(extra="elements = 3") + """
+body a { mass = 1 kg  inertia = 1 kg*m^2 }
+body b { mass = 1 kg  inertia = 1 kg*m^2  position = (1 m, 0) }
+joint p = revolute(a, rod (start))
+joint w = weld(rod (end), b)
+gravity (0, -9.81 m/s^2)
+""")
+    assert m.ncoord == 22 and m.nconstraint == 5 and m.dof == 17
+    assert m.joint_names == ["p", "w", "w_slope"]
+    assert m.body_names[2:4] == ["rod_node0", "rod_slope0"]
