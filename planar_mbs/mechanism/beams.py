@@ -97,3 +97,22 @@ def energy_rows(E: np.ndarray, nel: int, Le: float, ea: float, ei: float) -> np.
             eps, kap = strains_rows(E[:, NODE_COORDS * k:NODE_COORDS * k + 8], Le, xi)
             U += 0.5 * Le * w * (ea * eps * eps + ei * kap * kap)
     return U
+
+
+def inverse_mass_matrix(km) -> np.ndarray:
+    """The whole dense M^-1 of a model's coordinates: the rigid bodies' diagonal and each beam's block."""
+    Minv = np.diag(np.asarray(km.minv, dtype=float))
+    for first, nel, mo, _ in np.asarray(km.beam_info, dtype=np.int64).reshape(-1, 4):
+        nb = NODE_COORDS * (int(nel) + 1)
+        idx = [q_index(int(first), i) for i in range(nb)]
+        Minv[np.ix_(idx, idx)] = np.asarray(km.beam_minv[mo:mo + nb * nb]).reshape(nb, nb)
+    return Minv
+
+
+def node_mass(km, b: int) -> float:
+    """The mass a point force at node body b of a beam moves: 1 / (M^-1)_xx of its node."""
+    bm = int(km.body_beam[b])
+    first, nel, mo, _ = (int(v) for v in km.beam_info[bm])
+    nb = NODE_COORDS * (nel + 1)
+    i = 2 * (b - first)
+    return 1.0 / float(km.beam_minv[mo + i * nb + i])

@@ -83,6 +83,7 @@ from .model import (
     SourceRef,
 )
 from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
+from . import beams as B
 from .beam_pass import _BeamPass, is_beam
 from .ordering import reorder
 from . import restitution as R
@@ -713,8 +714,14 @@ class _ClearancePass:
     def _effective_mass(self, bi: int, bj: int) -> float:
         """m_i m_j / (m_i + m_j) of a contact pair (ground: the other body's mass), the translational
         masses alone: what the Kelvin-Voigt law's damping from a restitution is sized for."""
-        w = sum(1.0 / self.a["body_mass"][b] for b in (bi, bj) if b >= 0)
+        w = sum(1.0 / self._translational_mass(b) for b in (bi, bj) if b >= 0)
         return 1.0 / w if w > 0 else math.inf
+
+    def _translational_mass(self, b: int) -> float:
+        """A body's mass; a beam's node: the mass a force there moves (`beams.node_mass`)."""
+        if b >= self.nrigid:
+            return B.node_mass(KernelModel(**{k: v for k, v in self.a.items() if k in KernelModel._fields}), b)
+        return float(self.a["body_mass"][b])
 
     def _fill_pair(self, k: int, kind: int, bodies, points, law, K, n, ce, sigma, c, f: Fields, **cols):
         p = self.a["clearance_param"][k]
