@@ -176,6 +176,24 @@ def beam_energy(q, first, nel, L, ea, ei, sh):
 # beam_weight; km.beam_param[bm] = element length, EA, EI, eta, rho A).  Their rows of km.minv are zero:
 # the beam's own constant mass acts through its inverse, formed once by the compiler.
 
+BEAM_ROWS = 10  # rows the workspace's ws.F gets beyond its dense-output rows when the model has beams
+# (scratch of the beams' kernels, `beam_row`; no array of its own, so a model without beams passes no more)
+ROW_FORCE, ROW_E, ROW_ED, ROW_Q, ROW_SHAPE, ROW_DE, ROW_DK, ROW_FE = 0, 1, 2, 3, 4, 7, 8, 9
+
+
+@kernel(inline=True)
+def beam_row(ws, j):
+    """Row j of the beams' scratch: the last BEAM_ROWS rows of ws.F (each 2n long)."""
+    return ws.F[ws.F.shape[0] - BEAM_ROWS + j]
+
+
+@kernel(inline=True)
+def beam_shape_rows(ws):
+    """The (3, 2n) scratch of the shape functions: rows ROW_SHAPE .. ROW_SHAPE + 2 of the beams' scratch."""
+    r = ws.F.shape[0] - BEAM_ROWS + ROW_SHAPE
+    return ws.F[r:r + 3]
+
+
 @kernel
 def beam_qindex(first, i):
     """Index in q of a beam's coordinate i (node i // 4, (x, y, dx/ds, dy/ds)[i % 4])."""
@@ -226,6 +244,30 @@ def beam_schur_entry(body_beam, beam_info, beam_minv, J, rb, r, c):
 
 
 @kernel
+def beam_schur_assemble(minv, J, rb, first, ptr, S, sdiag, reg, body_beam, beam_info, beam_minv):
+    """`dynamics.schur_assemble` for a model with beams: the rigid bodies' diagonal terms and each beam's
+    block of M^-1 (`beam_schur_entry`).  (A model without beams keeps the one without this term.)"""
+    for r in range(J.shape[0]):
+        s = 0.0
+        br = ptr[r] - first[r]
+        for c in range(first[r], r + 1):
+            s = 0.0
+            for a1 in range(2):
+                b = rb[r, a1]
+                if b < 0:
+                    continue
+                for a2 in range(2):
+                    if rb[c, a2] == b:
+                        k = 3 * b
+                        s += (J[r, a1, 0] * minv[k] * J[c, a2, 0] + J[r, a1, 1] * minv[k + 1] * J[c, a2, 1]
+                              + J[r, a1, 2] * minv[k + 2] * J[c, a2, 2])
+            s += beam_schur_entry(body_beam, beam_info, beam_minv, J, rb, r, c)
+            S[br + c] = s
+        sdiag[r] = s
+        S[br + r] = s * (1.0 + reg)
+
+
+@kernel
 def beam_constraint_force(ws, x, out):
     """out = -Cq^T x over the whole q (zeroed first)."""
     for k in range(out.shape[0]):
@@ -242,6 +284,9 @@ def beam_constraint_force(ws, x, out):
 def beam_applied(km, ws, q, qd):
     """ws.Qe += every beam's weight and elastic and damping forces; returns the weight's power."""
     pg = 0.0
+    e = beam_row(ws, ROW_E)
+    ed = beam_row(ws, ROW_ED)
+    f = beam_row(ws, ROW_Q)
     for bm in range(km.beam_info.shape[0]):
         first = km.beam_info[bm, 0]
         nel = km.beam_info[bm, 1]
@@ -249,15 +294,15 @@ def beam_applied(km, ws, q, qd):
         wo = km.beam_info[bm, 3]
         for i in range(nb):
             k = beam_qindex(first, i)
-            ws.be[0, i] = q[k]
-            ws.be[1, i] = qd[k]
-            ws.be[2, i] = km.beam_weight[wo + i]
-            pg += ws.be[2, i] * qd[k]
+            e[i] = q[k]
+            ed[i] = qd[k]
+            f[i] = km.beam_weight[wo + i]
+            pg += f[i] * qd[k]
         p = km.beam_param[bm]
-        beam_forces(ws.be[0], ws.be[1], 0, nel, p[0], p[1], p[2], p[3], ws.bsh, ws.bde[0], ws.bde[1],
-                    ws.bde[2], ws.be[2])
+        beam_forces(e, ed, 0, nel, p[0], p[1], p[2], p[3], beam_shape_rows(ws), beam_row(ws, ROW_DE),
+                    beam_row(ws, ROW_DK), beam_row(ws, ROW_FE), f)
         for i in range(nb):
-            ws.Qe[beam_qindex(first, i)] += ws.be[2, i]
+            ws.Qe[beam_qindex(first, i)] += f[i]
     return pg
 
 

@@ -40,7 +40,7 @@ import math
 from .jit import kernel
 
 from ..mechanism.model import CFG_ALPHA, CFG_BETA, ST_INFO, ST_RHS
-from .beam import beam_constraint_force, beam_minv_mul, beam_schur_entry
+from .beam import beam_constraint_force, beam_minv_mul, beam_row, beam_schur_assemble
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
@@ -51,13 +51,12 @@ DRIFT = 8
 
 
 @kernel
-def schur_assemble(minv, J, rb, first, ptr, S, sdiag, reg, body_beam, beam_info, beam_minv):
+def schur_assemble(minv, J, rb, first, ptr, S, sdiag, reg):
     """S = Cq M^-1 Cq^T from the row-sparse Jacobian J (bodies rb) inside the
     envelope (lower triangle, rows r: columns first[r]..r, packed: (r, c) at
-    ptr[r] + c - first[r]), its diagonal kept in sdiag, then S_rr *= 1 + reg; a beam's node bodies add its
-    block of M^-1 (`beam.beam_schur_entry`).  (Arrays, not the workspace, as arguments: a
-    call that numba does not inline passes every array of a tuple.)"""
-    beams = beam_info.shape[0] > 0
+    ptr[r] + c - first[r]), its diagonal kept in sdiag, then S_rr *= 1 + reg.  (Arrays, not the workspace, as arguments: a
+    call that numba does not inline passes every array of a tuple.)  A model with beams has its own,
+    `beam.beam_schur_assemble`."""
     for r in range(J.shape[0]):
         s = 0.0
         br = ptr[r] - first[r]
@@ -72,8 +71,6 @@ def schur_assemble(minv, J, rb, first, ptr, S, sdiag, reg, body_beam, beam_info,
                         k = 3 * b
                         s += (J[r, a1, 0] * minv[k] * J[c, a2, 0] + J[r, a1, 1] * minv[k + 1] * J[c, a2, 1]
                               + J[r, a1, 2] * minv[k + 2] * J[c, a2, 2])
-            if beams:
-                s += beam_schur_entry(body_beam, beam_info, beam_minv, J, rb, r, c)
             S[br + c] = s
         sdiag[r] = s
         S[br + r] = s * (1.0 + reg)
@@ -114,13 +111,19 @@ def schur_factor(km, ws, stats):
     In an eigendirection of relative size s the regularised answer is off by
     (REG / (s + REG))^(REFINE + 1), below rounding for s > TAU: switching is seamless.
     Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
-    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0,
-                   km.body_beam, km.beam_info, km.beam_minv)
+    if km.beam_info.shape[0] > 0:
+        beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0,
+                            km.body_beam, km.beam_info, km.beam_minv)
+    else:
+        schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
     if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
         ws.flags[FL_SCHUR_REG] = 0
         return 0
-    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0],
-                   km.body_beam, km.beam_info, km.beam_minv)
+    if km.beam_info.shape[0] > 0:
+        beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0],
+                            km.body_beam, km.beam_info, km.beam_minv)
+    else:
+        schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0])
     j = cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, 0.0)
     if j >= 0:
         stats[ST_INFO] = j
@@ -191,8 +194,8 @@ def refine(km, ws, x):
                     for i in range(3):
                         ws.v[k + i] += minv[k + i] * ws.J[r, a, i] * x[r]
         if km.beam_info.shape[0] > 0:
-            beam_constraint_force(ws, x, ws.bq)
-            beam_minv_mul(km, ws.bq, -1.0, ws.v)
+            beam_constraint_force(ws, x, beam_row(ws, 0))
+            beam_minv_mul(km, beam_row(ws, 0), -1.0, ws.v)
         rnorm = 0.0
         for r in range(m):
             ws.res[r] = ws.b[r] - jac_dot(ws, r, ws.v)
@@ -276,8 +279,8 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     for r in range(m):
         jac_t_sub(ws, r, ws.lam[r], minv, 1.0, ws.qdd)
     if beams:
-        beam_constraint_force(ws, ws.lam, ws.bq)
-        beam_minv_mul(km, ws.bq, 1.0, ws.qdd)
+        beam_constraint_force(ws, ws.lam, beam_row(ws, 0))
+        beam_minv_mul(km, beam_row(ws, 0), 1.0, ws.qdd)
     for d in range(nd):  # a driver's power: its row's constraint force -J_r^T lam_r times q'
         r = km.driver_row[d]
         ws.pw[nf + 1 + d] = -ws.lam[r] * jac_dot(ws, r, qd)
@@ -365,8 +368,8 @@ def project(km, t, y, ws, stats):
         for r in range(m):
             jac_t_sub(ws, r, ws.dl[r], minv, 1.0, q)
         if km.beam_info.shape[0] > 0:
-            beam_constraint_force(ws, ws.dl, ws.bq)
-            beam_minv_mul(km, ws.bq, 1.0, q)
+            beam_constraint_force(ws, ws.dl, beam_row(ws, 0))
+            beam_minv_mul(km, beam_row(ws, 0), 1.0, q)
     body_trig(q, ws.cs)
     st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
@@ -382,8 +385,8 @@ def project(km, t, y, ws, stats):
     for r in range(m):
         jac_t_sub(ws, r, ws.dl[r], minv, 1.0, qd)
     if km.beam_info.shape[0] > 0:
-        beam_constraint_force(ws, ws.dl, ws.bq)
-        beam_minv_mul(km, ws.bq, 1.0, qd)
+        beam_constraint_force(ws, ws.dl, beam_row(ws, 0))
+        beam_minv_mul(km, beam_row(ws, 0), 1.0, qd)
     if restore:
         restore_kinetic_energy(minv, qd, before, ws.Ct)
     ws.flags[FL_REG_SEEN] = 0

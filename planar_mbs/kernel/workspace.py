@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import catalog
 from ..mechanism.model import JOINT_ROWS, N_STATS, WL_SIZE, KernelModel, frozen, observation_size, work_layout
+from .beam import BEAM_ROWS
 from .constraints import row_bodies
 from .expressions import expression_scratch
 
@@ -71,7 +72,8 @@ class Workspace(NamedTuple):
     Qe: np.ndarray  # (n,) applied forces
     qdd: np.ndarray  # (n,) accelerations
     K: np.ndarray  # (N_STAGES, 2n) stage derivatives; K[0] = f(ya), K[END_STAGE[method]] = f(yb)
-    F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output rows of the last step (`integrators.dense_rows`)
+    F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output rows of the last step (`integrators.dense_rows`); with beams
+    # BEAM_ROWS more, the beams' scratch (`beam.beam_row`)
     f: np.ndarray  # (2n,) derivative at the current state (the next step's k1)
     ya: np.ndarray  # (2n,) state at the start of the last step
     yb: np.ndarray  # (2n,) state at the end of the last step
@@ -96,10 +98,6 @@ class Workspace(NamedTuple):
     fsave: np.ndarray  # (6,) scratch of `forces.element_power`
     wF: np.ndarray  # (N_DENSE_ROWS,) scratch of `work.work_at`
     energy0: np.ndarray  # (2 + nclearance,) at the start: T + V, the loads' potential, each clearance's elastic energy
-    bq: np.ndarray  # (n,) scratch of the beams' constraint forces (`beam.beam_constraint_force`)
-    be: np.ndarray  # (3, largest beam's coordinates) a beam's coordinates, velocities and forces (`beam.beam_applied`)
-    bsh: np.ndarray  # (3, 4) the shape functions and their derivatives at a point
-    bde: np.ndarray  # (3, 8) an element's d eps / de, d kappa / de and forces
 
 
 def kernel_model(km: KernelModel) -> KernelModel:
@@ -205,13 +203,12 @@ def make_workspace(km: KernelModel) -> Workspace:
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
         S=np.zeros(int(np.sum(np.arange(m) - first + 1))), ptr=ptr, sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
-        Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
+        Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS + (BEAM_ROWS if beam_coords(km) else 0), N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
         res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
         pw=np.zeros(nw), pf=np.zeros(nw), pk=np.zeros((N_STAGES, nw)), wk=np.zeros((N_WK, nw)),
         fv=np.zeros((nf, catalog.N_FORCE_VALUES)), fsave=np.zeros(6), wF=np.zeros(N_DENSE_ROWS), energy0=np.zeros(2 + nc),
-        bq=np.zeros(n), be=np.zeros((3, beam_coords(km))), bsh=np.zeros((3, 4)), bde=np.zeros((3, 8)),
     )
 
 
