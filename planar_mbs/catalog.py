@@ -189,7 +189,45 @@ JOINTS: tuple[JointSpec, ...] = (
               settings=(JointSetting(name="axis", meaning="line direction (ux, uy) in the first body's frame",
                                      unit="direction"),),
               example="revolute_translational(a (p), b (p), axis = ...)"),
+    JointSpec(code=5, enum="BEAM_SLOPE", name="beam_slope", rows=1,
+              equations="n_i . r'_j = 0: the slope r'_j of a beam's node along the axis of body i (n_i its normal)",
+              settings=(JointSetting(name="axis", meaning="the slope's direction (ux, uy) in the first body's frame",
+                                     unit="direction"),),
+              moment=True, example="beam_slope(a, rod (start), axis = (1, 0))"),
 )
+
+
+@dataclass(frozen=True, kw_only=True)
+class BeamSpec:
+    """A flexible body of the language (`body NAME = beam { ... }`): its element, formulas and fields."""
+
+    name: str
+    title: str
+    coordinates: str
+    energy: str
+    fields: dict[str, str]
+    reference: str
+    example: str
+
+
+BEAM = BeamSpec(
+    name="beam", title="planar ANCF cable element (thin beam: no shear, exact large rotations)",
+    coordinates="per node (x, y, dx/ds, dy/ds); cubic Hermite shape functions; constant consistent mass",
+    energy="EA/2 int eps^2 ds + EI/2 int kappa^2 ds, eps = (r'.r' - 1)/2, kappa = (x'y'' - y'x'')/|r'|^3 "
+           "(5 Gauss points per element); damping: eta times the rates of both",
+    fields={"length": "length of the centre line", "start": "(x, y) of its first end (default (0, 0))",
+            "angle": "direction of the straight beam at the start (default 0)",
+            "elements": "number of elements (default 8)",
+            "section": "rectangle(width, height) (height in the plane of motion) | circle(radius)",
+            "area": "cross-section area A (instead of section)",
+            "second_moment": "second moment of area I (with area)",
+            "material": "a material with E and density", "E": "Young's modulus (instead of material)",
+            "density": "density (with E)",
+            "damping": "time constant eta of the stiffness-proportional material damping (default 0)",
+            "velocity": "initial velocity (vx, vy) of its start", "omega": "initial angular velocity about its start"},
+    reference='Gerstmayr & Shabana, "Analysis of thin beams and cables using the absolute nodal co-ordinate '
+              'formulation", Nonlinear Dynamics 45 (2006)',
+    example="body rod = beam { length = 0.3 m  section = rectangle(10 mm, 5 mm)  material = steel  elements = 8 }")
 
 
 def joint_param_columns() -> tuple[str, ...]:
@@ -867,6 +905,9 @@ def docs_lists() -> dict[str, str]:
             f"| `{m.name}` | {m.formula} | " + "; ".join(
                 f"`{x.name}`: {x.meaning}" + ("" if x.default is None else f" (default {x.default:g})")
                 for x in m.settings) + " |" for m in WEAR_MODELS),
+        "beam": f"`{BEAM.example}`: the {BEAM.title} ({BEAM.reference}); {BEAM.coordinates}; energy "
+                f"{BEAM.energy}.\n\n| field | meaning |\n| --- | --- |\n"
+                + "\n".join(f"| `{k}` | {v} |" for k, v in BEAM.fields.items()),
         "forces": "| force | formula | settings | potential energy |\n| --- | --- | --- | --- |\n" + "\n".join(
             f"| `{s.example or s.name}` | {s.formula} | " + ("; ".join(f"`{k}`: {v}" for k, v in s.fields.items())
                                                           or "—") + f" | {'yes' if s.potential else 'no'} |"

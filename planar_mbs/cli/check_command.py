@@ -6,6 +6,7 @@ compiling a model), and the typer command `check` calls the same function.
 """
 from __future__ import annotations
 
+import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
@@ -66,7 +67,9 @@ def _print_model(m, report: dict) -> None:
     con = console()
     k = m.kernel
     dof = report["dof"]
-    con.print(f"[bold]{m.source_path}[/]: {m.nbody} bodies, {m.ncoord} coordinates, "
+    nodes = int(np.sum(np.asarray(k.body_beam) >= 0))
+    beams = f"{len(m.beam_names)} beam{'s' if len(m.beam_names) != 1 else ''} ({nodes // 2} nodes), " if m.beam_names else ""
+    con.print(f"[bold]{m.source_path}[/]: {m.nbody - nodes} bodies, {beams}{m.ncoord} coordinates, "
               f"{m.nconstraint} constraint{'s' if m.nconstraint != 1 else ''}"
               f"{'' if report['rank'] == m.nconstraint else ' (rank ' + str(report['rank']) + ')'}, "
               f"{dof} degree{'s' if dof != 1 else ''} of freedom "
@@ -86,10 +89,14 @@ def _print_model(m, report: dict) -> None:
             t.add_column(escape(c), overflow="fold", min_width=len(c))  # "[kg]" is not markup
         return t
 
-    bodies = table("bodies", "body", "mass [kg]", "inertia [kg m²]")
-    for b, name in enumerate(m.body_names):
+    bodies = table("bodies", "body", "mass [kg]", "inertia [kg m²]") if m.nbody > nodes else None
+    for b, name in enumerate(m.body_names[:m.nbody - nodes]):
         bodies.add_row(name, f"{k.body_mass[b]:g}", f"{k.body_inertia[b]:g}")
-    con.print(bodies)
+    if bodies is not None:
+        con.print(bodies)
+    if m.beam_names:
+        con.print(_beam_table(m, table("beams", "beam", "elements", "coordinates", "length [m]", "mass [kg]",
+                                       "EA [N]", "EI [N m²]")))
     joints = table("ideal joints and drivers", "joint", "type", "bodies", "rows")
     for j, name in enumerate(m.joint_names):
         i1, i2 = k.joint_body[j]
@@ -110,6 +117,17 @@ def _print_model(m, report: dict) -> None:
                        law.name, "—" if law.group.compliance == "materials"  # no K of F = K d^n
                        else f"{k.clearance_param[c, CP_STIFFNESS]:.4g}", _gap(report, c))
         con.print(cl)
+
+
+def _beam_table(m, t):
+    """One row per beam: its elements, coordinates (4 per node), length, mass and stiffnesses."""
+    k = m.kernel
+    for bm, name in enumerate(m.beam_names):
+        nel = int(k.beam_info[bm, 1])
+        Le, ea, ei, _, rho_a = k.beam_param[bm]
+        t.add_row(name, str(nel), str(4 * (nel + 1)), f"{Le * nel:g}", f"{rho_a * Le * nel:g}", f"{ea:.4g}",
+                  f"{ei:.4g}")
+    return t
 
 
 def _gap(report: dict, c: int) -> str:

@@ -33,6 +33,7 @@ TRANSLATIONAL = int(JointType.TRANSLATIONAL)
 WELD = int(JointType.WELD)
 REVOLUTE_REVOLUTE = int(JointType.REVOLUTE_REVOLUTE)
 REVOLUTE_TRANSLATIONAL = int(JointType.REVOLUTE_TRANSLATIONAL)
+BEAM_SLOPE = int(JointType.BEAM_SLOPE)
 # the joint_param columns of the joint types' settings (catalog.JointSetting.column)
 PHI0 = JP["phi0"]
 LENGTH = JP["length"]
@@ -221,9 +222,35 @@ def joint_rows_eval(km, jt, q, qd, cs, C, J, gamma):
         add_point_jac(J, r, 1, bj, ajx, ajy, dx, dy, 1.0)
         add_point_jac(J, r, 0, bi, aix, aiy, dx, dy, -1.0)
         gamma[r] = -(ddx * ddx + ddy * ddy + dx * (gjx - gix) + dy * (gjy - giy))
+    elif typ == BEAM_SLOPE:
+        C[r], gamma[r] = _slope_row(J, r, q, qd, cs, bi, bj, -km.joint_axis[jt, 1], km.joint_axis[jt, 0])
     else:  # a type code without rows here
         return BAD_INPUT
     return 0
+
+
+@kernel
+def _slope_row(J, row, q, qd, cs, bi, bj, nlx, nly):
+    """Row ``C = n_i . s_j`` with ``n_i = A_i nl``: s_j = (x_j, y_j) is the slope (dx/ds, dy/ds) of a beam's
+    node, held as the position of its slope body.  Fills J[row], returns (C, gamma):
+    ``C'' = n.s'' + 2 phi_i' perp(n).s' + phi_i'' perp(n).s - phi_i'^2 n.s``."""
+    c = 1.0
+    s = 0.0
+    wi = 0.0
+    if bi >= 0:
+        c = cs[bi, 0]
+        s = cs[bi, 1]
+        wi = qd[3 * bi + 2]
+    nx = c * nlx - s * nly
+    ny = s * nlx + c * nly
+    sx, sy, _, vx, vy, _ = body_state(q, qd, bj)
+    if bj >= 0:
+        J[row, 1, 0] += nx
+        J[row, 1, 1] += ny
+    if bi >= 0:
+        J[row, 0, 2] += -ny * sx + nx * sy
+    quad = 2.0 * wi * (-ny * vx + nx * vy) - wi * wi * (nx * sx + ny * sy)
+    return nx * sx + ny * sy, -quad
 
 
 @kernel(inline=True)

@@ -1,7 +1,8 @@
 """Accelerations of the constrained system (Muvengei et al. eqs. 1-2, Nikravesh).
 
 ``M q'' + Cq^T lam = Qe``, ``Cq q'' = gamma - 2 alpha (Cq q' + Ct) - beta^2 C``.
-M is diagonal (``km.minv``), so with the Schur complement
+M is diagonal (``km.minv``) for rigid bodies; a beam (`kernel/beam.py`) adds its constant block, whose
+inverse the compiler formed once (``km.beam_minv``); with the Schur complement
 ``S = Cq M^-1 Cq^T`` (m x m, symmetric positive semi-definite):
 
     S lam = Cq M^-1 Qe - gamma_b,   q'' = M^-1 (Qe - Cq^T lam).
@@ -40,6 +41,7 @@ from .jit import kernel
 
 from ..mechanism.model import (CFG_ALPHA, CFG_BETA, CT_ANCHOR, CT_FRICTION, CT_SLIP_DIRECTION, JP_FRICTION,
                                JP_STATIC_FRICTION, SLIP, ST_INFO, ST_RHS, STICK, WL_JFRICTION, Status, work_layout)
+from .beam import beam_constraint_force, beam_minv_mul, beam_row, beam_schur_assemble
 from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
@@ -60,7 +62,8 @@ def schur_assemble(minv, J, rb, first, ptr, S, sdiag, reg):
     """S = Cq M^-1 Cq^T from the row-sparse Jacobian J (bodies rb) inside the
     envelope (lower triangle, rows r: columns first[r]..r, packed: (r, c) at
     ptr[r] + c - first[r]), its diagonal kept in sdiag, then S_rr *= 1 + reg.  (Arrays, not the workspace, as arguments: a
-    call that numba does not inline passes every array of a tuple.)"""
+    call that numba does not inline passes every array of a tuple.)  A model with beams has its own,
+    `beam.beam_schur_assemble`."""
     for r in range(J.shape[0]):
         s = 0.0
         br = ptr[r] - first[r]
@@ -115,11 +118,19 @@ def schur_factor(km, ws, stats):
     In an eigendirection of relative size s the regularised answer is off by
     (REG / (s + REG))^(REFINE + 1), below rounding for s > TAU: switching is seamless.
     Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
-    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
+    if km.beam_info.shape[0] > 0:
+        beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0,
+                            km.body_beam, km.beam_info, km.beam_minv)
+    else:
+        schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
     if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
         ws.flags[FL_SCHUR_REG] = 0
         return 0
-    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0])
+    if km.beam_info.shape[0] > 0:
+        beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0],
+                            km.body_beam, km.beam_info, km.beam_minv)
+    else:
+        schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0])
     j = cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, 0.0)
     if j >= 0:
         stats[ST_INFO] = j
@@ -189,6 +200,9 @@ def refine(km, ws, x):
                     k = 3 * b
                     for i in range(3):
                         ws.v[k + i] += minv[k + i] * ws.J[r, a, i] * x[r]
+        if km.beam_info.shape[0] > 0:
+            beam_constraint_force(ws, x, beam_row(ws, 0))
+            beam_minv_mul(km, beam_row(ws, 0), -1.0, ws.v)
         rnorm = 0.0
         for r in range(m):
             ws.res[r] = ws.b[r] - jac_dot(ws, r, ws.v)
@@ -244,9 +258,12 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     n = q.shape[0]
     m = ws.C.shape[0]
     minv = km.minv
+    beams = km.beam_info.shape[0] > 0
     if m == 0:
         for k in range(n):
             ws.qdd[k] = minv[k] * ws.Qe[k]
+        if beams:
+            beam_minv_mul(km, ws.Qe, 1.0, ws.qdd)
         return 0
     st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
@@ -256,6 +273,8 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     # ws.qdd first holds M^-1 Qe
     for k in range(n):
         ws.qdd[k] = minv[k] * ws.Qe[k]
+    if beams:
+        beam_minv_mul(km, ws.Qe, 1.0, ws.qdd)
     for r in range(m):
         cd = ws.Ct[r] + jac_dot(ws, r, qd)
         gb = ws.gam[r] - 2.0 * alpha * cd - beta * beta * ws.C[r]
@@ -266,6 +285,9 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     multipliers(km, ws, ws.lam)
     for r in range(m):
         jac_t_sub(ws, r, ws.lam[r], minv, 1.0, ws.qdd)
+    if beams:
+        beam_constraint_force(ws, ws.lam, beam_row(ws, 0))
+        beam_minv_mul(km, beam_row(ws, 0), 1.0, ws.qdd)
     if km.joint_friction.shape[0] > 0:
         st = joint_friction(km, cfg, q, qd, contact, ws, stats)
         if st != 0:
@@ -532,6 +554,9 @@ def project(km, t, y, ws, stats):
         multipliers(km, ws, ws.dl)
         for r in range(m):
             jac_t_sub(ws, r, ws.dl[r], minv, 1.0, q)
+        if km.beam_info.shape[0] > 0:
+            beam_constraint_force(ws, ws.dl, beam_row(ws, 0))
+            beam_minv_mul(km, beam_row(ws, 0), 1.0, q)
     body_trig(q, ws.cs)
     st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
@@ -546,6 +571,9 @@ def project(km, t, y, ws, stats):
     before = kinetic_energy2(minv, qd) if restore else 0.0
     for r in range(m):
         jac_t_sub(ws, r, ws.dl[r], minv, 1.0, qd)
+    if km.beam_info.shape[0] > 0:
+        beam_constraint_force(ws, ws.dl, beam_row(ws, 0))
+        beam_minv_mul(km, beam_row(ws, 0), 1.0, qd)
     if restore:
         restore_kinetic_energy(minv, qd, before, ws.Ct)
     ws.flags[FL_REG_SEEN] = 0

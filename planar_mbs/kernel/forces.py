@@ -28,6 +28,7 @@ import math
 from .jit import kernel
 
 from ..mechanism.model import ForceType, Status
+from .beam import beam_applied, beam_weight_potential
 from .constraints import body_state, point_cs, point_state
 from .expressions import run_rows
 
@@ -70,6 +71,8 @@ def applied_forces(km, ws, t, q, qd):
     if km.expr_loads[1] > km.expr_loads[0]:  # every expression load's rows, in one call
         run_rows(km.expr_code, km.expr_const, ws.xreg, ws.xmode, km.table_info, km.table_period,
                  km.table_seg, km.expr_loads[0], km.expr_loads[1], t, q, qd)
+    if km.beam_info.shape[0] > 0:
+        pg += beam_applied(km, ws, q, qd)
     nf = km.force_type.shape[0]
     ws.pw[nf] = pg
     for e in range(nf):
@@ -199,6 +202,8 @@ def force_potential(km, q, qd):
     nb = km.body_mass.shape[0]
     for b in range(nb):
         V -= km.body_mass[b] * (km.gravity[0] * q[3 * b] + km.gravity[1] * q[3 * b + 1])
+    if km.beam_info.shape[0] > 0:
+        V += beam_weight_potential(km, q)
     nf = km.force_type.shape[0]
     for e in range(nf):
         typ = km.force_type[e]

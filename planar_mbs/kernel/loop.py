@@ -157,6 +157,7 @@ from .events import (event_possible, init_joint_friction, init_modes, joint_fric
                      locate_joint_friction, locate_switch, switch_joint_friction, switch_mode)
 from .joint_friction import slip_state
 from .expressions import flip_switch, init_switches
+from .beam import beam_strain_energy
 from .forces import applied_forces, force_potential
 from .work import energy_start, kinetic_energy, work_accept, work_at, work_end, work_restore
 from .integrators import (
@@ -364,6 +365,8 @@ def _observe_system(km, q, qd, contact, ws, row, col, energy, errors, loads):
         V = Vf
         if km.clearance_body.shape[0] > 0:
             V += contact_energy(km, q, qd, contact)
+        if km.beam_info.shape[0] > 0:
+            V += beam_strain_energy(km, q)
         # the loads' and drivers' work less what their potentials (gravity's too) stored since the start
         Win = Vf - ws.energy0[1]
         for i in range(nf + 1 + nd):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from .jit import kernel
 
+from .beam import beam_kinetic, beam_strain_energy
 from .contact import clearance_energy, contact_energy
 from .forces import force_potential
 from .integrators import (
@@ -118,6 +119,8 @@ def kinetic_energy(km, qd):
     for b in range(km.body_mass.shape[0]):
         T += (0.5 * km.body_mass[b] * (qd[3 * b] ** 2 + qd[3 * b + 1] ** 2)
               + 0.5 * km.body_inertia[b] * qd[3 * b + 2] ** 2)
+    if km.beam_info.shape[0] > 0:
+        T += beam_kinetic(km, qd)
     return T
 
 
@@ -127,6 +130,8 @@ def energy_start(km, q, qd, contact, ws):
     potential and each clearance element's elastic energy into ws.energy0; every work from 0."""
     Vf = force_potential(km, q, qd)
     Vc = contact_energy(km, q, qd, contact) if km.clearance_body.shape[0] > 0 else 0.0
+    if km.beam_info.shape[0] > 0:
+        Vc += beam_strain_energy(km, q)
     ws.energy0[0] = kinetic_energy(km, qd) + Vf + Vc
     ws.energy0[1] = Vf
     for k in range(km.clearance_body.shape[0]):

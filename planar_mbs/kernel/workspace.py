@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import catalog
 from ..mechanism.model import CP_STATE, JOINT_ROWS, N_STATS, WL_SIZE, KernelModel, frozen, observation_size, work_layout
+from .beam import BEAM_ROWS
 from .constraints import row_bodies
 from .expressions import expression_scratch
 
@@ -75,7 +76,8 @@ class Workspace(NamedTuple):
     Qe: np.ndarray  # (n,) applied forces
     qdd: np.ndarray  # (n,) accelerations
     K: np.ndarray  # (N_STAGES, N) stage derivatives (N = 2n + nstate: y = (q, q', z)); K[0] = f(ya), K[END_STAGE[method]] = f(yb)
-    F: np.ndarray  # (N_DENSE_ROWS, 2n) dense-output rows of the last step (`integrators.dense_rows`)
+    F: np.ndarray  # (N_DENSE_ROWS, N) dense-output rows of the last step (`integrators.dense_rows`); with beams
+    # BEAM_ROWS more, the beams' scratch (`beam.beam_row`)
     f: np.ndarray  # (2n,) derivative at the current state (the next step's k1)
     ya: np.ndarray  # (2n,) state at the start of the last step
     yb: np.ndarray  # (2n,) state at the end of the last step
@@ -190,13 +192,21 @@ def solver_settings() -> np.ndarray:
     return settings
 
 
+def grouped(rowbody: np.ndarray, km: KernelModel) -> np.ndarray:
+    """The rows' bodies as their coupling groups (`body_groups`): ground stays -1."""
+    if not np.asarray(km.body_beam).size:
+        return rowbody
+    g = body_groups(km)
+    return np.where(rowbody >= 0, g[np.maximum(rowbody, 0)], -1)
+
+
 def make_workspace(km: KernelModel) -> Workspace:
     nb, nj, nd, nc, m = sizes(km)
     n = 3 * nb
     nz = state_count(km)
     N = 2 * n + nz
     rowbody = row_bodies(km)
-    first, lastrow = envelope(rowbody)
+    first, lastrow = envelope(grouped(rowbody, km))
     ptr = np.concatenate([[0], np.cumsum(np.arange(m) - first + 1)[:-1]]).astype(np.int64) if m else np.zeros(0, np.int64)
     xreg, xmode, xfault = expression_scratch(km)
     flags = np.zeros(N_FLAGS, dtype=np.int64)
@@ -214,7 +224,7 @@ def make_workspace(km: KernelModel) -> Workspace:
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),
         S=np.zeros(int(np.sum(np.arange(m) - first + 1))), ptr=ptr, sdiag=np.zeros(m), lam=np.zeros(m), b=np.zeros(m),
-        Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS, N)), f=np.zeros(N),
+        Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS + (BEAM_ROWS if beam_coords(km) else 0), N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
         res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
@@ -226,8 +236,25 @@ def make_workspace(km: KernelModel) -> Workspace:
     )
 
 
+def beam_coords(km: KernelModel) -> int:
+    """The coordinates of the largest beam (0: none)."""
+    info = np.asarray(km.beam_info).reshape(-1, 4)
+    return int(4 * (info[:, 1].max() + 1)) if len(info) else 0
+
+
+def body_groups(km: KernelModel) -> np.ndarray:
+    """Each body's group in the Schur complement's coupling: itself, or its beam (the node bodies of one
+    beam all couple through its mass)."""
+    nb = len(km.body_mass)
+    groups = np.arange(nb, dtype=np.int64)
+    bb = np.asarray(km.body_beam, dtype=np.int64)
+    if bb.size:
+        groups[bb >= 0] = nb + bb[bb >= 0]
+    return groups
+
+
 def envelope_size(km: KernelModel) -> int:
     """Entries of the envelope of S (sum over rows of r - first[r] + 1): the memory and,
     squared per row, the work of one envelope factorisation."""
-    first, _ = envelope(row_bodies(km))
+    first, _ = envelope(grouped(row_bodies(km), km))
     return int(np.sum(np.arange(len(first)) - first + 1))

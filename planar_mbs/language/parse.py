@@ -203,6 +203,12 @@ class _ToSpec(Transformer):
     def body(self, meta, children):
         return self._element("body", meta, children)
 
+    def body_of_kind(self, meta, children):
+        """`body rod = beam { ... }`: the kind is the statement's value, a name."""
+        name, kind, fields = children
+        return Statement("body", str(name), Name(self.tok_pos(kind), str(kind)), fields, self.meta_pos(meta),
+                         self.tok_pos(name))
+
     def joint(self, meta, children):
         return self._element("joint", meta, children)
 

@@ -86,6 +86,8 @@ from .model import (
     SourceRef,
 )
 from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
+from . import beams as B
+from .beam_pass import _BeamPass, is_beam
 from .ordering import reorder
 from . import restitution as R
 from ..language.parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
@@ -196,7 +198,7 @@ SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalo
               "alpha": "Baumgarte alpha (1/s)", "beta": "Baumgarte beta (1/s)",
               "projection": "auto | on | off", "max_steps": "step limit"}
 # every name that may be called in a model (the rest are unknown functions)
-_CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle"}
+_CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle", "rectangle"}
 RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
 SINGLETONS = ("gravity", "simulate")
 
@@ -320,9 +322,12 @@ class _LayoutPasses:
     # 3. assign ids ---------------------------------------------------------
     def pass_assign_ids(self):
         """Bodies get ids 0..nbody-1; joints split into ideal and clearance by their type."""
-        self.bodies = self._of("body")
-        self.body_id = {s.name: i for i, s in enumerate(self.bodies)}
         self.materials = {s.name: s for s in self._of("material")}
+        self.bodies = [s for s in self._of("body") if not is_beam(s)]  # rigid bodies; beams after them
+        self.beam_statements = [s for s in self._of("body") if is_beam(s)]
+        self.nrigid = len(self.bodies)
+        self.body_names = self._beam_layout(self.bodies, self.beam_statements)
+        self.body_id = {n: i for i, n in enumerate(self.body_names)}
         self.ideal, self.clearance = [], []
         for st in self._of("joint"):
             jt = st.value.name
@@ -334,6 +339,7 @@ class _LayoutPasses:
                 raise st.value.name_pos.error(f"unknown joint type `{jt}`",
                                               hint=did_you_mean(jt, JOINT_FIELDS) or
                                               "joint types: " + ", ".join(JOINT_FIELDS))
+        self.joint_parts = [part for st in self.ideal for part in self._joint_parts(st)]
         # contact pairs: one per clearance element, four for a translational clearance joint
         self.pairs = []
         for st in self.clearance:
@@ -360,9 +366,9 @@ class _LayoutPasses:
     # 4. size ---------------------------------------------------------------
     def pass_size(self):
         """Counts and first constraint rows: joints in order, then drivers (one row each)."""
-        self.nbody, self.njoint = len(self.bodies), len(self.ideal)
+        self.nbody, self.njoint = len(self.body_names), len(self.joint_parts)
         self.ndriver, self.nclear, self.nforce = len(self.drivers), len(self.pairs), len(self.forces)
-        types = [JOINT_TYPES[s.value.name] for s in self.ideal]
+        types = [jt for _, jt, _ in self.joint_parts]
         rows = JOINT_ROWS[np.array(types, dtype=np.int64)] if types else np.zeros(0, np.int64)
         self.joint_row = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64) if types \
             else np.zeros(0, np.int64)
@@ -399,9 +405,10 @@ class _LayoutPasses:
         self._sigma_cache: dict[str, float] = {}
         for st in self.materials.values():
             self._sigma(st.name, st.name_pos)
+        self._fill_beams()
         self.jfriction: list[int] = []
-        for k, st in enumerate(self.ideal):
-            self._fill_joint(k, st)
+        for k, (st, jt, name) in enumerate(self.joint_parts):
+            self._fill_joint(k, st, jt, name)
         self.a["joint_friction"] = np.array(self.jfriction, dtype=np.int64)
         self.clearance_assembly = []
         self.clearance_wear = {}
@@ -415,6 +422,7 @@ class _LayoutPasses:
         g = self.elements.get("gravity")
         if g is not None:
             self.a["gravity"][:] = vector_si(self.ev, g.value, U.ACCELERATION, "")
+        self._beam_weights()
         self.settings = self._settings(self.elements.get("simulate"))
 
     def _expression_context(self) -> Context:
@@ -503,6 +511,11 @@ class _BodyPass:
 
     def _ref(self, e: Expr, what: str, point=True) -> tuple[int, tuple[float, float]]:
         """`crank`, `crank (0.025, 0)` or `crank (p)` → (body id, point in the body frame)."""
+        if isinstance(e, Name) and e.name in self.beam_first:
+            raise e.pos.error(f"{what} names beam `{e.name}` without a node",
+                              hint=f"`{e.name} (start)`, `{e.name} (end)` or `{e.name} (k)`")
+        if isinstance(e, Call) and e.name in self.beam_first:
+            return self._beam_node(e), (0.0, 0.0)
         if isinstance(e, Name):
             name = e.name
             if e.name in self.ev.params:
@@ -569,13 +582,15 @@ class _BodyPass:
 class _JointPass:
     """Ideal joints: bodies, points, axes and the relative angle or length they keep."""
 
-    def _fill_joint(self, k: int, st: Statement):
+    def _fill_joint(self, k: int, st: Statement, jt: JointType, name: str):
         c: Call = st.value
-        label = f"joint `{st.name}` ({c.name})"
+        label = f"joint `{name}` ({c.name})"
         f = self._fields(st, label, JOINT_FIELDS[c.name], c)
-        jt = JOINT_TYPES[c.name]
         bi, pi, bj, pj = self._two_refs(st, label)
         a = self.a
+        if jt == JointType.BEAM_SLOPE:
+            self._fill_slope(k, st, label, f, bi, bj)
+            return
         a["joint_type"][k] = int(jt)
         a["joint_body"][k] = (bi, bj)
         a["joint_point"][k] = (pi, pj)
@@ -607,6 +622,11 @@ class _JointPass:
         if values.get("block_length", 0.0) < 0:
             raise f.expr("block_length").pos.error(f"the block length of {label} must not be negative",
                                                    hint="the length of the sliding block, e.g. `block_length = 50 mm`")
+        on_beam = [b for b in self.a["joint_body"][k] if b >= 0 and len(self.a.get("body_beam", ())) > b
+                   and self.a["body_beam"][b] >= 0]
+        if mus > 0 and on_beam:
+            raise f.expr("friction").pos.error(f"{label} joins a beam: joint friction is for rigid bodies only",
+                                               hint="put the friction on a joint between rigid bodies, or remove it")
         if mus > 0:
             self.jfriction.append(k)
 
@@ -739,8 +759,14 @@ class _ClearancePass:
     def _effective_mass(self, bi: int, bj: int) -> float:
         """m_i m_j / (m_i + m_j) of a contact pair (ground: the other body's mass), the translational
         masses alone: what the Kelvin-Voigt law's damping from a restitution is sized for."""
-        w = sum(1.0 / self.a["body_mass"][b] for b in (bi, bj) if b >= 0)
+        w = sum(1.0 / self._translational_mass(b) for b in (bi, bj) if b >= 0)
         return 1.0 / w if w > 0 else math.inf
+
+    def _translational_mass(self, b: int) -> float:
+        """A body's mass; a beam's node: the mass a force there moves (`beams.node_mass`)."""
+        if b >= self.nrigid:
+            return B.node_mass(KernelModel(**{k: v for k, v in self.a.items() if k in KernelModel._fields}), b)
+        return float(self.a["body_mass"][b])
 
     def _fill_pair(self, k: int, kind: int, bodies, points, law, K, n, ce, sigma, c, f: Fields, **cols):
         p = self.a["clearance_param"][k]
@@ -1347,10 +1373,13 @@ class _CheckPass:
 
         self.model = Model(
             kernel=kernel, settings=self.settings, q0=self.q0, qd0=self.qd0,
-            body_names=[s.name for s in self.bodies], joint_names=[s.name for s in self.ideal],
+            body_names=list(self.body_names), joint_names=[name for _, _, name in self.joint_parts],
             driver_names=[s.name for s in self.drivers], clearance_names=[n for n, _ in self.pairs],
             force_names=[s.name for s in self.forces], body_geometry=self.geometry,
-            body_source=refs(self.bodies), joint_source=refs(self.ideal),
+            body_source=refs(self.bodies + [s for s in self.beam_statements
+                                            for _ in range(2 * (self.beam_elements[s.name] + 1))]),
+            joint_source=refs([st for st, _, _ in self.joint_parts]),
+            beam_names=[s.name for s in self.beam_statements],
             driver_source=refs(self.drivers), clearance_source=refs([s for _, s in self.pairs]),
             clearance_assembly=self.clearance_assembly, clearance_wear=self.clearance_wear,
             parameters=self.parameters, source_text=self.spec.text, source_path=self.spec.path,
@@ -1361,10 +1390,11 @@ class _CheckPass:
 
 
 # ------------------------------------------------------------------ the compiler
-class Compiler(_SymbolPasses, _LayoutPasses, _BodyPass, _JointPass, _ClearancePass, _DriverPass, _ForcePass,
+class Compiler(_SymbolPasses, _LayoutPasses, _BodyPass, _BeamPass, _JointPass, _ClearancePass, _DriverPass, _ForcePass,
                _SettingsPass, _CheckPass):
     """Runs the passes in order over one ModelSpec."""
 
+    MATERIAL_FIELDS_ = MATERIAL_FIELDS
     PASSES = ("collect", "resolve_params", "assign_ids", "size", "allocate", "fill", "check")
 
     def __init__(self, spec: ModelSpec, overrides: dict[str, str]):

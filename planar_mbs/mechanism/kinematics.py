@@ -275,6 +275,10 @@ def _isolated_bodies(model: Model) -> list[str]:
     used = set()
     for arr in (k.joint_body, k.clearance_body, k.driver_body, k.force_body):
         used.update(int(b) for b in np.asarray(arr).ravel() if b >= 0)
+    beam = np.asarray(k.body_beam)
+    if beam.size:  # a beam's node bodies are held together by the beam: one of them used, all are
+        tied = {int(beam[b]) for b in used if beam[b] >= 0}
+        used.update(b for b in range(beam.size) if beam[b] in tied)
     return [n for b, n in enumerate(model.body_names) if b not in used]
 
 

@@ -228,6 +228,10 @@ ST_OUTPUTS = 4
 ST_INFO = 5  # status detail: constraint row, clearance joint or body index involved
 N_STATS = 8
 
+BP_LENGTH, BP_EA, BP_EI, BP_ETA, BP_RHO_A = range(5)  # beam_param columns (element length)
+N_BEAM_PARAM = 5
+
+
 # ---- the observation row: one definition, written by kernel.loop.observe, read by signals.signal_table.
 # Blocks in order (`observation_layout` gives their first columns): q, q', q'' (3 nbody each), joint
 # reactions (N_JOINT_SIGNALS per ideal joint), driver efforts, driver powers (one per driver),
@@ -334,6 +338,14 @@ class KernelModel(NamedTuple):
     table_period: np.ndarray = np.zeros(0)  # (ntable,) period of a periodic table (0: held at its end values outside)
     table_seg: np.ndarray = np.zeros((0, 5))  # (nknot, 5) knot x_k and y = c0 + c1 d + c2 d^2 + c3 d^3, d = x - x_k
     joint_friction: np.ndarray = np.zeros(0, dtype=np.int64)  # (njfriction,) int: the joints with friction, in order
+    # beams (kernel/beam.py): node k of a beam is two massless bodies, its position and its slope (first + 2 k,
+    # first + 2 k + 1); none by default
+    beam_info: np.ndarray = np.zeros((0, 4), dtype=np.int64)  # (nbeam, 4) int: first node body, elements, offset in beam_mass and beam_minv, offset in beam_weight
+    beam_param: np.ndarray = np.zeros((0, 5))  # (nbeam, BP_*): element length, EA, EI, damping time eta, rho A
+    beam_mass: np.ndarray = np.zeros(0)  # every beam's constant mass matrix (nb x nb, nb = 4 (elements + 1)), row by row
+    beam_minv: np.ndarray = np.zeros(0)  # its inverse, the same layout
+    beam_weight: np.ndarray = np.zeros(0)  # every beam's constant generalised weight (nb each)
+    body_beam: np.ndarray = np.zeros(0, dtype=np.int64)  # (nbody,) int: the beam of a node body, -1 for a rigid body (empty without beams)
 
 
 def read_only(arr: np.ndarray) -> np.ndarray:
@@ -457,6 +469,7 @@ class Model:
     # what the compiler took but warns about (a number without a unit taken in SI), each rendered as
     # `file:line:col: warning: ...` with its line and hint; `mbs check` and `mbs run` print them
     warnings: list = field(default_factory=list)
+    beam_names: list = field(default_factory=list)  # the beams (`body NAME = beam`), their node bodies after the rigid ones
 
     @property
     def nbody(self) -> int:
@@ -500,7 +513,8 @@ class Model:
 
     @property
     def ncoord(self) -> int:
-        return 3 * self.nbody
+        """The coordinates: 3 per rigid body, 4 per node of a beam (its two bodies' third slots unused)."""
+        return 3 * self.nbody - int(np.sum(np.asarray(self.kernel.body_beam) >= 0))
 
     @property
     def size(self) -> float:

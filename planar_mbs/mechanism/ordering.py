@@ -87,5 +87,10 @@ def row_order(joint_type: np.ndarray, joint_body: np.ndarray,
 
 def reorder(km: KernelModel) -> KernelModel:
     """The same model with its constraint rows in the fill-reducing order."""
-    jrow, drow = row_order(km.joint_type, km.joint_body, km.driver_body)
+    jb, db = np.asarray(km.joint_body, np.int64), np.asarray(km.driver_body, np.int64)
+    bb = np.asarray(km.body_beam, np.int64)
+    if bb.size:  # a beam's node bodies couple through its mass: one node of the graph per beam
+        g = np.where(bb >= 0, len(bb) + bb, np.arange(len(bb)))
+        jb, db = (np.where(x >= 0, g[np.maximum(x, 0)], -1) for x in (jb, db))
+    jrow, drow = row_order(km.joint_type, jb, db)
     return km._replace(joint_row=jrow, driver_row=drow)

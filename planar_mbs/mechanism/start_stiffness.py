@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import catalog
 from ..lazy import lazy
+from . import beams
 from .kinematics import _evaluate, _model_error, assembly_kernel, start_gaps
 from .model import CP_CLEARANCE, CP_KIND, CP_R_BEARING, CP_R_JOURNAL, CT_IMPACT_VELOCITY, CT_MODE, \
     N_CONTACT_STATE, TOUCHING, Model, PairKind, Settings
@@ -80,7 +81,7 @@ def start_contacts(model: Model, q: np.ndarray, qd: np.ndarray) -> list[StartCon
 
 def _inverse_mass(model: Model, q, qd) -> np.ndarray:
     """P of the module docstring: the inverse mass matrix on the motions the ideal constraints allow."""
-    Minv = np.diag(model.kernel.minv)
+    Minv = beams.inverse_mass_matrix(model.kernel)  # a beam's block besides the rigid bodies' diagonal
     km, owners = assembly_kernel(model, use=[], slides=False)
     if not owners:
         return Minv

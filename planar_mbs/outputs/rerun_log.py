@@ -551,6 +551,8 @@ def _body_strips(scene: _Scene, b: int, geom: dict) -> list[np.ndarray]:
     """Line strips (nf, k, 2) drawing body `b`: its shape, and the outline through its points."""
     k, pose, idx = scene.model.kernel, scene.pose, scene.idx
     kind = geom.get("kind", "")
+    if kind in ("beam_node", "beam_slope"):  # a beam is drawn once, from its first node
+        return _beam_strips(scene, b) if kind == "beam_node" and b in set(k.beam_info[:, 0]) else []
     center = scene.center(b)
     body_axis = np.stack(_rot(pose[b][2][idx]), 1)
     strips = []  # each (nf, k, 2)
@@ -591,6 +593,22 @@ def _body_strips(scene: _Scene, b: int, geom: dict) -> list[np.ndarray]:
     return strips
 
 
+def _beam_strips(scene: _Scene, b: int) -> list[np.ndarray]:
+    """The bent centre line (nf, k, 2) of the beam whose first node is body b: each element's cubic
+    Hermite curve (`kernel/beam.py`) through its nodes' positions and slopes, 8 segments each."""
+    k = scene.model.kernel
+    bm = int(np.flatnonzero(np.asarray(k.beam_info)[:, 0] == b)[0])
+    nel, Le = int(k.beam_info[bm, 1]), float(k.beam_param[bm, 0])
+    xi = np.linspace(0.0, 1.0, 9)[:, None, None]
+    H = (1 - 3 * xi ** 2 + 2 * xi ** 3, Le * (xi - 2 * xi ** 2 + xi ** 3), 3 * xi ** 2 - 2 * xi ** 3, Le * (xi ** 3 - xi ** 2))
+    parts = []
+    for e in range(nel):
+        r1, s1, r2, s2 = (scene.center(b + 2 * e + i) for i in range(4))  # (nf, 2) each
+        seg = H[0] * r1 + H[1] * s1 + H[2] * r2 + H[3] * s2  # (9, nf, 2)
+        parts.append(seg if e == 0 else seg[1:])
+    return [np.concatenate(parts, 0).transpose(1, 0, 2)]
+
+
 def _log_body(scene: _Scene, b: int, name: str) -> None:
     """One body as line strips over the frames, with its colour and width."""
     model, rr = scene.model, scene.rr
@@ -618,8 +636,10 @@ def _log_pins(scene: _Scene) -> None:
     """Centres of mass, ideal-joint pins (at the first body's point), ground pins and slide guides."""
     model, rr, rec, k, pose = scene.model, scene.rr, scene.rec, scene.model.kernel, scene.pose
     ent, nf, idx, size = scene.info.entities, scene.nf, scene.idx, scene.size
-    com = np.stack([scene.center(b) for b in range(model.nbody)], 1)
-    scene.send("mechanism/com", rr.Points2D.columns(positions=_up(com.reshape(-1, 2))).partition(np.full(nf, model.nbody)))
+    shown = [b for b in range(model.nbody) if not (b < len(model.body_geometry) and model.body_geometry[b]
+                                                   and model.body_geometry[b].get("kind") == "beam_slope")]
+    com = np.stack([scene.center(b) for b in shown], 1)  # a beam's slope bodies are no points of the plane
+    scene.send("mechanism/com", rr.Points2D.columns(positions=_up(com.reshape(-1, 2))).partition(np.full(nf, len(shown))))
     rec.log("mechanism/com", rr.Points2D.from_fields(radii=scene.ui(2.0), colors=_rgba((0, 0, 0)), draw_order=41.0),
             static=True)
     ent.append("mechanism/com")

@@ -620,6 +620,9 @@ class _RowPacker:
         for (_, packed, _, src, combined), buf in zip(self.entities, self._buffers):
             block = np.take(rows, src, axis=1, out=buf[:n], mode="clip")  # "clip": no buffering of `out`
             for j, sig in combined:  # into their field, without temporaries
+                if sig.op == "beam":  # a beam's strain, curvature, moment or energy (`signals.beam_signals`)
+                    block[:, j] = sig.extract(rows)
+                    continue
                 a, b = (rows[:, c] for c in sig.columns[:2])
                 with np.errstate(over="ignore", invalid="ignore"):  # rows of a run that blew up: inf, NaN
                     if sig.op == "hypot":

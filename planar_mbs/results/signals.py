@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import catalog
+from ..mechanism import beams
 from ..mechanism.model import (
     CS_E,
     CS_EX,
@@ -133,6 +134,7 @@ class Signal:
     unit: str
     columns: tuple[int, ...]
     op: str = "col"
+    params: tuple = ()  # a beam's: ("strain" | "curvature" | "moment", Le, EI, xi) or ("energy", nel, Le, EA, EI)
 
     @property
     def name(self) -> str:
@@ -144,7 +146,35 @@ class Signal:
             return cols[:, 0].copy()
         if self.op == "hypot":
             return np.hypot(cols[:, 0], cols[:, 1])
+        if self.op == "beam":
+            return _beam_values(cols, self.params)
         return cols.sum(axis=1)
+
+
+def _beam_values(cols: np.ndarray, params: tuple) -> np.ndarray:
+    """A beam's derived signal from its coordinates' columns (`mechanism.beams`)."""
+    if params[0] == "energy":
+        return beams.energy_rows(cols, *params[1:])
+    what, Le, ei, xi = params
+    eps, kap = beams.strains_rows(cols, Le, xi)
+    return eps if what == "strain" else kap if what == "curvature" else ei * kap
+
+
+def beam_signals(model: Model) -> list:
+    """Per beam: each element's axial strain, curvature and bending moment EI kappa at its middle
+    (`NAME_element<k>`), and the beam's strain energy (`NAME.elastic_energy`), from its node columns."""
+    k = model.kernel
+    out = []
+    for bm, name in enumerate(model.beam_names):
+        first, nel = int(k.beam_info[bm, 0]), int(k.beam_info[bm, 1])
+        Le, ea, ei = (float(v) for v in k.beam_param[bm, :3])
+        cols = tuple(beams.q_index(first, i) for i in range(beams.NODE_COORDS * (nel + 1)))
+        for e in range(nel):
+            ce = cols[beams.NODE_COORDS * e:beams.NODE_COORDS * e + 8]
+            out += [Signal(f"{name}_element{e}", q, u, ce, "beam", (q, Le, ei, 0.5))
+                    for q, u in (("strain", "1"), ("curvature", "1/m"), ("moment", "N*m"))]
+        out.append(Signal(name, "elastic_energy", "J", cols, "beam", ("energy", nel, Le, ea, ei)))
+    return out
 
 
 def signal_table(model: Model) -> list[Signal]:
@@ -211,7 +241,7 @@ def signal_table(model: Model) -> list[Signal]:
         table += [Signal(name, "power", "W", (col + FS_POWER,)), Signal(name, "work", "J", (col + FS_WORK,))]
     for d, name in enumerate(model.driver_names):
         table.append(Signal(name, "work", "J", (lay[OB_DRIVER_WORK] + d,)))
-    return table
+    return table + beam_signals(model)
 
 
 def skip_bits(model: Model, columns=None) -> int:

@@ -1,0 +1,118 @@
+"""A beam's constant matrices, formed once when the model is compiled (the kernel's ANCF cable
+element, `kernel/beam.py`, run as plain Python).
+
+A beam of n elements of length L_e has n + 1 nodes of 4 coordinates (x, y, dx/ds, dy/ds), node k's
+at ``4 k .. 4 k + 3`` of the beam's own coordinate vector.  Its consistent mass matrix is constant
+and banded (each element couples two nodes); the time loop reads its inverse (`inverse_mass`,
+from its Cholesky factor: symmetric positive definite), so the accelerations of a beam cost one
+dense product per right-hand side and nothing is factored while a run goes.  The time loop holds
+each node as two bodies of the rigid-body layout with no mass of their own: its position (x, y) and
+its slope (dx/ds, dy/ds), the third coordinate of each unused.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..pykernel import beam as pybeam  # the kernel's element as plain Python, without numba
+
+NODE_COORDS = 4
+
+
+def beam_mass(nel: int, Le: float, rho_a: float) -> np.ndarray:
+    """The assembled consistent mass matrix (4 (nel + 1) square)."""
+    n = NODE_COORDS * (nel + 1)
+    M = np.zeros((n, n))
+    me = np.zeros((8, 8))
+    pybeam.element_mass(Le, rho_a, np.zeros((3, 4)), me)
+    for k in range(nel):
+        o = NODE_COORDS * k
+        M[o:o + 8, o:o + 8] += me
+    return M
+
+
+def inverse_mass(M: np.ndarray) -> np.ndarray:
+    """M^-1 through its Cholesky factor (M is symmetric positive definite), symmetrised."""
+    L = np.linalg.cholesky(M)
+    Linv = np.linalg.solve(L, np.eye(M.shape[0]))
+    Minv = Linv.T @ Linv
+    return 0.5 * (Minv + Minv.T)
+
+
+def gravity_force(nel: int, Le: float, rho_a: float, g) -> np.ndarray:
+    """The constant generalised weight rho A int S^T g ds of the whole beam."""
+    n = NODE_COORDS * (nel + 1)
+    Q = np.zeros(n)
+    w = rho_a * Le * np.array([0.5, Le / 12.0, 0.5, -Le / 12.0])  # int_0^1 (S1, L S2, S3, L S4) dxi
+    for k in range(nel):
+        o = NODE_COORDS * k
+        for a in range(4):
+            Q[o + 2 * a] += w[a] * g[0]
+            Q[o + 2 * a + 1] += w[a] * g[1]
+    return Q
+
+
+def straight_coordinates(nel: int, length: float, start, angle: float) -> np.ndarray:
+    """The nodal coordinates of a straight, unstretched beam from `start` at `angle`."""
+    c, s = np.cos(angle), np.sin(angle)
+    e = np.zeros(NODE_COORDS * (nel + 1))
+    for k in range(nel + 1):
+        d = length * k / nel
+        e[4 * k:4 * k + 4] = (start[0] + d * c, start[1] + d * s, c, s)
+    return e
+
+
+def elastic_forces(e, ed, nel: int, Le: float, ea: float, ei: float, eta: float = 0.0) -> np.ndarray:
+    """The elastic (and damping) generalised force of the whole beam, in plain Python."""
+    Q = np.zeros_like(e)
+    pybeam.beam_forces(e, ed, 0, nel, Le, ea, ei, eta, np.zeros((3, 4)), np.zeros(8), np.zeros(8),
+                       np.zeros(8), Q)
+    return Q
+
+
+def strain_energy(e, nel: int, Le: float, ea: float, ei: float) -> float:
+    return pybeam.beam_energy(e, 0, nel, Le, ea, ei, np.zeros((3, 4)))
+
+
+def q_index(first: int, i: int) -> int:
+    """Index in q of a beam's coordinate i (as `kernel.beam.beam_qindex`: node i // 4 is the bodies
+    first + 2 (i // 4) (position) and the next (slope))."""
+    return 3 * (first + 2 * (i // NODE_COORDS) + (i % NODE_COORDS) // 2) + i % 2
+
+
+def strains_rows(E: np.ndarray, Le: float, xi: float) -> tuple[np.ndarray, np.ndarray]:
+    """(eps, kappa) at xi of one element for each row of its coordinates E (rows, 8)."""
+    sh = np.zeros((3, 4))
+    pybeam.shape(xi, Le, sh)
+    x1, y1 = E[:, 0::2] @ sh[1], E[:, 1::2] @ sh[1]
+    x2, y2 = E[:, 0::2] @ sh[2], E[:, 1::2] @ sh[2]
+    g = x1 * x1 + y1 * y1
+    return 0.5 * (g - 1.0), (x1 * y2 - y1 * x2) / (g * np.sqrt(g))
+
+
+def energy_rows(E: np.ndarray, nel: int, Le: float, ea: float, ei: float) -> np.ndarray:
+    """The strain energy of a whole beam for each row of its coordinates E (rows, 4 (nel + 1))."""
+    U = np.zeros(E.shape[0])
+    for k in range(nel):
+        for xi, w in zip(pybeam.GAUSS_XI, pybeam.GAUSS_W):
+            eps, kap = strains_rows(E[:, NODE_COORDS * k:NODE_COORDS * k + 8], Le, xi)
+            U += 0.5 * Le * w * (ea * eps * eps + ei * kap * kap)
+    return U
+
+
+def inverse_mass_matrix(km) -> np.ndarray:
+    """The whole dense M^-1 of a model's coordinates: the rigid bodies' diagonal and each beam's block."""
+    Minv = np.diag(np.asarray(km.minv, dtype=float))
+    for first, nel, mo, _ in np.asarray(km.beam_info, dtype=np.int64).reshape(-1, 4):
+        nb = NODE_COORDS * (int(nel) + 1)
+        idx = [q_index(int(first), i) for i in range(nb)]
+        Minv[np.ix_(idx, idx)] = np.asarray(km.beam_minv[mo:mo + nb * nb]).reshape(nb, nb)
+    return Minv
+
+
+def node_mass(km, b: int) -> float:
+    """The mass a point force at node body b of a beam moves: 1 / (M^-1)_xx of its node."""
+    bm = int(km.body_beam[b])
+    first, nel, mo, _ = (int(v) for v in km.beam_info[bm])
+    nb = NODE_COORDS * (nel + 1)
+    i = 2 * (b - first)
+    return 1.0 / float(km.beam_minv[mo + i * nb + i])
