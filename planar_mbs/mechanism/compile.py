@@ -625,7 +625,7 @@ class _JointPass:
         on_beam = [b for b in self.a["joint_body"][k] if b >= 0 and len(self.a.get("body_beam", ())) > b
                    and self.a["body_beam"][b] >= 0]
         if mus > 0 and on_beam:
-            raise f.expr("friction").pos.error(f"{label} joins a beam: joint friction is for rigid bodies only",
+            raise (f.expr("friction").pos if f.has("friction") else st.name_pos).error(f"{label} joins a beam: joint friction is for rigid bodies only",
                                                hint="put the friction on a joint between rigid bodies, or remove it")
         if mus > 0:
             self.jfriction.append(k)
