@@ -120,7 +120,6 @@ KELVIN_VOIGT = int(ContactLaw.KELVIN_VOIGT)
 N_LAWS = len(catalog.LAWS)
 AMBROSIO = int(FrictionModel.AMBROSIO)
 STRIBECK = int(FrictionModel.STRIBECK)
-LUGRE = int(FrictionModel.LUGRE)
 # per friction model code: 1 = it sticks (catalog.FrictionSpec.stick)
 STICKS = np.array([1 if m.stick else 0 for m in catalog.FRICTION_MODELS], dtype=np.int64)
 CIRCLE_IN_CIRCLE = int(PairKind.CIRCLE_IN_CIRCLE)
@@ -288,7 +287,7 @@ def sticks(p):
 
 @kernel
 def state_index(p):
-    """Index j of element p's own state (LuGre's bristle deflection z = y[2n + j]), or -1."""
+    """Index j of element p's own state (LuGre's sigma_0 z = y[2n + j]), or -1."""
     return int(p[CP_STATE]) - 1
 
 

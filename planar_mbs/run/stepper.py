@@ -69,12 +69,20 @@ class Stepper:
 
     @property
     def y(self) -> np.ndarray:
-        """The state (q, q'), the trajectory's own array (a study may change it between segments)."""
+        """The state (q, q', z), the trajectory's own array (a study may change it between segments); z,
+        LuGre's bristles (`Model.nstate`), is empty in most models."""
         return self.driver.data.y
 
     @y.setter
     def y(self, value) -> None:
-        self.driver.data.y[:] = value
+        """A whole state, or (q, q') alone: the bristles then start relaxed (z = 0)."""
+        y = self.driver.data.y
+        value = np.asarray(value, dtype=np.float64)
+        if value.shape[0] == 2 * self.model.ncoord < y.shape[0]:
+            y[:value.shape[0]] = value
+            y[value.shape[0]:] = 0.0
+        else:
+            y[:] = value
 
     @property
     def contact(self) -> np.ndarray:
