@@ -197,6 +197,14 @@ JOINTS: tuple[JointSpec, ...] = (
 )
 
 
+def joint_param_columns() -> tuple[str, ...]:
+    """The columns of the model's ``joint_param``: every setting's column, in order of first use."""
+    cols: list[str] = []
+    for spec in JOINTS:
+        cols += [s.column for s in spec.settings if s.column and s.column not in cols]
+    return tuple(cols)
+
+
 @dataclass(frozen=True, kw_only=True)
 class BeamSpec:
     """A flexible body of the language (`body NAME = beam { ... }`): its element, formulas and fields."""
@@ -228,14 +236,6 @@ BEAM = BeamSpec(
     reference='Gerstmayr & Shabana, "Analysis of thin beams and cables using the absolute nodal co-ordinate '
               'formulation", Nonlinear Dynamics 45 (2006)',
     example="body rod = beam { length = 0.3 m  section = rectangle(10 mm, 5 mm)  material = steel  elements = 8 }")
-
-
-def joint_param_columns() -> tuple[str, ...]:
-    """The columns of the model's ``joint_param``: every setting's column, in order of first use."""
-    cols: list[str] = []
-    for spec in JOINTS:
-        cols += [s.column for s in spec.settings if s.column and s.column not in cols]
-    return tuple(cols)
 
 
 # the clearance joint is a force element, not a constraint: its name is a joint type of the language
