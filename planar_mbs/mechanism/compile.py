@@ -630,11 +630,12 @@ class _JointPass:
         if mus > 0:
             self.jfriction.append(k)
 
-    def _joint_setting(self, f: Fields, st: Statement, label: str, setting, bi, pi, bj, pj, values) -> float:
-        """A number setting of a joint (catalog.JointSetting) in SI, its default taken from the pose or
-        from a setting read before it."""
+    def _joint_setting(self, f: Fields, st: Statement, label: str, setting, bi, pi, bj, pj,
+                       values: dict | None = None) -> float:
+        """A number setting of a joint or force (catalog.JointSetting) in SI, its default taken from the pose
+        or from a setting read before it (`values`, a joint's settings so far)."""
         default = setting.default
-        if isinstance(default, str) and default in values:
+        if isinstance(default, str) and default in (values or {}):
             default = values[default]
         elif default == "pose":
             default = (self._angle0(bj) - self._angle0(bi) if setting.unit == "angle"
