@@ -358,8 +358,9 @@ def constraint_eval(km, q, qd, t, C, Cq, Ct, gamma) -> int:
     qd = np.ascontiguousarray(qd, dtype=np.float64)
     nb = len(q) // 3
     cs = np.empty((nb, 2))
-    cs[:, 0] = np.cos(q[2::3])
-    cs[:, 1] = np.sin(q[2::3])
+    for b in range(nb):  # the C library's cos and sin, as the compiled kernels call (numpy's own
+        cs[b, 0] = math.cos(q[3 * b + 2])  # vectorised ones round by processor)
+        cs[b, 1] = math.sin(q[3 * b + 2])
     m = C.shape[0]
     J = np.zeros((m, 2, 3))
     reg, modes, _ = expression_scratch(km)  # this call's own: the model stays read-only

@@ -89,6 +89,7 @@ from .expressions import FUNCTIONS as EXPRESSION_FUNCTIONS, Context, Programs
 from . import beams as B
 from .beam_pass import _BeamPass, is_beam
 from .ordering import reorder
+from .portable import rotate
 from . import restitution as R
 from ..language.parse import KEYWORDS, MAX_MODEL_BYTES, decode_model, parse_expression, parse_model
 from ..language.spec import BinOp, Call, Expr, Field, ModelSpec, Name, Neg, Number, Pos, Statement, Vector
@@ -201,11 +202,6 @@ SIM_FIELDS = {"t_end": "end time", "integrator": " | ".join(catalog.names(catalo
 _CALL_NAMES = {*FUNCTIONS, *JOINT_FIELDS, *DRIVER_KINDS, *FORCE_KINDS, *MOTIONS, *LAWS, "bar", "box", "circle", "rectangle"}
 RESERVED = {"ground": "the fixed body", "system": "the name of the system signals", "pi": "the constant pi"}
 SINGLETONS = ("gravity", "simulate")
-
-
-def _rot(phi: float) -> np.ndarray:
-    c, s = math.cos(phi), math.sin(phi)
-    return np.array([[c, -s], [s, c]])
 
 
 # ------------------------------------------------------------------ the passes
@@ -547,7 +543,7 @@ class _BodyPass:
         s = np.asarray(s, dtype=float)
         if b < 0:
             return s
-        return self.q0[3 * b:3 * b + 2] + _rot(self.q0[3 * b + 2]) @ s
+        return self.q0[3 * b:3 * b + 2] + rotate(self.q0[3 * b + 2], s)
 
     def _two_refs(self, st: Statement, what: str, point=True):
         c: Call = st.value
@@ -1149,8 +1145,8 @@ class _DriverPass:
             coord, rate = U.LENGTH, U.VELOCITY
             axis = self._unit_axis(f, "axis")
             a["driver_axis"][k] = axis
-            u = _rot(self._angle0(bi)) @ np.array(axis)
-            p0 = float(u @ (self._world(bj, pj) - self._world(bi, p_i)))
+            u = rotate(self._angle0(bi), axis)
+            p0 = float((u * (self._world(bj, pj) - self._world(bi, p_i))).sum())
         # motion: speed = X | motion = m(...) | a positional m(...)
         motions = [e for e in (f.expr("motion"), *c.args[1:]) if e is not None]
         self._no_second_body(c.args[1:], c.args[0], label)

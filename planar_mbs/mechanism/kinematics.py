@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..lazy import lazy
+from .portable import matvec, min_norm_step, rotate
 from .model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, JOINT_ROWS,
                     JP_PHI0, JointType, KernelModel, Model, PairKind)
 
@@ -119,11 +120,9 @@ def _guide_frame(q: np.ndarray, a: tuple):
     ends = []
     for b, p in zip((bi, bj), pts):
         phi = q[3 * b + 2] if b >= 0 else 0.0
-        rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
-        ends.append((q[3 * b:3 * b + 2] if b >= 0 else np.zeros(2)) + rot @ np.asarray(p, dtype=np.float64))
+        ends.append((q[3 * b:3 * b + 2] if b >= 0 else np.zeros(2)) + rotate(phi, p))
     phi_i = q[3 * bi + 2] if bi >= 0 else 0.0
-    c, s = np.cos(phi_i), np.sin(phi_i)
-    n = np.array([-s * a[5][0] - c * a[5][1], c * a[5][0] - s * a[5][1]])  # A_i (-u_y, u_x)
+    n = rotate(phi_i, (-a[5][1], a[5][0]))  # A_i (-u_y, u_x)
     return ends[0], ends[1], n
 
 
@@ -290,8 +289,7 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
             break
         if np.max(np.abs(C)) < POSITION_TOL:
             break
-        dq, *_ = np.linalg.lstsq(Cq, -C, rcond=None)
-        q += dq
+        q += min_norm_step(Cq, -C, RANK_TOL)
     C, Cq, Ct = _evaluate(km, q, qd, t, m)
     finite = bool(np.all(np.isfinite(Cq)))
     if finite:  # singular values for the rank test
@@ -362,11 +360,9 @@ def assemble(model: Model, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         v = np.nan_to_num(start[c, 2:])
         bi = int(k.clearance_body[c, 0])
         phi = q[3 * bi + 2] if bi >= 0 else 0.0
-        rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
-        target[r0 + 2 * i:r0 + 2 * i + 2] = -(rot @ v)
+        target[r0 + 2 * i:r0 + 2 * i + 2] = -rotate(phi, v)
     _slide_velocities(model, Cqv, target, qd)
-    dqd, *_ = np.linalg.lstsq(Cqv, target - Cqv @ qd, rcond=None)
-    return q, qd + dqd
+    return q, qd + min_norm_step(Cqv, target - matvec(Cqv, qd), RANK_TOL)
 
 
 def _slide_velocities(model: Model, Cqv: np.ndarray, target: np.ndarray, qd: np.ndarray) -> None:
@@ -377,7 +373,7 @@ def _slide_velocities(model: Model, Cqv: np.ndarray, target: np.ndarray, qd: np.
     for s, a in enumerate(slide_joints(model)):
         _, _, vel, rate = a[8]
         for row, given in ((r + 2 * s, rate), (r + 2 * s + 1, vel)):  # the angle row, then the axis row
-            target[row] = float(Cqv[row] @ qd) if np.isnan(given) else given
+            target[row] = float((Cqv[row] * qd).sum()) if np.isnan(given) else given
 
 
 def assembly_changes(model: Model, q: np.ndarray, qd: np.ndarray, rtol: float | None = None,
@@ -491,7 +487,7 @@ def _rank_nearby(km: KernelModel, q, t, m, size: float, tries: int = 3):
                 r = _rank(km, x, t, m)[0]
                 best = r if best is None else max(best, r)
                 break
-            x = x - np.linalg.lstsq(Cq, C, rcond=None)[0]
+            x = x - min_norm_step(Cq, C, RANK_TOL)
     return best
 
 

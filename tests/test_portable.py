@@ -1,0 +1,83 @@
+"""mechanism/portable.py: the assembly's linear algebra, checked against numpy's LAPACK path (an
+independent method) and for the one thing it is for: the same bits whatever BLAS kernel or numpy SIMD
+code the processor selects."""
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planar_mbs.mechanism.portable import matvec, min_norm_step, rotate
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("m, n", [(1, 3), (6, 9), (30, 45), (12, 12)])
+def test_the_step_of_a_full_rank_system_is_the_pseudo_inverse_one(m, n):
+    rng = np.random.default_rng(m * n)
+    A, b = rng.standard_normal((m, n)), rng.standard_normal(m)
+    x = min_norm_step(A, b, 1e-9)
+    expected = A.T @ np.linalg.solve(A @ A.T, b)  # normal equations of the smallest solution
+    np.testing.assert_allclose(x, expected, rtol=0, atol=1e-11 * np.abs(expected).max())
+
+
+def test_a_repeated_and_a_combined_row_add_no_rank_and_the_step_still_meets_them():
+    """A redundant joint's rows are combinations of others (consistent right-hand side): the step is
+    the smallest that meets all rows, which is lstsq's minimum-norm solution."""
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((5, 9))
+    A = np.vstack([A, A[1], 2 * A[0] - A[3]])
+    b = A @ rng.standard_normal(9)
+    x = min_norm_step(A, b, 1e-9)
+    np.testing.assert_allclose(A @ x, b, atol=1e-12)
+    np.testing.assert_allclose(x, np.linalg.lstsq(A, b, rcond=None)[0], atol=1e-12)
+
+
+def test_a_zero_matrix_gives_a_zero_step():
+    assert np.all(min_norm_step(np.zeros((3, 4)), np.ones(3), 1e-9) == 0)
+
+
+def test_products_and_rotations():
+    rng = np.random.default_rng(5)
+    A, x = rng.standard_normal((7, 4)), rng.standard_normal(4)
+    np.testing.assert_allclose(matvec(A, x), A @ x, rtol=1e-14)
+    phi, s = 0.7, np.array([0.3, -1.2])
+    R = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
+    np.testing.assert_allclose(rotate(phi, s), R @ s, rtol=1e-15)
+
+
+_ASSEMBLE = """
+import hashlib, numpy as np, planar_mbs as mbs
+from planar_mbs.mechanism.kinematics import assemble
+from planar_mbs.mechanism.portable import min_norm_step
+for name in ("slider_crank_clearance_a", "parallelogram_chain", "redundant_rails"):
+    q, qd = assemble(mbs.load_model("models/%s.mbs" % name))
+    print(hashlib.sha1(q.tobytes() + qd.tobytes()).hexdigest())
+A = np.random.default_rng(0).standard_normal((30, 45))
+print(hashlib.sha1(min_norm_step(A, A[:, 0], 1e-9).tobytes()).hexdigest())
+print(hashlib.sha1(np.linalg.lstsq(A, A[:, 0], rcond=None)[0].tobytes()).hexdigest())
+"""
+
+
+def test_the_assembled_state_has_the_same_bits_whatever_kernels_the_processor_selects():
+    """OpenBLAS picks its kernels by core type and numpy its SIMD loops by instruction set; forcing
+    other choices (as another processor would make them) leaves the assembled state of the shipped
+    models and the step of a random system bit for bit the same.  The last line, LAPACK's lstsq, is
+    the control: it does change with the BLAS kernel, so the forcing takes effect."""
+    if platform.machine() not in ("x86_64", "AMD64"):
+        pytest.skip("the forced kernels are x86 names")
+    choices = [{}, {"OPENBLAS_CORETYPE": "Prescott"}, {"OPENBLAS_CORETYPE": "Haswell"},
+               {"OPENBLAS_CORETYPE": "SkylakeX"}, {"NPY_DISABLE_CPU_FEATURES": "X86_V3,X86_V4,AVX512_ICL"}]
+    prints = []
+    for extra in choices:
+        env = {**os.environ, **extra}
+        out = subprocess.run([sys.executable, "-c", _ASSEMBLE], cwd=ROOT, env=env, capture_output=True,
+                             text=True, check=True, timeout=120)
+        prints.append(out.stdout.split())
+    assert all(p[:4] == prints[0][:4] for p in prints), prints
+    assert len({p[4] for p in prints}) > 1, "no forced kernel changed LAPACK's result: the check has no teeth here"
