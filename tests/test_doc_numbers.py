@@ -154,7 +154,7 @@ def test_the_peaks_of_the_laws_on_the_replication_page_are_the_programs():
 
 
 def test_the_long_run_tables_of_the_replication_page_are_its_data(monkeypatch):
-    """docs/replication.md: the verdicts, the claims and the bifurcation table are what
+    """docs/replication.md: the verdicts, the claims (those on the laws too) and the bifurcation table are what
     docs/scripts/replicate.py renders from docs/replication_data.json (the runs' numbers), so no number of
     those tables was typed or left behind by an edit; every Benettin exponent of a periodic case is
     negative and within a factor 2 of its Floquet exponent (the two methods of run/lyapunov.py)."""
@@ -165,7 +165,8 @@ def test_the_long_run_tables_of_the_replication_page_are_its_data(monkeypatch):
     replicate = __import__("replicate")
     text = (ROOT / "docs" / "replication.md").read_text(encoding="utf-8")
     data = json.loads((ROOT / "docs" / "replication_data.json").read_text(encoding="utf-8"))
-    for name, body in replicate.case_tables(data).items():
+    blocks = {**replicate.case_tables(data), "laws_claims": replicate.laws_claims(data["laws"])}
+    for name, body in blocks.items():
         block = text[text.index(f"<!-- BEGIN generated:{name} -->\n"):text.index(f"<!-- END generated:{name} -->")]
         assert block.split("\n", 1)[1].rstrip("\n") == body, name
     periodic = [c for c in data["cases"] if c["class"] == "periodic"]
