@@ -22,23 +22,13 @@ from planar_mbs import compile_text, load_model, simulate
 from planar_mbs.errors import ModelError
 from planar_mbs.mechanism.model import Settings
 
+from friction_blocks import SLOPE
+
 G = 9.81
 K = 1e7  # N/m, the normal contact's stiffness
 RTOL, ATOL = Settings().rtol, Settings().atol
 
-BLOCK = """
-gravity (0, -9.81 m/s^2)
-body block {{ mass = 1 kg  inertia = 1e-3 kg*m^2  position = ({x0}, {y0})  velocity = ({vx}, {vy})
-              shape = circle(10 mm) }}
-driver hold = rotation(block, speed = 0 rad/s)
-joint plane = contact(ground (0, 0), block) {{
-    shape = circle_on_line  normal = ({nx}, {ny})  radius = 10 mm
-    law = kelvin_voigt  stiffness = {K} N/m  restitution = 0.5
-    friction_model = lugre  {friction}
-}}
-{extra}
-simulate {{ t_end = {t_end} s  output_step = {dt} s }}
-"""
+BLOCK = SLOPE.replace("{friction}", "friction_model = lugre  {friction}")
 
 
 def block(friction, t_end, dt, theta=0.0, v0=0.0, extra="", lift=0.0, vy=0.0):

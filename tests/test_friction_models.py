@@ -17,20 +17,10 @@ from scipy.optimize import brentq
 from planar_mbs import Simulation, compile_text, simulate
 from planar_mbs.errors import ModelError
 
+from friction_blocks import SLOPE
+
 G = 9.81
 K = 1e7  # N/m, the contact's stiffness (the stuck contact's tangential one too: stick_stiffness = 1)
-SLOPE = """
-gravity (0, -9.81 m/s^2)
-body block {{ mass = 1 kg  inertia = 1e-3 kg*m^2  position = ({x0}, {y0})  velocity = ({vx}, {vy})
-              shape = circle(10 mm) }}
-driver hold = rotation(block, speed = 0 rad/s)
-joint plane = contact(ground (0, 0), block) {{
-    shape = circle_on_line  normal = ({nx}, {ny})  radius = 10 mm
-    law = kelvin_voigt  stiffness = {K} N/m  restitution = 0.5  {friction}
-}}
-{extra}
-simulate {{ t_end = {t_end} s  output_step = {dt} s }}
-"""
 
 
 def slope_text(theta, friction, t_end, dt=1e-3, extra="", v0=0.0):
