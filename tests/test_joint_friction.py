@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from planar_mbs import compile_text, simulate
+from planar_mbs import Simulation, compile_text, simulate
 from planar_mbs.errors import ModelError, SimulationError
 
 G = 9.81
@@ -205,6 +205,22 @@ def test_a_ramp_force_breaks_the_block_away_at_the_static_friction():
     np.testing.assert_allclose(res["block.x"][after], x, rtol=1e-7, atol=1e-12)
     assert np.all(res["S.stick"][~after] == 1) and np.all(res["S.stick"][after] == 0)
     np.testing.assert_allclose(res["S.friction_force"][~after], -k * t[~after], rtol=1e-9, atol=1e-12)
+
+
+def test_a_slow_ramp_breaks_the_block_away_at_mu_s_m_g_over_a_located_to_a_nanosecond():
+    """F = a t along a level slide: the rigid slide's normal reaction is m g exactly, so the stick holds
+    until a t* = mu_s m g and the located switch sits at t* = mu_s m g / a: stuck at t* - 1 ns,
+    slipping at t* + 1 ns, for a slow ramp (t* = 0.59 s, thousands of steps) and a fast one."""
+    m, mus = 2.0, 0.3
+    for a in (10.0, 1e3):
+        text = SLIDE.format(m=m, theta=0.0, ux=1.0, uy=0.0, friction=f"friction = 0.2  static_friction = {mus}",
+                            extra=f"force push = expression(block (0, 0), fx = {a} N/s * t)", t_end=1.0)
+        t_star = mus * m * G / a
+        sim = Simulation(compile_text(text))
+        sim.run_until(t_star - 1e-9)
+        assert sim.latest("S.stick") == 1.0
+        sim.run_until(t_star + 1e-9)
+        assert sim.latest("S.stick") == 0.0
 
 
 def test_a_push_high_on_a_short_block_wedges_it():
