@@ -145,6 +145,7 @@ def mutated_model(draw):
     return name, "".join(toks)
 
 
+@pytest.mark.slow  # 1200 compiled models (~10 s); the random-text fuzz stays in the default run
 @FUZZ
 @given(mutated_model())
 def test_mutated_shipped_models_give_only_model_errors(case):

@@ -139,6 +139,7 @@ def _wait_for_case(out: Path, proc, deadline=120) -> bool:
     return False
 
 
+@pytest.mark.slow  # waits for a long sweep to store its first case (~15 s)
 def test_run_and_merge_into_a_file_a_sweep_writes_are_refused(sandbox):
     out = sandbox / "sw.h5"
     a, b = sandbox / "a.h5", sandbox / "b.h5"
