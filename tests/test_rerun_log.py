@@ -303,6 +303,34 @@ def test_mbs_run_rerun(tmp_path):
     _assert_exact_envelope(res, "slider.vx", t_ns, vx, R.frame_rate(res, R.model_from_results(res)))
 
 
+
+def test_stick_and_slip_of_the_belt_oscillator_are_on_the_timeline(tmp_path):
+    """The belt oscillator sticks, slips and sticks again within 1.5 s (from the spring's rest length it
+    rides the belt until the spring pulls mu_s m g, 0.78 s; it slips for less than a period
+    2 pi sqrt(m/k) = 0.63 s): every change of its `on_belt.stick`
+    signal is an `events/friction` entry at that sample's time, and its force arrow is green exactly
+    on the frames where the contact is stuck."""
+    from pathlib import Path
+
+    from planar_mbs.cli.app import app as real
+
+    model = Path(__file__).resolve().parents[1] / "models" / "belt_oscillator.mbs"
+    res = runner.invoke(real, ["run", str(model), "-o", str(tmp_path / "b.h5"), "--rerun", str(tmp_path / "b.rrd"),
+                               "-q", "--t-end", "1.5 s"])
+    assert res.exit_code == 0, res.output
+    results, rrd = read_results(tmp_path / "b.h5"), read_rrd(tmp_path / "b.rrd")
+    stuck = results["on_belt.stick"] > 0.5
+    flips = np.flatnonzero(np.diff(stuck.astype(int))) + 1
+    assert len(flips) >= 3
+    log = rrd["events/friction"]
+    np.testing.assert_allclose(log["time"] * 1e-9, results.time[flips], atol=1e-9)
+    assert [t[0].split(":")[1].split()[0] for t in log["TextLog:text"]] == ["sticks" if s else "slips" for s in stuck[flips]]
+    arrows = rrd["forces/contact/on_belt"]
+    frames = np.searchsorted(results.time, arrows["time"] * 1e-9 - 1e-12)
+    green = np.array([c[0] == R._rgba(R.STUCK)[0] for c in arrows["Arrows2D:colors"]])
+    assert green.any() and not green.all()
+    assert (green == stuck[frames]).all()
+
 # ---------------------------------------------------------------- viewers that fail, outputs of other runs
 def _viewer_that_fails(tmp_path, monkeypatch):
     """A stand-in `rerun` module, first on the viewer's path, that fails as rerun does without a display."""

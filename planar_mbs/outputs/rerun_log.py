@@ -22,6 +22,8 @@ Entity paths::
     signals/<entity>/<quantity>       Scalars: every signal, as a peak-preserving envelope
                                       (per frame bin the first sample, the min and the max)
     events/contact                    TextLog: contact onsets (with impact velocity)
+    events/friction                   TextLog: where each element's friction sticks and slips
+                                      (a stuck contact's force arrow is drawn green)
     poincare/<x>_vs_<y>               Points2D: Poincaré points, normalised to [-1, 1]
                                       (the scale is in poincare/axes)
 
@@ -63,6 +65,8 @@ from ..results.views import (
     driver_names,
     poincare,
     slider_body,
+    stick_changes,
+    sticking_elements,
     turning_body,
 )
 
@@ -95,6 +99,7 @@ BEARING = (60, 60, 60)
 JOURNAL = (255, 127, 14)
 REACTION = (31, 119, 180)
 CONTACT = (214, 39, 40)
+STUCK = (44, 160, 44)  # a contact force while its friction sticks
 
 
 def _rerun():
@@ -120,6 +125,7 @@ class RecordingInfo:
     signal_mode: str = ""  # "envelope", "full" or "every nth sample"
     signal_rate: float = 0.0  # envelope bins per simulated second
     signal_samples: int = 0  # scalar samples logged, all signals together
+    friction_events: int = 0  # stick and slip events logged
 
 
 def model_from_results(results: "Results") -> "Model":
@@ -185,8 +191,8 @@ def _angle(pose: dict, body: int, idx: np.ndarray) -> np.ndarray:
 
 def frame_rate(results: "Results", model: "Model | None", fps: float | None = None,
                max_frames: int = MAX_FRAMES) -> float:
-    """Frames per simulated second: `fps`, or 90 per revolution of the turning body
-    (else 1000 frames in all), lowered so that the run has at most `max_frames`."""
+    """Frames per simulated second: `fps`, or 90 per revolution of the turning body where it turns
+    at least once (else 1000 frames in all), lowered so that the run has at most `max_frames`."""
     t = results.time
     span = float(t[-1] - t[0]) if len(t) else 0.0
     if span <= 0:
@@ -197,7 +203,9 @@ def frame_rate(results: "Results", model: "Model | None", fps: float | None = No
         if body and f"{body}.omega" in results:
             omega = float(np.median(np.abs(results[f"{body}.omega"])))
             rate = omega / (2 * math.pi) * FRAMES_PER_REVOLUTION
-        fps = rate if rate > 0 else DEFAULT_FRAMES / span
+        # a body that turns less than a revolution in the run (one held still by a zero-speed driver)
+        # does not set the pace
+        fps = rate if rate * span >= FRAMES_PER_REVOLUTION else DEFAULT_FRAMES / span
     if span * fps + 1 > max_frames:  # too many frames asked: spread max_frames over the run
         fps = (max_frames - 1) / span
     return float(fps)
@@ -415,6 +423,7 @@ def _record_all(rr, rec, results, model, path, magnify, fps, max_frames, signals
         raise ValueError(f"signals must be one of {SIGNAL_MODES}, not {signals!r}")
     _log_signals(rr, rec, results, model, signals, signal_rate, max(1, int(signal_stride)), fps, max_frames, info)
     _log_contacts(rr, rec, results, info)
+    _log_friction(rr, rec, results, info)
     _log_poincare(rr, rec, results, model, poincare_pair, skip, info)
     return info
 
@@ -715,13 +724,15 @@ def _log_forces(scene: _Scene, results, magnify: float) -> None:
         ent.append(f"forces/joints/{n}")
     for (c, n), F in zip(contacts, c_forces):
         origin = scene.journal_c[c] + scene.radius_j[c] * scene.normal[c]
-        scene.send(f"forces/contact/{n}", rr.Arrows2D.columns(origins=_up(origin), vectors=_up(F * scale)))
-        rec.log(f"forces/contact/{n}", rr.Arrows2D.from_fields(radii=scene.ui(2.0), colors=_rgba(CONTACT),
-                                                               draw_order=51.0), static=True)
+        stuck = np.asarray(results[f"{n}.stick"])[idx] > 0.5 if f"{n}.stick" in results else np.zeros(len(idx), bool)
+        colors = np.where(stuck, _rgba(STUCK)[0], _rgba(CONTACT)[0]).astype(np.uint32)
+        scene.send(f"forces/contact/{n}", rr.Arrows2D.columns(origins=_up(origin), vectors=_up(F * scale),
+                                                              colors=colors))
+        rec.log(f"forces/contact/{n}", rr.Arrows2D.from_fields(radii=scene.ui(2.0), draw_order=51.0), static=True)
         ent.append(f"forces/contact/{n}")
     rec.log("mechanism/legend", rr.TextDocument(
         f"clearance magnified x{magnify:g}; force arrows (joint reactions and contact forces) "
-        f"{scale * 1e3:.3g} mm/N"), static=True)
+        f"{scale * 1e3:.3g} mm/N; a contact force is green while its friction sticks"), static=True)
 
 
 def _log_signals(rr, rec, results, model, mode: str, rate: float | None, stride: int, fps, max_frames,
@@ -804,6 +815,21 @@ def _log_contacts(rr, rec, results, info: RecordingInfo) -> None:
                          columns=rr.TextLog.columns(text=[texts[i] for i in order], level=["INFO"] * len(order)))
         info.entities.append("events/contact")
     info.contact_onsets = len(times)
+
+
+def _log_friction(rr, rec, results, info: RecordingInfo) -> None:
+    """Each stick and slip of every element whose friction can stick, at its sample's time."""
+    times, texts = [], []
+    for element in sticking_elements(results):
+        for i, stuck in zip(*stick_changes(results, element)):
+            times.append(results.time[i])
+            texts.append(f"{element}: {'sticks' if stuck else 'slips'} at t = {results.time[i]:.9g} s")
+    if times:
+        order = np.argsort(times, kind="stable")
+        rec.send_columns("events/friction", indexes=_time_column(rr, np.asarray(times)[order]),
+                         columns=rr.TextLog.columns(text=[texts[i] for i in order], level=["INFO"] * len(order)))
+        info.entities.append("events/friction")
+    info.friction_events = len(times)
 
 
 def _log_poincare(rr, rec, results, model, pair, skip, info: RecordingInfo) -> None:

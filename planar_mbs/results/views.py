@@ -169,6 +169,19 @@ def contact_onsets(results: "Results", joint: str) -> np.ndarray:
     return np.nonzero(on[1:] & ~on[:-1])[0] + 1
 
 
+def stick_changes(results: "Results", element: str) -> tuple[np.ndarray, np.ndarray]:
+    """Sample indices where `element`'s friction sticks or slips (its ``stick`` signal changes), and
+    the state from there on (True: stuck)."""
+    stuck = np.asarray(results[f"{element}.stick"]) > 0.5
+    i = np.nonzero(stuck[1:] != stuck[:-1])[0] + 1
+    return i, stuck[i]
+
+
+def sticking_elements(results: "Results") -> list[str]:
+    """The elements whose friction can stick (those with a ``stick`` signal), in the file's order."""
+    return [name[:-len(".stick")] for name in results.signals if name.endswith(".stick")]
+
+
 class _WindowSignals(dict):
     """Signals of a results object cut to a time window, read (and cut) on first access."""
 
