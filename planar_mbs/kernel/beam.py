@@ -221,6 +221,20 @@ def beam_minv_mul(km, f, sign, out):
 
 
 @kernel
+def beam_node_mobility(km, b, nx, ny):
+    """n^T (M^-1)_b n: the inverse of the mass that a point force along n at node body b moves
+    (the node's 2x2 block of the beam's inverse mass; the node body has no mass of its own)."""
+    bm = km.body_beam[b]
+    first = km.beam_info[bm, 0]
+    nb = NODE_COORDS * (km.beam_info[bm, 1] + 1)
+    mo = km.beam_info[bm, 2]
+    i = beam_local(first, b, 0)
+    mxx = km.beam_minv[mo + i * nb + i]
+    mxy = km.beam_minv[mo + i * nb + i + 1]
+    myy = km.beam_minv[mo + (i + 1) * nb + i + 1]
+    return nx * nx * mxx + 2.0 * nx * ny * mxy + ny * ny * myy
+
+@kernel
 def beam_schur_entry(body_beam, beam_info, beam_minv, J, rb, r, c):
     """The beams' part of S[r, c] = Cq_r M^-1 Cq_c^T: pairs of node bodies of one beam in rows r, c."""
     s = 0.0

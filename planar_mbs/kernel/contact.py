@@ -105,6 +105,7 @@ from ..mechanism.model import (
     PairKind,
     Status,
 )
+from .beam import beam_node_mobility
 from .constraints import point_cs, point_state
 from .forces import add_point_force
 from .wear import worn, worn_kinematics
@@ -719,9 +720,13 @@ def contact_energy(km, q, qd, contact):
 
 @kernel
 def _inverse_mass_along(km, b, ax, ay, nx, ny):
-    """1/m + (a x n)^2 / I of body b for a force along n at arm a (0 for ground)."""
+    """1/m + (a x n)^2 / I of body b for a force along n at arm a (0 for ground); at a beam's node
+    the beam's mobility there (`beam_node_mobility`: its node bodies have no mass of their own, and
+    a contact on one passes through the node, a = R_J n)."""
     if b < 0:
         return 0.0
+    if km.body_beam.shape[0] > 0 and km.body_beam[b] >= 0:
+        return beam_node_mobility(km, b, nx, ny)
     r = ax * ny - ay * nx
     return 1.0 / km.body_mass[b] + r * r / km.body_inertia[b]
 
