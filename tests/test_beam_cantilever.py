@@ -15,29 +15,47 @@ from planar_mbs.mechanism import beams
 L, EA, EI, RHO_A = 1.2, 2.0e7, 400.0, 7.8
 
 
+def stiffness(e, nel, h=1e-7):
+    """The tangent stiffness -dQ/de of the whole beam, element by element by central differences of
+    the element's exact forces."""
+    Le, K = L / nel, np.zeros((e.size, e.size))
+    sh, zero, de, dk = np.zeros((3, 4)), np.zeros(8), np.zeros(8), np.zeros(8)
+    for k in range(0, 4 * nel, 4):
+        for j in range(8):
+            f = []
+            for d in (h, -h):
+                ep, out = e[k:k + 8].copy(), np.zeros(8)
+                ep[j] += d
+                beams.pybeam.element_forces(ep, zero, Le, EA, EI, 0.0, sh, de, dk, out)
+                f.append(out)
+            K[k:k + 8, k + j] -= (f[0] - f[1]) / (2 * h)
+    return K
+
+
 def static(nel, load):
     """Newton on the free coordinates (node 0 clamped at the origin along x) for the external
-    generalised force load(e); the stiffness by central differences of the element's exact forces."""
+    generalised force load(e): the elastic stiffness element by element, the load's by central
+    differences."""
     Le = L / nel
     e = beams.straight_coordinates(nel, L, (0.0, 0.0), 0.0)
     zero = np.zeros_like(e)
     free = np.arange(4, e.size)
-    residual = lambda e: (beams.elastic_forces(e, zero, nel, Le, EA, EI) + load(e))[free]
     for _ in range(60):
-        r = residual(e)
-        K = np.empty((free.size, free.size))
-        for j, i in enumerate(free):
-            h = 1e-7
-            ep, em = e.copy(), e.copy()
-            ep[i] += h
-            em[i] -= h
-            K[:, j] = (residual(ep) - residual(em)) / (2 * h)
-        step = np.linalg.solve(K, r)
-        e[free] -= step
+        r = (beams.elastic_forces(e, zero, nel, Le, EA, EI) + load(e))[free]
+        K = stiffness(e, nel) - np.stack([load_change(load, e, i) for i in range(e.size)], axis=1)
+        step = np.linalg.solve(K[np.ix_(free, free)], r)
+        e[free] += step
         if np.abs(step).max() < 1e-13 * L:
             return e
     raise AssertionError("no static equilibrium")
 
+
+def load_change(load, e, i, h=1e-7):
+    """d load / d e_i by central differences."""
+    ep, em = e.copy(), e.copy()
+    ep[i] += h
+    em[i] -= h
+    return (load(ep) - load(em)) / (2 * h)
 
 
 def _at_tip(e, comp, value):
@@ -91,24 +109,20 @@ def test_end_moment_bends_a_circle_and_converges():
     assert kerr[-1] < 2e-3 and np.all((korders > 1.8) & (korders < 2.4)), korders
 
 
-def bending_frequencies(nel, count=2):
-    """Bending frequencies of the clamped beam linearised about straight: the transverse coordinates
-    (y, dy/ds) of the free nodes, K by central differences of the exact forces, consistent M."""
-    Le = L / nel
+def frequencies(nel, idx):
+    """The frequencies (ascending; an unstable mode's negative) of the beam linearised about straight
+    on its coordinates idx (the others held), K from `stiffness`, the consistent M."""
     e0 = beams.straight_coordinates(nel, L, (0.0, 0.0), 0.0)
-    zero = np.zeros_like(e0)
-    M = beams.beam_mass(nel, Le, RHO_A)
-    idx = np.array([4 * k + c for k in range(1, nel + 1) for c in (1, 3)])
-    K = np.empty((idx.size, idx.size))
-    for j, i in enumerate(idx):
-        h = 1e-9  # the axial stiffness's cubic term errs by EA h^2 / EI: small steps
-        ep, em = e0.copy(), e0.copy()
-        ep[i] += h
-        em[i] -= h
-        K[:, j] = -(beams.elastic_forces(ep, zero, nel, Le, EA, EI) -
-                    beams.elastic_forces(em, zero, nel, Le, EA, EI))[idx] / (2 * h)
-    w2 = eigh(0.5 * (K + K.T), M[np.ix_(idx, idx)], eigvals_only=True)
-    return np.sqrt(w2[:count])
+    K = stiffness(e0, nel, h=1e-9)[np.ix_(idx, idx)]  # small steps: the axial cubic term's EA h^2 / EI
+    M = beams.beam_mass(nel, L / nel, RHO_A)[np.ix_(idx, idx)]
+    w2 = eigh(0.5 * (K + K.T), M, eigvals_only=True)
+    return np.sign(w2) * np.sqrt(np.abs(w2))
+
+
+def bending_frequencies(nel, count=2):
+    """The clamped beam's first bending frequencies: the transverse coordinates (y, dy/ds) of the
+    free nodes."""
+    return frequencies(nel, np.array([4 * k + c for k in range(1, nel + 1) for c in (1, 3)]))[:count]
 
 
 def test_cantilever_bending_frequencies_converge_at_order_four():
