@@ -3,7 +3,9 @@ deflection P L^3 / (3 EI) of a small tip load, the circle of curvature M / EI th
 bends it into (large rotations, with its measured convergence), the large deflection of a dead tip
 load against the elastica (Bisshopp and Drucker's elliptic integrals, and this energy's extensible
 elastica by shooting; with its measured convergence), and the first two bending frequencies
-(beta_n L = 1.8751, 4.6941) of the linearised beam with their measured order of convergence."""
+(beta_n L = 1.8751, 4.6941) of the linearised beam with their measured order of convergence.  Free:
+the linearised beam's three rigid modes and its first two bending frequencies (beta_n L = 4.7300,
+7.8532) with their measured order."""
 from __future__ import annotations
 
 import math
@@ -221,3 +223,21 @@ def test_cantilever_bending_frequencies_converge_at_order_four():
     orders = np.log2(errs[:-1] / errs[1:])
     assert np.all((orders > 3.8) & (orders < 4.2)), orders  # measured 3.97-3.99
 
+
+def test_free_free_bending_frequencies_converge_at_order_four():
+    """The unconstrained beam on all its coordinates: three rigid modes (two translations, the
+    rotation) at zero, then omega_n = (beta_n L)^2 sqrt(EI / (rho A L^4)), beta_n L the roots of
+    cos x cosh x = 1, from above at order 4 like the cantilever's."""
+    f = lambda x: math.cos(x) * math.cosh(x) - 1.0
+    roots = [brentq(f, 4.0, 5.5, xtol=1e-14), brentq(f, 7.0, 8.5, xtol=1e-14)]
+    assert roots == pytest.approx([4.7300, 7.8532], abs=1e-4)
+    exact = np.array(roots) ** 2 * math.sqrt(EI / (RHO_A * L ** 4))
+    w = [frequencies(n, np.arange(4 * (n + 1))) for n in (8, 16, 32)]
+    # zero to the rounding of K by differences (measured 2e-5 omega_1 at most); a rigid motion that
+    # strained the element would show at the bending scale
+    assert all(np.abs(wn[:3]).max() < 1e-3 * exact[0] for wn in w)
+    errs = np.array([wn[3:5] / exact - 1.0 for wn in w])
+    assert np.all(errs > 0), errs  # Rayleigh-Ritz: from above
+    assert np.abs(errs[-1]).max() < 1e-5, errs  # measured 3e-7, 2.5e-6 at 32 elements
+    orders = np.log2(errs[:-1] / errs[1:])
+    assert np.all((orders > 3.7) & (orders < 4.3)), orders  # measured 3.89-3.99
