@@ -112,7 +112,9 @@ def element_energy(e, L, ea, ei, sh):
 @kernel
 def element_forces(e, ed, L, ea, ei, eta, sh, de, dk, out):
     """out (8,) -= the gradient of the strain energy and the material damping force at (e, e').
-    `sh` (3, 4), `de`, `dk` (8,) are scratch (d eps/de, d kappa/de)."""
+    `sh` (3, 4), `de`, `dk` (8,) are scratch (d eps/de, d kappa/de).  Returns the damping force's
+    power, -eta int (EA eps_dot^2 + EI kappa_dot^2) ds (<= 0)."""
+    pd = 0.0
     for g in range(GAUSS_POINTS):
         shape(GAUSS_XI[g], L, sh)
         x1 = _interp(e, sh, 1, 0)
@@ -142,22 +144,26 @@ def element_forces(e, ed, L, ea, ei, eta, sh, de, dk, out):
                 kapd += dk[i] * ed[i]
             fa += eta * ea * epsd
             fb += eta * ei * kapd
+            pd -= L * GAUSS_W[g] * eta * (ea * epsd * epsd + ei * kapd * kapd)
         w = L * GAUSS_W[g]
         for i in range(ELEMENT_COORDS):
             out[i] -= w * (fa * de[i] + fb * dk[i])
+    return pd
 
 
 @kernel
 def beam_forces(q, qd, first, nel, L, ea, ei, eta, sh, de, dk, fe, Q):
     """Q[first:] -= elastic and damping forces of a beam of `nel` elements of length L whose
-    coordinates start at q[first] (node k at first + 4 k); fe (8,) scratch."""
+    coordinates start at q[first] (node k at first + 4 k); fe (8,) scratch.  Returns the damping's power."""
+    pd = 0.0
     for k in range(nel):
         o = first + NODE_COORDS * k
         for i in range(ELEMENT_COORDS):
             fe[i] = 0.0
-        element_forces(q[o:o + ELEMENT_COORDS], qd[o:o + ELEMENT_COORDS], L, ea, ei, eta, sh, de, dk, fe)
+        pd += element_forces(q[o:o + ELEMENT_COORDS], qd[o:o + ELEMENT_COORDS], L, ea, ei, eta, sh, de, dk, fe)
         for i in range(ELEMENT_COORDS):
             Q[o + i] += fe[i]
+    return pd
 
 
 @kernel
@@ -296,7 +302,9 @@ def beam_constraint_force(ws, x, out):
 
 @kernel
 def beam_applied(km, ws, q, qd):
-    """ws.Qe += every beam's weight and elastic and damping forces; returns the weight's power."""
+    """ws.Qe += every beam's weight and elastic and damping forces; returns the weight's power.  The
+    damping's power of beam bm goes to its work channel, ws.pw[-nbeam + bm] (the last ones:
+    `model.work_layout`)."""
     pg = 0.0
     e = beam_row(ws, ROW_E)
     ed = beam_row(ws, ROW_ED)
@@ -313,8 +321,9 @@ def beam_applied(km, ws, q, qd):
             f[i] = km.beam_weight[wo + i]
             pg += f[i] * qd[k]
         p = km.beam_param[bm]
-        beam_forces(e, ed, 0, nel, p[0], p[1], p[2], p[3], beam_shape_rows(ws), beam_row(ws, ROW_DE),
-                    beam_row(ws, ROW_DK), beam_row(ws, ROW_FE), f)
+        ws.pw[ws.pw.shape[0] - km.beam_info.shape[0] + bm] = beam_forces(
+            e, ed, 0, nel, p[0], p[1], p[2], p[3], beam_shape_rows(ws), beam_row(ws, ROW_DE), beam_row(ws, ROW_DK),
+            beam_row(ws, ROW_FE), f)
         for i in range(nb):
             ws.Qe[beam_qindex(first, i)] += f[i]
     return pg

@@ -377,6 +377,8 @@ def _observe_system(km, q, qd, contact, ws, row, col, energy, errors, loads):
             Wd -= w[nf + 1 + nd + k] + clearance_energy(km, k, q, qd, contact) - ws.energy0[2 + k]
         for f in range(km.joint_friction.shape[0]):  # the joints' friction work (<= 0) is dissipated
             Wd -= w[nf + 1 + nd + nc + f]
+        for bm in range(km.beam_info.shape[0]):  # and the beams' material damping's (the last channels)
+            Wd -= w[w.shape[0] - km.beam_info.shape[0] + bm]
     row[col + SYS_GRAVITY_POWER] = ws.pw[nf] if loads else math.nan
     row[col + SYS_GRAVITY_WORK] = w[nf]
     row[col + SYS_INPUT_WORK] = Win

@@ -219,7 +219,7 @@ def make_workspace(km: KernelModel) -> Workspace:
     dense[DN_CUT] = 1.0
     nf = len(km.force_type)
     njf = len(km.joint_friction)
-    nw = work_layout(nf, nd, nc, njf)[WL_SIZE]
+    nw = work_layout(nf, nd, nc, njf, len(km.beam_info))[WL_SIZE]
     return Workspace(
         C=np.zeros(m), J=np.zeros((m, 2, 3)), rowbody=rowbody, first=first, lastrow=lastrow,
         cs=np.zeros((nb, 2)), Ct=np.zeros(m), gam=np.zeros(m),

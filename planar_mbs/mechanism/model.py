@@ -286,18 +286,19 @@ def observation_layout(nbody, njoint, ndriver, nclearance, nforce, njfriction=0)
 
 
 # ---- work channels: the powers whose integrals the time loop keeps (`kernel.work`), one per force element,
-# then gravity, one per driver, one per clearance element, one per friction joint; `work_layout` gives their
-# first indices.
-WL_FORCE, WL_GRAVITY, WL_DRIVER, WL_CLEARANCE, WL_JFRICTION, WL_SIZE = range(6)
+# then gravity, one per driver, one per clearance element, one per friction joint, one per beam (its material
+# damping); `work_layout` gives their first indices.
+WL_FORCE, WL_GRAVITY, WL_DRIVER, WL_CLEARANCE, WL_JFRICTION, WL_BEAM, WL_SIZE = range(7)
 
 
-def work_layout(nforce, ndriver, nclearance, njfriction=0):
+def work_layout(nforce, ndriver, nclearance, njfriction=0, nbeam=0):
     """First work channel of each group, and their count, as a tuple indexed by WL_* (compiled too)."""
     gravity = nforce
     driver = gravity + 1
     clearance = driver + ndriver
     jfriction = clearance + nclearance
-    return 0, gravity, driver, clearance, jfriction, jfriction + njfriction
+    beam = jfriction + njfriction
+    return 0, gravity, driver, clearance, jfriction, beam, beam + nbeam
 
 
 class KernelModel(NamedTuple):
