@@ -24,6 +24,7 @@ hdf5 = lazy("planar_mbs.results.hdf5")
 figures = lazy("planar_mbs.outputs.plot")
 views = lazy("planar_mbs.results.views")
 rerun_log = lazy("planar_mbs.outputs.rerun_log")
+wear_plot = lazy("planar_mbs.outputs.wear_plot")
 rich_table = lazy("rich.table")
 spectrum_command = lazy("planar_mbs.cli.spectrum_command")
 
@@ -35,7 +36,8 @@ def _results_path(text: Path) -> Path:
 
 
 ResultsArg = Annotated[Path, typer.Argument(help="HDF5 results file written by `mbs run` (or a sweep file; "
-                                            "one case of a sweep: FILE.h5:/cases/3).", show_default=False)]
+                                            "one case of a sweep: FILE.h5:/cases/3; a wear run's file).",
+                                            show_default=False)]
 
 
 OrbitOpt = Annotated[Optional[list[str]], typer.Option(
@@ -95,7 +97,8 @@ def plot(
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
     Time series (one panel per SIGNAL), Poincaré maps, journal orbits; for a sweep file, a grid
-    per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
+    per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.  A wear
+    run's file: the worn profile and the wear against the cycles, in <file>_wear.png beside it.
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
     mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
@@ -105,13 +108,13 @@ def plot(
     try:
         fmt = check_choice(fmt, figures.FORMATS, "--format")
         file = _results_path(results)
+        if ":/" not in str(results) and hdf5.results_kind(file) == "wear":
+            return _plot_wear(file, output, fmt, title, size, [signals, against, poincare, orbit, spectrum, t_from,
+                                                              t_to, list_, xlabel, ylabel])
         if list_:
             _list_signals(results)
             return
-        window = dict(t_from=check_number(_quantity(t_from, "time", "--from"), "--from", low=0.0, low_ok=True,
-                                          hint="a time from the start of the run, e.g. `--from 0.2s`"),
-                      t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
-                                        hint="a time from the start of the run, e.g. `--to 0.25s`"))
+        window = _window(t_from, t_to)
         notes: list[str] = []
         spectra = spectrum_command.spectrum_options(kind, window_name, resolution, None, None, None) \
             if spectrum else None
@@ -134,6 +137,30 @@ def plot(
         con.print(str(path), markup=False)
     if not written:
         con.print("nothing to plot", markup=False)
+
+
+def _window(t_from, t_to) -> dict:
+    """The --from/--to window of `mbs plot`, checked."""
+    return dict(t_from=check_number(_quantity(t_from, "time", "--from"), "--from", low=0.0, low_ok=True,
+                                    hint="a time from the start of the run, e.g. `--from 0.2s`"),
+                t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
+                                  hint="a time from the start of the run, e.g. `--to 0.25s`"))
+
+
+_RUN_PLOT_OPTIONS = ("SIGNAL", "--against", "--poincare", "--orbit", "--spectrum", "--from", "--to", "--list",
+                     "--xlabel", "--ylabel")  # what `_plot_wear` refuses, in the order it is given them
+
+
+def _plot_wear(file: Path, output, fmt: str, title, size, others: list) -> None:
+    """`mbs plot WEAR.h5`: the worn profile over the updates and the volume and depth against the cycles
+    (`outputs.wear_plot`), beside the file or in the --output folder; the options of a run's plots refused."""
+    given = [flag for flag, value in zip(_RUN_PLOT_OPTIONS, others) if value not in (None, False, [])]
+    if given:
+        raise views.PlotError(f"error: {given[0]} does not apply to the file of a wear run\nhint: `mbs plot "
+                              f"{file}` draws its figure; --output, --format, --title and --size shape it")
+    check_output(output or file.parent, "--output", [("the wear file", file)], folder=True)
+    style = figures.check_style(dict(size=size))
+    _console().print(str(wear_plot.plot_wear_file(file, output, fmt, title, style.get("size"))), markup=False)
 
 
 def _with_clock(spectra, body):

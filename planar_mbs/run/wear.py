@@ -374,6 +374,12 @@ def load_history(path, joint: str | None = None) -> WearHistory:
                            list(g["in_contact_share"][()]))
 
 
+def saved_facts(path, joint: str) -> dict:
+    """The attributes a wear run saved for `joint` (its settings and `run_facts`)."""
+    with h5py.File(str(path), "r", locking=False) as f:
+        return dict(f[f"wear/{joint}"].attrs)
+
+
 def run_wear(model: Model, joint: str, wear: Archard | None = None, **settings) -> WearHistory:
     """The profiles of `joint` after each of `wear.updates` updates (settings as in `simulate`)."""
     return WearRun(model, joint, wear, **settings).run()

@@ -14,9 +14,9 @@ from pathlib import Path
 from ..errors import ModelError
 from ..lazy import lazy
 from ..mechanism.model import Model
-from .wear import STEPPER_SETTINGS, Archard, WearRun, load_history
+from .wear import STEPPER_SETTINGS, Archard, WearRun, load_history, saved_facts
 
-h5py = lazy("h5py")
+hdf5 = lazy("planar_mbs.results.hdf5")
 simulation = lazy("planar_mbs.run.simulation")
 
 COMPARED = ("coefficient", "interval", "factor", "nodes", "depth_step")  # what a resumed run must share
@@ -34,21 +34,12 @@ def wearing_joint(model: Model) -> str | None:
 
 def holds_wear(path) -> bool:
     """True if `path` is an HDF5 file with a wear history (`WearRun.save`)."""
-    try:
-        with h5py.File(str(path), "r", locking=False) as f:
-            return "wear" in f and len(f["wear"]) > 0
-    except Exception:  # noqa: BLE001  (not HDF5, damaged, unreadable: not a wear file)
-        return False
-
-
-def _facts(path, joint: str) -> dict:
-    with h5py.File(str(path), "r", locking=False) as f:
-        return dict(f[f"wear/{joint}"].attrs)
+    return hdf5.results_kind(Path(path)) == "wear"
 
 
 def saved_settings(path, joint: str) -> dict:
     """The integration settings the saved run used (`simulate`'s keywords; {} for a file without them)."""
-    a = _facts(path, joint)
+    a = saved_facts(path, joint)
     return {k: a[f"settings.{k}"] for k in STEPPER_SETTINGS if f"settings.{k}" in a}
 
 
@@ -58,7 +49,7 @@ def _refuse(path, message: str, hint: str):
 
 def _same_model(model: Model, path, joint: str) -> None:
     """Refuse a file made from another model file, with other parameters or another wear of the joint."""
-    a = _facts(path, joint)
+    a = saved_facts(path, joint)
     saved = str(a.get("model", ""))
     now = os.path.abspath(model.source_path) if model.source_path else ""
     new = "start a new wear run in another file (-o), or resume with the model it was made from"
