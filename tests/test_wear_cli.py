@@ -219,3 +219,47 @@ def test_a_signal_leaves_the_last_finished_update_and_says_how_to_go_on(tmp_path
     if total == 4:
         np.testing.assert_allclose(load_history(out).depths[-1], whole.depths[-1], rtol=0,
                                    atol=1e-6 * whole.max_depth())
+
+
+def _rrd(path) -> dict:
+    """{entity: {"static": bool, column: [values in the order of the `update` timeline]}} of a recording."""
+    os.environ["RERUN_TELEMETRY_ENABLED"] = "false"
+    from rerun.chunk import RrdReader
+    out: dict = {}
+    for chunk in RrdReader(path).stream():
+        rb = chunk.to_record_batch()
+        ent = out.setdefault(chunk.entity_path.lstrip("/"), {"static": chunk.is_static})
+        for name in rb.schema.names[1:]:
+            ent.setdefault(name, []).extend(rb.column(name).to_pylist())
+    for ent in out.values():
+        if "update" in ent:
+            order = np.argsort(ent["update"], kind="stable")
+            for name in [n for n in ent if n != "static"]:
+                ent[name] = [ent[name][i] for i in order]
+    return out
+
+
+def test_view_records_the_worn_profile_per_update_on_an_update_timeline(tmp_path):
+    """`mbs view WEAR.h5`: per update the profile R_B + magnify x depth (mm, float32 in the file), the
+    deepest node and the wear signals, on the sequence timeline `update`; --magnify sets the factor."""
+    out = tmp_path / "w.h5"
+    assert _mbs("run", _model(tmp_path), "-o", out, "-q").exit_code == 0
+    r = _mbs("view", out, "--magnify", "200")
+    assert r.exit_code == 0 and "5 updates" in r.output and "magnified 200 times" in r.output, r.output
+    rec, h = _rrd(tmp_path / "w.rrd"), load_history(out)
+    assert rec["wear/J/nominal"]["static"] and rec["model/source"]["static"]
+    profile = rec["wear/J/profile"]
+    assert profile["update"] == [0, 1, 2, 3, 4]
+    for i, strips in enumerate(profile["LineStrips2D:strips"]):
+        pts = np.array(strips[0])
+        np.testing.assert_allclose(np.hypot(pts[:-1, 0], pts[:-1, 1]), (h.radius + 200 * h.depths[i]) * 1e3,
+                                   rtol=0, atol=1e-5)
+    depth = rec["signals/J/max_wear_depth"]
+    assert depth["update"] == [0, 1, 2, 3, 4]
+    np.testing.assert_allclose(depth["Scalars:scalars"], [[h.max_depth(i) * 1e6] for i in range(5)], rtol=1e-12)
+    assert "µm at" in rec["wear/J/deepest"]["Points2D:labels"][-1][0]
+    r = _mbs("view", out, "-o", tmp_path / "auto.rrd")  # by default the deepest wear draws a quarter of R_B
+    pts = np.array(_rrd(tmp_path / "auto.rrd")["wear/J/profile"]["LineStrips2D:strips"][-1][0])
+    assert np.hypot(pts[:, 0], pts[:, 1]).max() == pytest.approx(1.25 * h.radius * 1e3, rel=1e-6)
+    r = _mbs("view", out, "--fps", "30")
+    assert r.exit_code == 2 and "does not apply to the file of a wear run" in r.output and "hint:" in r.output

@@ -25,6 +25,7 @@ figures = lazy("planar_mbs.outputs.plot")
 views = lazy("planar_mbs.results.views")
 rerun_log = lazy("planar_mbs.outputs.rerun_log")
 wear_plot = lazy("planar_mbs.outputs.wear_plot")
+wear_recording = lazy("planar_mbs.outputs.wear_recording")
 rich_table = lazy("rich.table")
 spectrum_command = lazy("planar_mbs.cli.spectrum_command")
 
@@ -160,7 +161,8 @@ def _plot_wear(file: Path, output, fmt: str, title, size, others: list) -> None:
                               f"{file}` draws its figure; --output, --format, --title and --size shape it")
     check_output(output or file.parent, "--output", [("the wear file", file)], folder=True)
     style = figures.check_style(dict(size=size))
-    _console().print(str(wear_plot.plot_wear_file(file, output, fmt, title, style.get("size"))), markup=False)
+    _console().print(str(wear_plot.plot_wear_file(file, output, fmt, title, style.get("size"))), markup=False,
+                     soft_wrap=True)
 
 
 def _with_clock(spectra, body):
@@ -205,8 +207,10 @@ def view(
         "--output", "-o", help="The rerun recording to write.",
         show_default="<results>.rrd next to the results file")] = None,
     open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the recording.")] = False,
-    magnify: Annotated[float, typer.Option(help="Magnification of the clearance (eccentricity and gap) "
-                                                "in the drawing.", min=0.0)] = 10.0,
+    magnify: Annotated[Optional[float], typer.Option(
+        help="Magnification of the clearance (eccentricity and gap) in the drawing; of a wear file, of the "
+             "worn depth.", min=0.0, show_default="10; a wear file: the deepest wear drawn as a quarter of the "
+                                                  "radius")] = None,
     fps: Annotated[Optional[float], typer.Option(
         help="Frames per simulated second.",
         show_default="90 per revolution of the driven body", min=0.0)] = None,
@@ -225,7 +229,8 @@ def view(
     """Turn a results file into a rerun recording (.rrd) and optionally open the viewer.
 
     The moving mechanism (clearance magnified), joint reactions and contact forces as arrows,
-    every signal, contact onsets and Poincaré points, on a `sim_time` timeline.
+    every signal, contact onsets and Poincaré points, on a `sim_time` timeline.  A wear run's file:
+    the worn bearing's profile (magnified) and its wear per update, on a timeline `update`.
 
     Example: mbs view a.h5 -o a.rrd --open
     """
@@ -239,16 +244,35 @@ def view(
         check_output(out, "--output", [("the results file", file)], make_parents=True)
         key = rerun_log.recording_key(results)
         rerun_log.check_replace(out, key, force)
+        if ":/" not in str(results) and hdf5.results_kind(file) == "wear":
+            return _view_wear(file, out, open_, magnify, key, [fps, signal_rate, signal_stride != 1, signals_only,
+                                                               signals != "envelope"])
         res = hdf5.read_results(results)
         if not len(res.time):
             raise views.PlotError(f"error: {results} holds no samples: nothing to record")
         model = None if signals_only else rerun_log.model_from_results(res)
-        record_run(res, model, out, magnify=magnify, fps=fps, signal_stride=signal_stride, open_viewer=open_,
-                   signals=signals, signal_rate=signal_rate, recording_id=key)
+        record_run(res, model, out, magnify=10.0 if magnify is None else magnify, fps=fps,
+                   signal_stride=signal_stride, open_viewer=open_, signals=signals, signal_rate=signal_rate,
+                   recording_id=key)
     except MbsError as err:
         _fail(err)
     except OSError as err:
         _fail(f"error: {err}")
+
+
+def _view_wear(file: Path, out: Path, open_: bool, magnify, key: str, others: list) -> None:
+    """`mbs view WEAR.h5`: the worn profile per update on a rerun timeline `update` (`outputs.wear_recording`);
+    the options of a run's recording refused."""
+    flags = ("--fps", "--signal-rate", "--signal-stride", "--signals-only", "--signals")
+    given = [flag for flag, value in zip(flags, others) if value not in (None, False)]
+    if given:
+        raise views.PlotError(f"error: {given[0]} does not apply to the file of a wear run\nhint: `mbs view "
+                              f"{file}` records its profile per update; --output, --magnify, --open and --force apply")
+    n, factor = wear_recording.record_wear(file, out, magnify, recording_id=key)
+    _console().print(f"rerun recording → {out}: the worn profile at {n} updates (timeline `update`), the depth "
+                     f"magnified {factor:.4g} times", markup=False, soft_wrap=True)
+    if open_:
+        rerun_log.open_viewer(out)
 
 
 def record_run(results, model, path, magnify: float = 10.0, fps: float | None = None, signal_stride: int = 1,

@@ -95,7 +95,7 @@ def _print_start(run, o) -> None:
     h = run.history
     what = f"resuming {o.out} at update {len(h.depths) - 1}" if o.resume else f"wear run of `{h.joint}`"
     _console().print(f"{what}: {run.wear.updates} updates of {run.wear.interval:.4g} s of motion, Archard "
-                     f"k/H = {run.wear.coefficient:.3g} 1/Pa, {run.wear.nodes} nodes", markup=False)
+                     f"k/H = {run.wear.coefficient:.3g} 1/Pa, {run.wear.nodes} nodes", markup=False, soft_wrap=True)
 
 
 def _print_update(run, o) -> None:
@@ -105,19 +105,20 @@ def _print_update(run, o) -> None:
     h, i = run.history, len(run.history.depths) - 1
     _console().print(f"update {i:>3}/{run.wear.updates}  worn {_worn(o, h.worn_times[-1])}  volume "
                      f"{h.volume() * 1e6:.4g} mm²  deepest {h.max_depth() * 1e6:.4g} µm at "
-                     f"{math.degrees(h.max_angle()):.0f}°  peak force {h.peak_forces[-1]:.4g} N", markup=False)
+                     f"{math.degrees(h.max_angle()):.0f}°  peak force {h.peak_forces[-1]:.4g} N", markup=False, soft_wrap=True)
 
 
 def _print_summary(h, o) -> None:
     con = _console()
     n = len(h.depths) - 1
-    con.print(f"[bold]finished[/] {n} updates, worn {_worn(o, h.worn_times[-1])} → {o.out}")
+    con.print("finished", style="bold", end=" ")
+    con.print(f"{n} updates, worn {_worn(o, h.worn_times[-1])} → {o.out}", markup=False, soft_wrap=True)
     con.print(f"  deepest {h.max_depth() * 1e6:.4g} µm at {math.degrees(h.max_angle()):.0f}° (bearing frame), "
-              f"worn volume {h.volume() * 1e6:.4g} mm² per unit width", markup=False)
+              f"worn volume {h.volume() * 1e6:.4g} mm² per unit width", markup=False, soft_wrap=True)
     con.print(f"  peak contact force {h.peak_forces[1]:.4g} N at the first update, {h.peak_forces[-1]:.4g} N at "
-              f"the last; wall time {time.perf_counter() - o.started:.2f} s", markup=False)
+              f"the last; wall time {time.perf_counter() - o.started:.2f} s", markup=False, soft_wrap=True)
     con.print(f"  `mbs plot {o.out}` draws the worn profile; `{_resume_command(o)} --updates {2 * n}` goes on",
-              markup=False)
+              markup=False, soft_wrap=True)
 
 
 def _resume_command(o) -> str:
@@ -132,8 +133,8 @@ def _stopped(o, why: str) -> None:
     wear_job.left_behind(o.out)
     err = _console(stderr=True)
     if o.saved == 0 and not o.resume:
-        err.print(f"{why}\nno update finished: nothing was written", markup=False)
+        err.print(f"{why}\nno update finished: nothing was written", markup=False, soft_wrap=True)
         return
     h = wear_job.load_history(o.out)
     err.print(f"{why}\n{o.out} holds the wear after update {len(h.depths) - 1} of {h.wear.updates} (worn "
-              f"{_worn(o, h.worn_times[-1])}); go on with: {_resume_command(o)}", markup=False)
+              f"{_worn(o, h.worn_times[-1])}); go on with: {_resume_command(o)}", markup=False, soft_wrap=True)

@@ -106,7 +106,8 @@ def start(model: Model, joint: str, path, resume: bool, updates: int | None, **s
     (`updates`: its total instead of the model's)."""
     if resume:
         given = {k: v for k, v in settings.items() if v is not None}
-        saved = {k: v for k, v in saved_settings(path, joint).items() if not ("per_rev" in given and k == "output_step")}
+        saved = {k: v for k, v in saved_settings(path, joint).items()
+                 if not ("per_rev" in given and k == "output_step")}  # --per-rev replaces the saved output step
         settings = {**saved, **given}
         return WearRun.resume(model, path, updates=updates, **settings)
     wear = Archard.of(model, joint)
