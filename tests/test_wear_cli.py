@@ -263,3 +263,13 @@ def test_view_records_the_worn_profile_per_update_on_an_update_timeline(tmp_path
     assert np.hypot(pts[:, 0], pts[:, 1]).max() == pytest.approx(1.25 * h.radius * 1e3, rel=1e-6)
     r = _mbs("view", out, "--fps", "30")
     assert r.exit_code == 2 and "does not apply to the file of a wear run" in r.output and "hint:" in r.output
+
+
+def test_a_failed_update_exits_3_and_leaves_no_half_file(tmp_path):
+    model = _model(tmp_path)
+    capped = tmp_path / "capped.mbs"
+    capped.write_text(f'include "{model.name}"\noverride simulate {{ t_end = 20 ms  rtol = 1e-9  atol = 1e-12  '
+                      'output_step = 0.5 ms  max_steps = 10 }\n')
+    r = _mbs("run", capped, "-o", tmp_path / "w.h5")
+    assert r.exit_code == 3 and "simulation failed" in r.output and "no update finished" in r.output, r.output
+    assert not list(tmp_path.glob("w.h5*"))
