@@ -113,6 +113,7 @@ def _plain_results(folder: Path) -> Path:
     ("other model file", ["it was made from", "other.mbs"]),
     ("other coefficient", ["the wear of `J` differs", "coefficient"]),
     ("other parameters", ["the parameters differ", "omega"]),
+    ("other bodies", ["not one of this model"]),
 ])
 def test_a_bad_resume_exits_2_with_a_hint(tmp_path, case, words):
     model, out = _model(tmp_path), tmp_path / "w.h5"
@@ -124,6 +125,9 @@ def test_a_bad_resume_exits_2_with_a_hint(tmp_path, case, words):
         assert _mbs("run", other, "-o", out, "-q", "--updates", "1").exit_code == 0
         if case == "other coefficient":
             _model(tmp_path, k="0.03")
+        if case == "other bodies":  # the same file, edited: a second body on a pin
+            model.write_text(model.read_text() + "body extra { mass = 1 kg  inertia = 1e-4 kg*m^2  position = (1 m, 0) }"
+                             "\njoint E = revolute(ground (1 m, 0), extra)\n")
         args = ["--set", "omega=50 rad/s"] if case == "other parameters" else []
     before = out.read_bytes() if out.exists() else None
     r = _mbs("run", model, "-o", out, "--resume", *args)

@@ -16,6 +16,7 @@ from ..lazy import lazy
 from ..mechanism.model import Model
 from .wear import STEPPER_SETTINGS, Archard, WearRun, load_history, saved_facts
 
+h5py = lazy("h5py")
 hdf5 = lazy("planar_mbs.results.hdf5")
 simulation = lazy("planar_mbs.run.simulation")
 
@@ -60,6 +61,10 @@ def _same_model(model: Model, path, joint: str) -> None:
     if changed:
         raise _refuse(path, "the parameters differ: " + "; ".join(changed), "give the --set values of the run, or "
                       + new)
+    with h5py.File(str(path), "r", locking=False) as f:
+        shape = f[f"wear/{joint}/state/y"].shape, f[f"wear/{joint}/state/contact"].shape[0]
+    if shape != ((2 * model.ncoord + model.nstate,), model.nclearance):
+        raise _refuse(path, "its saved state is not one of this model (other bodies or joints)", new)
     wear = Archard.of(model, joint)
     differ = [f"{k} = {a.get(k, 0.0):g} there, {getattr(wear, k):g} here" for k in COMPARED
               if not math.isclose(float(a.get(k, 0.0)), float(getattr(wear, k)), rel_tol=1e-12)]
@@ -69,8 +74,8 @@ def _same_model(model: Model, path, joint: str) -> None:
 
 def check_resume(model: Model, path, updates: int | None) -> tuple[str, int]:
     """(joint, total updates) of a wear run in `path` that `model` may continue to `updates` (None: the
-    larger of the file's total and the model's): refused (`ModelError`, exit 2) for a missing file, one without a
-    wear history, one made from another model, or a total it already holds."""
+    larger of the file's total and the model's): refused (`ModelError`, exit 2) for a missing file, one
+    without a wear history, one made from another model, or a total it already holds."""
     joint = wearing_joint(model)
     if not Path(path).is_file():
         raise _refuse(path, "no such file", "start the wear run without --resume (or name its file with -o)")
