@@ -116,6 +116,9 @@ def _option(opt: Opt):
 def _run(**options) -> None:
     """Simulate a model and write its signals to an HDF5 file; print a summary.
 
+    A model whose clearance joint declares `wear` makes a wear run instead: its file saved after each
+    update, one line per update, --resume to go on (docs/wear.md).
+
     Example: mbs run models/slider_crank_clearance_a.mbs --revolutions 60 --per-rev 720 --set speed=2500rpm
     """
     code = run_command.run_model(**merged(options))

@@ -24,6 +24,8 @@ hdf5 = lazy("planar_mbs.results.hdf5")
 figures = lazy("planar_mbs.outputs.plot")
 views = lazy("planar_mbs.results.views")
 rerun_log = lazy("planar_mbs.outputs.rerun_log")
+wear_plot = lazy("planar_mbs.outputs.wear_plot")
+wear_recording = lazy("planar_mbs.outputs.wear_recording")
 rich_table = lazy("rich.table")
 spectrum_command = lazy("planar_mbs.cli.spectrum_command")
 
@@ -35,7 +37,8 @@ def _results_path(text: Path) -> Path:
 
 
 ResultsArg = Annotated[Path, typer.Argument(help="HDF5 results file written by `mbs run` (or a sweep file; "
-                                            "one case of a sweep: FILE.h5:/cases/3).", show_default=False)]
+                                            "one case of a sweep: FILE.h5:/cases/3; a wear run's file).",
+                                            show_default=False)]
 
 
 OrbitOpt = Annotated[Optional[list[str]], typer.Option(
@@ -95,7 +98,8 @@ def plot(
     """Draw figures of a run or a sweep (PNG, SVG or PDF).
 
     Time series (one panel per SIGNAL), Poincaré maps, journal orbits; for a sweep file, a grid
-    per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.
+    per signal and a bifurcation diagram.  With no SIGNAL: Muvengei et al.'s default figures.  A wear
+    run's file: the worn profile and the wear against the cycles, in <file>_wear.png beside it.
 
     Examples: mbs plot a.h5 · mbs plot a.h5 slider.ax A.contact_force --against crank.phi ·
     mbs plot a.h5 --poincare slider.vx:slider.ax --transient 2 · mbs plot a.h5 --orbit A -f svg ·
@@ -105,13 +109,13 @@ def plot(
     try:
         fmt = check_choice(fmt, figures.FORMATS, "--format")
         file = _results_path(results)
+        if ":/" not in str(results) and hdf5.results_kind(file) == "wear":
+            return _plot_wear(file, output, fmt, title, size, [signals, against, poincare, orbit, spectrum, t_from,
+                                                              t_to, list_, xlabel, ylabel])
         if list_:
             _list_signals(results)
             return
-        window = dict(t_from=check_number(_quantity(t_from, "time", "--from"), "--from", low=0.0, low_ok=True,
-                                          hint="a time from the start of the run, e.g. `--from 0.2s`"),
-                      t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
-                                        hint="a time from the start of the run, e.g. `--to 0.25s`"))
+        window = _window(t_from, t_to)
         notes: list[str] = []
         spectra = spectrum_command.spectrum_options(kind, window_name, resolution, None, None, None) \
             if spectrum else None
@@ -134,6 +138,31 @@ def plot(
         con.print(str(path), markup=False)
     if not written:
         con.print("nothing to plot", markup=False)
+
+
+def _window(t_from, t_to) -> dict:
+    """The --from/--to window of `mbs plot`, checked."""
+    return dict(t_from=check_number(_quantity(t_from, "time", "--from"), "--from", low=0.0, low_ok=True,
+                                    hint="a time from the start of the run, e.g. `--from 0.2s`"),
+                t_to=check_number(_quantity(t_to, "time", "--to"), "--to", low=0.0,
+                                  hint="a time from the start of the run, e.g. `--to 0.25s`"))
+
+
+_RUN_PLOT_OPTIONS = ("SIGNAL", "--against", "--poincare", "--orbit", "--spectrum", "--from", "--to", "--list",
+                     "--xlabel", "--ylabel")  # what `_plot_wear` refuses, in the order it is given them
+
+
+def _plot_wear(file: Path, output, fmt: str, title, size, others: list) -> None:
+    """`mbs plot WEAR.h5`: the worn profile over the updates and the volume and depth against the cycles
+    (`outputs.wear_plot`), beside the file or in the --output folder; the options of a run's plots refused."""
+    given = [flag for flag, value in zip(_RUN_PLOT_OPTIONS, others) if value not in (None, False, [])]
+    if given:
+        raise views.PlotError(f"error: {given[0]} does not apply to the file of a wear run\nhint: `mbs plot "
+                              f"{file}` draws its figure; --output, --format, --title and --size shape it")
+    check_output(output or file.parent, "--output", [("the wear file", file)], folder=True)
+    style = figures.check_style(dict(size=size))
+    _console().print(str(wear_plot.plot_wear_file(file, output, fmt, title, style.get("size"))), markup=False,
+                     soft_wrap=True)
 
 
 def _with_clock(spectra, body):
@@ -178,8 +207,10 @@ def view(
         "--output", "-o", help="The rerun recording to write.",
         show_default="<results>.rrd next to the results file")] = None,
     open_: Annotated[bool, typer.Option("--open", help="Open the rerun viewer on the recording.")] = False,
-    magnify: Annotated[float, typer.Option(help="Magnification of the clearance (eccentricity and gap) "
-                                                "in the drawing.", min=0.0)] = 10.0,
+    magnify: Annotated[Optional[float], typer.Option(
+        help="Magnification of the clearance (eccentricity and gap) in the drawing; of a wear file, of the "
+             "worn depth.", min=0.0, show_default="10; a wear file: the deepest wear drawn as a quarter of the "
+                                                  "radius")] = None,
     fps: Annotated[Optional[float], typer.Option(
         help="Frames per simulated second.",
         show_default="90 per revolution of the driven body", min=0.0)] = None,
@@ -198,7 +229,8 @@ def view(
     """Turn a results file into a rerun recording (.rrd) and optionally open the viewer.
 
     The moving mechanism (clearance magnified), joint reactions and contact forces as arrows,
-    every signal, contact onsets and Poincaré points, on a `sim_time` timeline.
+    every signal, contact onsets and Poincaré points, on a `sim_time` timeline.  A wear run's file:
+    the worn bearing's profile (magnified) and its wear per update, on a timeline `update`.
 
     Example: mbs view a.h5 -o a.rrd --open
     """
@@ -212,16 +244,35 @@ def view(
         check_output(out, "--output", [("the results file", file)], make_parents=True)
         key = rerun_log.recording_key(results)
         rerun_log.check_replace(out, key, force)
+        if ":/" not in str(results) and hdf5.results_kind(file) == "wear":
+            return _view_wear(file, out, open_, magnify, key, [fps, signal_rate, signal_stride != 1, signals_only,
+                                                               signals != "envelope"])
         res = hdf5.read_results(results)
         if not len(res.time):
             raise views.PlotError(f"error: {results} holds no samples: nothing to record")
         model = None if signals_only else rerun_log.model_from_results(res)
-        record_run(res, model, out, magnify=magnify, fps=fps, signal_stride=signal_stride, open_viewer=open_,
-                   signals=signals, signal_rate=signal_rate, recording_id=key)
+        record_run(res, model, out, magnify=10.0 if magnify is None else magnify, fps=fps,
+                   signal_stride=signal_stride, open_viewer=open_, signals=signals, signal_rate=signal_rate,
+                   recording_id=key)
     except MbsError as err:
         _fail(err)
     except OSError as err:
         _fail(f"error: {err}")
+
+
+def _view_wear(file: Path, out: Path, open_: bool, magnify, key: str, others: list) -> None:
+    """`mbs view WEAR.h5`: the worn profile per update on a rerun timeline `update` (`outputs.wear_recording`);
+    the options of a run's recording refused."""
+    flags = ("--fps", "--signal-rate", "--signal-stride", "--signals-only", "--signals")
+    given = [flag for flag, value in zip(flags, others) if value not in (None, False)]
+    if given:
+        raise views.PlotError(f"error: {given[0]} does not apply to the file of a wear run\nhint: `mbs view "
+                              f"{file}` records its profile per update; --output, --magnify, --open and --force apply")
+    n, factor = wear_recording.record_wear(file, out, magnify, recording_id=key)
+    _console().print(f"rerun recording → {out}: the worn profile at {n} updates (timeline `update`), the depth "
+                     f"magnified {factor:.4g} times", markup=False, soft_wrap=True)
+    if open_:
+        rerun_log.open_viewer(out)
 
 
 def record_run(results, model, path, magnify: float = 10.0, fps: float | None = None, signal_stride: int = 1,

@@ -51,8 +51,10 @@ rerun_log = lazy("planar_mbs.outputs.rerun_log")
 if TYPE_CHECKING:  # the modules themselves, for type checkers and import-graph tools
     from . import plot_commands
     from . import static_command
+    from . import wear_command
 else:  # each loaded on its first use (see the comments: not on the light paths)
     plot_commands = lazy(".plot_commands", __package__)
+    wear_command = lazy(".wear_command", __package__)  # a model whose joint wears
     static_command = lazy(".static_command", __package__)  # the kernels: only with --from-static
 rich_progress = lazy("rich.progress")
 rich_utils = lazy("typer.rich_utils")
@@ -64,13 +66,16 @@ def run_model(model: Path, output: Path | None = None, set_: list[str] | None = 
               step: str | None = None, quiet: bool = False, rerun: Path | None = None, magnify: float = 10.0,
               fps: float | None = None, view_: bool = False, rerun_signals: str = "envelope", force: bool = False,
               until_settled: bool = False, max_revolutions: int = 2000, keep: str | None = None,
-              from_static: bool = False, overwrite: bool = False, allow_unphysical: bool = False) -> int:
+              from_static: bool = False, overwrite: bool = False, allow_unphysical: bool = False,
+              resume: bool = False, updates: int | None = None) -> int:
     """Simulate `model` with the options of `mbs run` (parameters named as in `run_options.RUN_OPTIONS`);
     the exit code."""
     o = SimpleNamespace(**locals(), out=output, m=None)  # the options, and what `_prepare` adds to them
     announce_if_cold()  # a first run says at once that it compiles the solver (before reading the model)
     try:
         _prepare(o)
+        if o.wears:
+            return wear_command.run_wear(o, _exit_now)
         res = _execute(o)
     except SimulationError as err:
         return _failed(o, err)
@@ -94,15 +99,19 @@ def _prepare(o: SimpleNamespace) -> None:
     o.out = o.output or output_names.default_output(o.model, sets)
     o.m = m = compiler.load_model(o.model, sets)
     print_model_warnings(m)
+    o.wears = bool(m.clearance_wear)  # a joint that wears: a wear run (`wear_command`)
+    wear_command.refuse_options(o) if o.wears else wear_command.refuse_without_wear(o)
     if o.from_static:
         o.m = m = static_command.start_at_rest(m)
     o.changes = _changes(o, m)
+    if o.wears:
+        _check_settings(m, o.changes, o.model, False)
+        return wear_command.check_files(o, _inputs(o, m))
     o.signals = _kept(m, o.keep, o.rerun, o.until_settled)
     o.rerun_signals = check_choice(o.rerun_signals, ("envelope", "full"), "--rerun-signals")
     check_number(o.magnify, "--magnify", low=0.0, low_ok=True, hint="e.g. `--magnify 10`")
     check_number(o.fps, "--fps", low=0.0, hint="frames per simulated second, e.g. `--fps 600`")
-    inputs = [("the model file" if i == 0 else "a file the model includes", f)
-              for i, f in enumerate(m.source_files or [o.model])]
+    inputs = _inputs(o, m)
     _check_settings(m, o.changes, o.model, o.until_settled)
     if o.output is None:
         o.out = _beside_another_run(o, m)
@@ -118,6 +127,12 @@ def _prepare(o: SimpleNamespace) -> None:
     if make_folder:
         output_names.make_results_folder(o.out.parent)
         check_output(o.out, "--output", inputs)
+
+
+def _inputs(o: SimpleNamespace, m) -> list:
+    """(what, path) of the model file and its includes: files no output may replace."""
+    return [("the model file" if i == 0 else "a file the model includes", f)
+            for i, f in enumerate(m.source_files or [o.model])]
 
 
 def _changes(o: SimpleNamespace, m) -> dict:

@@ -84,6 +84,11 @@ RUN_OPTIONS = (
         "sunk deeper than its clearance: a contact too soft for it) as a finished run, exit 0, instead of exit 3; "
         "the warning stays and the file records allow_unphysical (the ideal-limit study of docs/contact.md).",
         default=False),
+    Opt("resume", ("--resume",), "flag", "Continue the wear run in the output file (-o, or the default name) from "
+        "its last update, to --updates or the model's total; the model must be the one it was made from "
+        "(docs/wear.md).", default=False),
+    Opt("updates", ("--updates",), "int", "Profile updates of a wear run in all (a model whose joint declares "
+        "`wear`), counted from its start.", low=1, show_default="the model's `wear = archard(..., updates = N)`"),
     Opt("overwrite", ("--overwrite",), "flag", "Replace the output even when it is not the results of a run (a "
         "sweep file, any other file); never the model or its includes.", default=False),
 )

@@ -1,12 +1,17 @@
 """Figures of a worn bearing (run/wear.py): the profile's depth over angle in polar axes, one curve per
-chosen update, and the worn volume and maximum depth against the cycles worn."""
+chosen update, and the worn volume and maximum depth against the cycles worn; `plot_wear_file` draws
+the file of a wear run (`mbs plot WEAR.h5`)."""
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
 from ..lazy import lazy
 
 mpl_figure = lazy("matplotlib.figure")  # matplotlib: only a figure being drawn loads it
+modes_plot = lazy("planar_mbs.outputs.modes_plot")  # `save`: a figure written whole
+wear = lazy("planar_mbs.run.wear")
 
 
 def wear_figure(history, period: float | None = None, curves: int = 5, title: str = ""):
@@ -39,3 +44,19 @@ def wear_figure(history, period: float | None = None, curves: int = 5, title: st
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def plot_wear_file(path, outdir=None, fmt: str = "png", title: str | None = None, size=None) -> Path:
+    """`mbs plot WEAR.h5`: `wear_figure` of the file's history (in cycles where the run had a driver
+    period), written whole to ``<outdir>/<stem>_wear.<fmt>`` (outdir: the file's folder); the path."""
+    path = Path(path)
+    h = wear.load_history(path)
+    facts = wear.saved_facts(path, h.joint)
+    model = Path(str(facts.get("model", ""))).name or "model"
+    fig = wear_figure(h, float(facts.get("period", 0.0)) or None,
+                      title=f"{model}: wear of `{h.joint}`, {len(h.depths) - 1} updates" if title is None else title)
+    if size is not None:
+        fig.set_size_inches(*size)
+    out = Path(outdir or path.parent) / f"{path.stem}_wear.{fmt}"
+    Path(out.parent).mkdir(parents=True, exist_ok=True)
+    return modes_plot.save(fig, out)

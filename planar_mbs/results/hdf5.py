@@ -518,8 +518,8 @@ def _os_reason(exc: OSError, path: Path | None = None, shown: Path | None = None
 
 
 def results_kind(path: Path) -> str:
-    """What the file at `path` is: "run" (the results of one run), "sweep", "hdf5" (another HDF5
-    file), "other" (any other file) -- read with h5py only after the signature matched."""
+    """What the file at `path` is: "run" (the results of one run), "sweep", "wear" (a wear run's profiles,
+    `run.wear`), "hdf5" (another HDF5 file), "other" (any other file) -- read with h5py only after the signature matched."""
     try:
         with open(path, "rb") as f:
             if f.read(len(HDF5_SIGNATURE)) != HDF5_SIGNATURE:
@@ -530,6 +530,8 @@ def results_kind(path: Path) -> str:
         with h5py.File(path, "r", locking=False) as f:
             if f.attrs.get("kind") == "sweep":
                 return "sweep"
+            if "wear" in f and len(f["wear"]):
+                return "wear"
             return "run" if TIME in f and SIGNALS in f else "hdf5"
     except Exception:  # noqa: BLE001  (damaged: not ours to replace without being told)
         return "hdf5"
@@ -567,7 +569,7 @@ def refuse_replacing(path: Path, overwrite: bool = False, inputs=()) -> None:
         _refuse(f"{path} is not a regular file", "give the name of a file to write")
     kind = results_kind(path)
     if kind != "run":
-        what = {"sweep": "a sweep file", "hdf5": "an HDF5 file that is not the results of a run",
+        what = {"sweep": "a sweep file", "wear": "the file of a wear run", "hdf5": "an HDF5 file that is not the results of a run",
                 "other": "not a results file"}[kind]
         _refuse(f"{path} exists and is {what}; it would be replaced",
                 "choose another output, or pass --overwrite (overwrite=True in Python) to replace it")

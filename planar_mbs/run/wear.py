@@ -36,17 +36,21 @@ wear runs the unworn code bit for bit.
 """
 from __future__ import annotations
 
+import json
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import catalog
 from ..errors import ModelError
 from ..files import replace_atomically
 from ..lazy import lazy
 from ..mechanism.model import (CP_KIND, CP_LENGTH, CP_R_BEARING, CP_R_JOURNAL, CS_EX, CS_EY, CS_FN, CS_IN_CONTACT, CS_SLIP,
                                CT_WEAR_NODES, CT_WEAR_TABLE, N_CLEARANCE_SIGNALS, N_CONTACT_STATE, OB_CLEARANCE,
                                OB_Q, Model, PairKind, observation_layout)
+from ..results.section import driver_period
 from .stepper import Stepper
 
 h5py = lazy("h5py")  # heavy: `import planar_mbs.run.wear` for the geometry alone loads no h5py
@@ -245,6 +249,21 @@ def wear_increment(model: Model, k: int, t_start: float, times: np.ndarray, rows
     return out
 
 
+STEPPER_SETTINGS = ("integrator", "rtol", "atol", "step", "output_step")  # saved, for a resumed run to go on alike
+
+
+def run_facts(model: Model, stepper: Stepper) -> dict:
+    """What a saved wear run records of its making: the model file (absolute path), its parameters (JSON),
+    the driver's period (s, 0: none) and the integration settings of the trajectory."""
+    found = driver_period(model)
+    s = stepper.settings
+    facts = {"model": os.path.abspath(model.source_path) if model.source_path else "",
+             "parameters": json.dumps(model.parameters, sort_keys=True), "period": found[0] if found else 0.0}
+    facts.update({f"settings.{k}": getattr(s, k) for k in STEPPER_SETTINGS if k != "integrator"})
+    facts["settings.integrator"] = catalog.INTEGRATORS[int(s.integrator)].name
+    return facts
+
+
 class WearRun:
     """One trajectory whose joint wears (`Archard`), advanced update by update (see the module
     docstring); `history` holds the profiles."""
@@ -304,8 +323,9 @@ class WearRun:
         return self.history
 
     def save(self, path) -> None:
-        """The profiles so far, the wear's settings and the trajectory's state (y, contact memory, t), in
-        group ``wear/<joint>`` of an HDF5 file written whole (a kill leaves the previous one)."""
+        """The profiles so far, the wear's settings, the trajectory's state (y, contact memory, t) and what
+        made the run (`run_facts`), in group ``wear/<joint>`` of an HDF5 file written whole (a kill leaves
+        the previous one)."""
         path = str(path)
         h, d = self.history, self.stepper.driver.data
         with h5py.File(path + ".part", "w") as f:
@@ -317,7 +337,9 @@ class WearRun:
             g["state"].attrs["t"] = self.stepper.t
             for key in ("coefficient", "interval", "factor", "updates", "nodes", "depth_step"):
                 g.attrs[key] = getattr(self.wear, key)
-            g.attrs["radius"], g.attrs["model"] = h.radius, self.model.source_path or ""
+            g.attrs["radius"] = h.radius
+            for key, value in run_facts(self.model, self.stepper).items():
+                g.attrs[key] = value
         replace_atomically(path + ".part", path)
 
     @classmethod
@@ -350,6 +372,12 @@ def load_history(path, joint: str | None = None) -> WearHistory:
         return WearHistory(joint or joints[0], wear, float(a["radius"]), list(g["time"][()]),
                            list(g["worn_time"][()]), list(g["depth"][()]), list(g["peak_contact_force"][()]),
                            list(g["in_contact_share"][()]))
+
+
+def saved_facts(path, joint: str) -> dict:
+    """The attributes a wear run saved for `joint` (its settings and `run_facts`)."""
+    with h5py.File(str(path), "r", locking=False) as f:
+        return dict(f[f"wear/{joint}"].attrs)
 
 
 def run_wear(model: Model, joint: str, wear: Archard | None = None, **settings) -> WearHistory:
