@@ -30,7 +30,10 @@ relative stiffness 1/REG) in the directions that vanish at a singular position,
 so the mechanism passes it on its momentum instead of being thrown onto another
 assembly branch by huge forces; the kinetic energy that the withheld force lets
 escape is given back after the velocity projection (`restore_kinetic_energy`).
-Only a row without any Jacobian (or a NaN) still gives Status.SINGULAR (row in
+Only a pivot of the regularised factor at or below WITHHELD of its diagonal counts as a loss of rank
+(`withholds`: reported, and with `projection = auto` projected from then on): a long chain's regular
+rows have pivots far below TAU (1e-3 of the diagonal at 800 bars) that the iterated solve resolves
+exactly, and are not one.  Only a row without any Jacobian (or a NaN) still gives Status.SINGULAR (row in
 stats[ST_INFO]).  docs/numerics.md says why.
 """
 from __future__ import annotations
@@ -136,9 +139,22 @@ def schur_factor(km, ws, stats):
         stats[ST_INFO] = j
         return SINGULAR
     ws.flags[FL_SCHUR_REG] = 1
-    ws.flags[FL_REG_SEEN] = 1
     ws.flags[FL_STEP_REG] = 1
+    if withholds(ws.S, ws.first, ws.ptr, ws.sdiag, ws.solver[6]):
+        ws.flags[FL_REG_SEEN] = 1
     return 0
+
+
+@kernel
+def withholds(L, first, ptr, sdiag, tol):
+    """Whether the regularised factor L has a pivot L_jj^2 at or below tol S_jj: a direction
+    the iterated solve may leave damped, i.e. the constraints lost rank (a singular position or redundant
+    joints).  Rows of a regular mechanism whose pivots are merely small (long chains) are not."""
+    for j in range(first.shape[0]):
+        d = L[ptr[j] - first[j] + j]
+        if d * d <= tol * sdiag[j]:
+            return True
+    return False
 
 
 @kernel

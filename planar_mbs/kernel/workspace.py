@@ -24,7 +24,7 @@ FL_SWITCH_JOINT = 1  # clearance joint whose contact mode switches at the end of
 FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: the dense-output rows ws.F of the last step are prepared
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
-FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
+FL_REG_SEEN = 5  # 1: a factor since the last projection may have withheld a direction (`dynamics.schur_factor`)
 FL_PROJECTING = 6  # `projection = auto` has turned the projection on: 1 at a regularised factor, 2 at drift past the bound
 FL_STEP_REG = 7  # 1: a factor of the current step was regularised (a singular position or redundant rows)
 FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its successor lands on the next output)
@@ -90,7 +90,7 @@ class Workspace(NamedTuple):
     res: np.ndarray  # (m,) residual of the multiplier refinement
     dl: np.ndarray  # (m,) projection corrections
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
-    solver: np.ndarray  # (6,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] (`solver_settings`)
+    solver: np.ndarray  # (7,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD] (`solver_settings`)
     xreg: np.ndarray  # (max(ninstr, 1), 3) expression registers: value, d/dt, d2/dt2 (`kernel.expressions`)
     xmode: np.ndarray  # (ninstr,) frozen 0/1 of a comparison row, or a table's piece (LIVE: computed afresh)
     xfault: np.ndarray  # (2,) [force element, t] of the first non-finite expression value (-1: none)
@@ -178,14 +178,19 @@ TAU = 1e-3  # relative pivot (d_j / S_jj) below which S is refactored regularise
 REFINE_TOL = 0.0  # stop early only on a zero residual: every sweep counts at the rounding level
 # (a relative stop at 2e-16 of the largest row left small rows inexact; measured convergence orders drop)
 RESTORE = 1.0  # 1: the projection keeps the kinetic energy a withheld constraint force would have kept
-# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] so that experiments need no recompilation)
+WITHHELD = 1e-6  # relative pivot (d_j / S_jj, of the regularised factor) at or below which a direction may be
+# withheld: the solve converges by REG / (s + REG) a sweep, so only s below ~REG / RATE stays damped; only then
+# has the mechanism lost rank (a singular position, redundant joints).  Pivots between WITHHELD and TAU are
+# regular rows of a large or badly scaled mechanism (an 800-bar chain's are 1e-3 of their diagonal), solved
+# exactly by the regularised solve and not reported.
+# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD] so that experiments need no recompilation)
 
 
 def solver_settings() -> np.ndarray:
-    """[REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE] of the multiplier solve (`dynamics.schur_factor`,
+    """[REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD] of the multiplier solve (`dynamics.schur_factor`,
     `dynamics.multipliers`) and the velocity projection (`dynamics.project`)."""
-    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore,rate"
-    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE, RATE])
+    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore,rate,withheld"
+    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE, RATE, WITHHELD])
     if env:  # the values given replace the first ones, the rest keep their defaults
         given = [float(v) for v in env.split(",")][: settings.size]
         settings[: len(given)] = given

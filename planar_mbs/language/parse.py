@@ -607,7 +607,8 @@ def _check_depth(tree, text: str, path: str) -> None:
 
 
 # ------------------------------------------------------------ entry points
-MAX_TOKENS = 30_000  # names, numbers and symbols of one model with its includes (shipped: up to ~600)
+MAX_TOKENS = 100_000  # names, numbers and symbols of one model with its includes (shipped: up to ~600; a
+# chain of a thousand bodies about 40 000): the parser takes some 50 µs a token, so at most about 5 s
 _TOKEN = re.compile(r'"[^"\n]*"?|[\w.\u00b5\u03bc]+|[^\s\w#]')  # comments are skipped below
 
 

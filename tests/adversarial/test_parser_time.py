@@ -117,7 +117,7 @@ def test_include_chain(tmp_path):
     assert time.perf_counter() - start < BOUND
 
 
-@pytest.mark.parametrize("count,message", [(101, "more than 100 included files"), (20_000, "too long")])
+@pytest.mark.parametrize("count,message", [(101, "more than 100 included files"), (60_000, "too long")])
 def test_too_many_includes_refused(tmp_path, count, message):
     (tmp_path / "p.mbs").write_text("# nothing\n")
     text = 'include "p.mbs"\n' * count
