@@ -49,7 +49,7 @@ from .constraints import body_trig, constraint_rows_eval
 from .contact import add_clearance_forces
 from .forces import applied_forces
 from .joint_friction import friction_load, slip_row, small_solve
-from .workspace import FL_REG_SEEN, FL_SCHUR_REG, FL_STEP_REG  # REG, REFINE, ...: workspace.solver_settings
+from .workspace import FL_RANK_LOST, FL_REG_SEEN, FL_SCHUR_REG, FL_STEP_REG  # REG, REFINE, ...: workspace.solver_settings
 from .workspace import JW_A0, JW_FREE, JW_LIMIT, JW_S, JW_T, JW_TARGET, JW_V
 
 SINGULAR = 4
@@ -139,9 +139,10 @@ def schur_factor(km, ws, stats):
         stats[ST_INFO] = j
         return SINGULAR
     ws.flags[FL_SCHUR_REG] = 1
+    ws.flags[FL_REG_SEEN] = 1
     ws.flags[FL_STEP_REG] = 1
-    if withholds(ws.S, ws.first, ws.ptr, ws.sdiag, ws.solver[6]):
-        ws.flags[FL_REG_SEEN] = 1
+    if ws.flags[FL_RANK_LOST] == 0 and withholds(ws.S, ws.first, ws.ptr, ws.sdiag, ws.solver[6]):
+        ws.flags[FL_RANK_LOST] = 1
     return 0
 
 

@@ -48,7 +48,7 @@ from .workspace import (
     FL_PASSAGE,
     FL_PENDING_OUTPUTS,
     FL_PROJECTING,
-    FL_REG_SEEN,
+    FL_RANK_LOST,
     FL_STEP_REG,
     FL_SWITCH_EXPR,
     FL_SWITCH_JOINT,
@@ -535,7 +535,7 @@ def _finish_step(km, cfg, t, y, contact, stats, ws):
         if k < nc and contact_mode(contact, k) == TOUCHING:  # (k >= nc: a friction switch)
             n = km.minv.shape[0]
             hcap = ONSET_STEP * contact_time_scale(km, k, y[:n], y[n:2 * n], contact[k, CT_IMPACT_VELOCITY], contact)
-    if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_REG_SEEN] == 1:
+    if cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] == 0 and ws.flags[FL_RANK_LOST] == 1:
         ws.flags[FL_PROJECTING] = 1  # `projection = auto`: a singular position or redundant joints
         ws.dense[DN_PROJECT_FROM] = t
     if cfg[CFG_PROJECT] == 1.0 or (cfg[CFG_PROJECT] == 2.0 and ws.flags[FL_PROJECTING] != 0):

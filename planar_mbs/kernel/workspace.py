@@ -24,15 +24,16 @@ FL_SWITCH_JOINT = 1  # clearance joint whose contact mode switches at the end of
 FL_DENSE_METHOD = 2  # integrator code of the stored dense output
 FL_DENSE_READY = 3  # 1: the dense-output rows ws.F of the last step are prepared
 FL_SCHUR_REG = 4  # 1: ws.S holds the factor of S + REG diag(S), not of S (`dynamics.schur_factor`)
-FL_REG_SEEN = 5  # 1: a factor since the last projection may have withheld a direction (`dynamics.schur_factor`)
-FL_PROJECTING = 6  # `projection = auto` has turned the projection on: 1 at a regularised factor, 2 at drift past the bound
+FL_REG_SEEN = 5  # 1: a factor since the last projection was regularised (`dynamics.project`)
+FL_PROJECTING = 6  # `projection = auto` has turned the projection on: 1 at a loss of rank, 2 at drift past the bound
 FL_STEP_REG = 7  # 1: a factor of the current step was regularised (a singular position or redundant rows)
 FL_PASSAGE = 8  # 1: the last accepted step had a regularised factor (its successor lands on the next output)
 FL_SWITCH_EXPR = 9  # comparison of an expression that switches at the end of the last step (-1: none)
 FL_JUMPS = 10  # switches at which a driver's motion jumped and the state was projected (`loop.motion_jump`)
 FL_JUMP_ROW = 11  # the constraint row of the first such jump
 FL_ENERGY0 = 12  # 1: ws.energy0 and the works ws.wk[WK_NOW] start from the run's first state (`work.energy_start`)
-N_FLAGS = 13
+FL_RANK_LOST = 13  # 1: a regularised factor may have withheld a direction: the constraints lost rank (`dynamics.withholds`)
+N_FLAGS = 14
 # ws.dense slots (float64)
 DN_TA = 0  # start of the last accepted step
 DN_H = 1  # its size
