@@ -65,10 +65,11 @@ def test_a_very_stiff_beam_rod_is_the_rigid_rod_until_the_motion_diverges():
     small against the clearance, is the deviation they cause however the impacts amplify it: tenfold E,
     a tenth of the deviation.  Second-order terms are of the deviation over the clearance (about 2 % at
     100 E) and the integration's error at rtol 1e-8 (~1e-9 m on the slider's 0.17 m) is under 1 % of the
-    stiffer beam's deviation, so the ratio is 10 well within [8, 12.5]; a deviation the stiffness does not
-    explain (a journal sized or placed unlike the rigid rod's end) would hold the ratio near 1.  At
-    1000 E the slider stays within a hundredth of the clearance of the rigid rod's, and the contacts start
-    at the same output samples (to one)."""
+    stiffer beam's deviation, so the ratio is 10 within 10 %.  A deviation the stiffness does not explain
+    pulls it below: a journal sized or placed unlike the rigid rod's end, or even the shipped rigid rod's
+    inertia, 0.8 % below the beam's (the reason the reference here is given the beam's).  At 1000 E the
+    slider stays within a hundredth of the clearance of the rigid rod's, and the contacts start at the
+    same output samples (to one)."""
     m = RHO * W * H * L
     rigid = compile_text(f'include "{RIGID.name}"\noverride body rod {{ mass = {m!r} kg  '
                          f'inertia = {m * L ** 2 / 12!r} kg*m^2  position = (0.110 m, 0) }}\n',
@@ -83,7 +84,7 @@ def test_a_very_stiff_beam_rod_is_the_rigid_rod_until_the_motion_diverges():
         on, on_ref = _onsets(res), _onsets(ref)
         assert len(on_ref) >= 4 and len(on) == len(on_ref) and np.abs(on - on_ref).max() <= 1, (on, on_ref)
     assert deviation[1000] < CLEARANCE / 100, deviation
-    assert 8 < deviation[100] / deviation[1000] < 12.5, deviation
+    assert 9 < deviation[100] / deviation[1000] < 11, deviation
 
 
 def test_the_shipped_model_closes_its_energy_balance():
