@@ -1,6 +1,7 @@
-"""The figures of docs/plots.md, the README and docs/tutorial.md are what the commands those pages show
-draw today: each is drawn again (docs/scripts/page_figures.py) and compared with the page's image, so a
-figure that drifts from the program (a Poincaré point more, a title changed) fails here."""
+"""The figures of docs/plots.md, the README, docs/tutorial.md and docs/beams.md are what the commands those
+pages show (or the scripts they name) draw today: each is drawn again (docs/scripts/page_figures.py) and
+compared with the page's image, so a figure that drifts from the program (a Poincaré point more, a title
+changed) fails here."""
 from __future__ import annotations
 
 import re
@@ -23,6 +24,11 @@ def test_every_command_of_the_script_is_on_its_page():
             assert " ".join(command.split()) in " ".join(text.split()), (page, command)
         for name in keep.values():
             assert f"images/{name}" in text, (page, name)
+    for page, (script, names) in F.SCRIPTS.items():
+        text = (ROOT / page).read_text(encoding="utf-8")
+        assert f"docs/scripts/{script}.py" in text, (page, script)
+        for name in names:
+            assert f"images/{name}" in text, (page, name)
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     for name in re.findall(r"\(docs/images/([^)]+\.png)\)", readme):
         assert any(name in keep.values() for _, keep in F.PAGES.values()), name
@@ -36,7 +42,8 @@ def drawn(tmp_path_factory):
 def test_every_figure_of_the_pages_is_what_the_program_draws(drawn):
     from matplotlib.testing.compare import compare_images
 
-    assert len(drawn) == sum(len(keep) for _, keep in F.PAGES.values())
+    assert len(drawn) == (sum(len(keep) for _, keep in F.PAGES.values())
+                          + sum(len(names) for _, names in F.SCRIPTS.values()))
     for path in drawn:
         # a small RMS allowance for anti-aliasing between font renderers; one Poincaré point more or
         # less, or a changed title, is far above it

@@ -1,14 +1,17 @@
-"""The figures of docs/plots.md, docs/signals.md, the README and docs/tutorial.md, drawn by the commands those pages show.
+"""The figures of docs/plots.md, docs/signals.md, the README, docs/tutorial.md and docs/beams.md, drawn by the commands
+those pages show or by the scripts they name.
 
     .venv/bin/python docs/scripts/page_figures.py            # redraws them into docs/images
     .venv/bin/python docs/scripts/page_figures.py OUTDIR     # draws them into OUTDIR (tests/test_doc_figures.py)
 
 Each entry of PAGES is the page's own commands, run in a scratch folder through the `mbs` command line, and
 the figures it keeps: the file the command wrote and the name it has in docs/images.  A page whose figure
-no longer matches what these commands draw fails tests/test_doc_figures.py; this script redraws it.
+no longer matches what these commands draw fails tests/test_doc_figures.py; this script redraws it.  Each entry
+of SCRIPTS is a script of docs/scripts that a page names, whose `draw(outdir)` draws the figures listed.
 """
 from __future__ import annotations
 
+import importlib
 import shlex
 import shutil
 import sys
@@ -61,6 +64,11 @@ PAGES = {
     "docs/studies.md#tolerances": ([TOLERANCE_RUN, TOLERANCE_PLOT], {"tolerance.png": "studies_tolerance.png"}),
 }
 
+# page: (a script of docs/scripts, the names in docs/images of the figures its draw(outdir) writes)
+SCRIPTS = {
+    "docs/beams.md": ("flexible_clearance", ["beams_flexible_clearance.png"]),
+}
+
 
 def mbs(command: str, cwd: Path) -> None:
     """One `mbs ...` command line of a page, run in `cwd` (the CLI in this process)."""
@@ -98,6 +106,8 @@ def draw(outdir: Path) -> list[Path]:
                 mbs(command, work)
             for made, name in keep.items():
                 written.append(Path(shutil.copy(work / made, outdir / name)))
+    for script, _ in SCRIPTS.values():
+        written += importlib.import_module(script).draw(outdir)
     return written
 
 
