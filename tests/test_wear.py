@@ -322,3 +322,20 @@ def test_a_depth_step_updates_the_profile_every_stated_worn_depth():
     m = compile_text(WORN.format(length="length = 10 mm", wear="archard(coefficient = 1e-4, hardness = 2 GPa, "
                                  "update = 1 s, depth_step = 2 um)"))
     assert Archard.of(m, "J").depth_step == pytest.approx(2e-6)
+
+
+def test_the_million_cycles_of_the_wear_page_are_the_benchmark_s():
+    """docs/wear.md, "A million cycles", quotes docs/wear_million_cycles.json (benchmarks/wear_million_cycles.py):
+    its table row by row, and the changes on halving the depth step."""
+    import json
+    from pathlib import Path
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    page = (docs / "wear.md").read_text(encoding="utf-8")
+    facts = json.loads((docs / "wear_million_cycles.json").read_text())
+    for r in facts["runs"]:
+        row = (f"| {r['depth_step_um']:g} µm | {r['updates']} | {r['wall_s']:.1f} s | {r['update_over_motion']:.3f} | "
+               f"{r['max_depth_um']:.1f} µm | {r['volume_mm2']:.4f} mm² | {r['clearance_max_mm']:.3f} mm |")
+        assert row in page, row
+    for key in ("halving_depth_change", "second_halving_depth_change"):
+        assert f"{facts[key] * 100:.1f} %" in page, key
+    assert facts["machine"] in page
