@@ -809,12 +809,17 @@ def _log_contacts(rr, rec, results, info: RecordingInfo) -> None:
             times.append(results.time[i])
             extra = f", impact velocity {v[i]:.4g} m/s" if v is not None else ""
             texts.append(f"{c}: contact onset at t = {results.time[i]:.9g} s{extra}")
+    _log_events(rr, rec, "events/contact", times, texts, info)
+    info.contact_onsets = len(times)
+
+
+def _log_events(rr, rec, path: str, times: list, texts: list, info: RecordingInfo) -> None:
+    """Messages at their times (any order: sent sorted) as one TextLog entity, if there are any."""
     if times:
         order = np.argsort(times, kind="stable")
-        rec.send_columns("events/contact", indexes=_time_column(rr, np.asarray(times)[order]),
+        rec.send_columns(path, indexes=_time_column(rr, np.asarray(times)[order]),
                          columns=rr.TextLog.columns(text=[texts[i] for i in order], level=["INFO"] * len(order)))
-        info.entities.append("events/contact")
-    info.contact_onsets = len(times)
+        info.entities.append(path)
 
 
 def _log_friction(rr, rec, results, info: RecordingInfo) -> None:
@@ -824,11 +829,7 @@ def _log_friction(rr, rec, results, info: RecordingInfo) -> None:
         for i, stuck in zip(*stick_changes(results, element)):
             times.append(results.time[i])
             texts.append(f"{element}: {'sticks' if stuck else 'slips'} at t = {results.time[i]:.9g} s")
-    if times:
-        order = np.argsort(times, kind="stable")
-        rec.send_columns("events/friction", indexes=_time_column(rr, np.asarray(times)[order]),
-                         columns=rr.TextLog.columns(text=[texts[i] for i in order], level=["INFO"] * len(order)))
-        info.entities.append("events/friction")
+    _log_events(rr, rec, "events/friction", times, texts, info)
     info.friction_events = len(times)
 
 

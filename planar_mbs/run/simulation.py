@@ -77,22 +77,28 @@ class RunInterrupted(KeyboardInterrupt):
 
 
 @contextmanager
+def interrupts_handled(handler):
+    """SIGINT and SIGTERM call ``handler(signum, frame)`` inside the block, the previous handlers back
+    after it.  Only the main thread may install handlers: elsewhere the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+@contextmanager
 def _deferred_interrupts():
     """While the time loop runs, SIGINT and SIGTERM only raise a flag that the loop
     checks between chunks, so a signal can never land halfway through writing a
-    chunk to the results file.  (Only the main thread may install handlers.)"""
+    chunk to the results file."""
     received: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
+    with interrupts_handled(lambda signum, frame: received.append(signum)):
         yield received
-        return
-    previous = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        previous[sig] = signal.signal(sig, lambda signum, frame: received.append(signum))
-    try:
-        yield received
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
 
 
 def check_tolerances(settings: Settings) -> None:

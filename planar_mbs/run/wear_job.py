@@ -6,8 +6,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import signal
-import threading
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -131,18 +129,10 @@ def left_behind(path) -> None:
 @contextmanager
 def stoppable():
     """While a wear run works, SIGINT and SIGTERM raise `simulation.RunInterrupted` where it is (between
-    two calls of the kernel): the file on disk stays that of the last finished update.  Only the main
-    thread installs handlers."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
+    two calls of the kernel): the file on disk stays that of the last finished update
+    (`simulation.interrupts_handled`: only the main thread installs handlers)."""
     def stop(signum, frame):
         raise simulation.RunInterrupted(signum)
 
-    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
+    with simulation.interrupts_handled(stop):
         yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
