@@ -186,6 +186,35 @@ def test_a_sigterm_that_lands_in_a_weakref_callback_still_ends_the_command():
     assert out.stdout.split() == ["finally", "ran"] and out.stderr == ""
 
 
+SWALLOWED_SIGTERM = """
+import signal, sys
+from planar_mbs.cli.common import internal_error
+from planar_mbs.cli.entry import stop_cleanly_on_sigterm
+stop_cleanly_on_sigterm()
+try:
+    try:
+        signal.raise_signal(signal.SIGTERM)
+    except SystemExit:  # what numpy's comparison of structured arrays does with its callee's exception
+        raise TypeError("Cannot compare structured arrays unless they have a common dtype.")
+    finally:
+        print("finally ran")
+except Exception as exc:
+    sys.exit(internal_error(exc))
+"""
+
+
+def test_a_sigterm_that_c_code_turns_into_another_error_still_exits_143():
+    """SIGTERM's SystemExit raised in Python code that numpy calls while it compares structured
+    arrays came back as a TypeError, reported as a bug (exit 1, "internal error"); the handler notes
+    the signal first, so the command ends with 143 and nothing on stderr."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", SWALLOWED_SIGTERM], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 143, out.stdout + out.stderr
+    assert out.stdout.split() == ["finally", "ran"] and out.stderr == ""
+
+
 def test_second_writer_of_a_results_file_is_refused(tmp_path):
     """Two processes writing one results file: the second gets a clear error (exit 2) and the
     first one's file is not touched."""

@@ -146,8 +146,18 @@ def fail(err) -> None:
     raise typer.Exit(fail_code(err))
 
 
+class Stopping:
+    """The signal that is ending this command (set by the SIGTERM handler before it raises), or 0."""
+    signum = 0
+
+
 def internal_error(exc: Exception) -> int:
-    """A bug's one-line report instead of a traceback (exit code 1); MBS_TRACEBACK=1 raises it instead."""
+    """A bug's one-line report instead of a traceback (exit code 1); MBS_TRACEBACK=1 raises it instead.
+    An error raised while SIGTERM was ending the command is that signal's exit (143), not a bug: C code
+    that catches whatever its callback raised and raises its own error (numpy's comparison of structured
+    arrays turns any exception into a TypeError) can swallow the handler's SystemExit."""
+    if Stopping.signum:
+        return 128 + Stopping.signum
     if os.environ.get("MBS_TRACEBACK"):
         raise exc
     limit = resource_limit(exc)

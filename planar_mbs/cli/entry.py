@@ -27,7 +27,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 # after BLAS is set to one thread (above): nothing below loads numpy when imported
 from planar_mbs.lazy import lazy  # noqa: E402
 
-from .common import guard_streams, stream_failure  # noqa: E402
+from .common import Stopping, guard_streams, stream_failure  # noqa: E402
 from .run_options import plain_run  # noqa: E402
 
 # loaded by the command that needs them, so that `mbs --help` and `mbs check` stay light
@@ -103,7 +103,9 @@ def _terminate(signum, frame) -> None:
     """SIGTERM ends a command by an exception rather than at once, so its `finally` blocks run (a
     figure or a recording being written is removed, never left half-written beside its name; files
     are closed) and it exits with 128 + the signal, 143.  `mbs run`'s time loop and `mbs sweep`
-    install their own handlers while they work (results kept, a sentence saying so)."""
+    install their own handlers while they work (results kept, a sentence saying so).  The signal is
+    noted first: code that turns the exit into another error still ends with 143 (`internal_error`)."""
+    Stopping.signum = signum
     raise SystemExit(128 + signum)
 
 
