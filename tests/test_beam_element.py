@@ -118,3 +118,32 @@ def test_damping_force_dissipates():
         beam.element_forces(e, ed, L, EA, EI, 0.0, sh, de, dk, f0)
         beam.element_forces(e, ed, L, EA, EI, 1e-3, sh, de, dk, f1)
         assert (f1 - f0) @ ed < 0.0
+
+
+@pytest.mark.parametrize("elements", [1, 2, 7])
+def test_banded_mass_solve_and_kinetic_energy_equal_the_dense_matrices(elements):
+    """`beam_minv_mul` (two banded triangular solves per direction) against numpy's dense inverse of the
+    beam's assembled mass, and `beam_kinetic` against q'^T M q' / 2, on a beam placed among rigid bodies
+    (node bodies from 2 on) with random loads and velocities."""
+    from types import SimpleNamespace
+
+    from planar_mbs.mechanism import beams
+
+    Le, rho_a, first = 0.03, 0.4, 2
+    M = beams.beam_mass(elements, Le, rho_a)
+    nb = M.shape[0]
+    n = 3 * (first + 2 * (elements + 1)) + 3  # two rigid bodies before the beam, one after
+    idx = [beam.beam_qindex(first, i) for i in range(nb)]
+    km = SimpleNamespace(beam_info=np.array([[first, elements, 0, 0]]), beam_mass=M.ravel(),
+                         beam_band=beams.band_factor(M).ravel())
+    ws = SimpleNamespace(F=np.zeros((beam.BEAM_ROWS, 2 * n)))
+    rng = np.random.default_rng(elements)
+    f, out0 = rng.normal(size=n), rng.normal(size=n)
+    out = out0.copy()
+    beam.beam_minv_mul(km, ws, f, -2.0, out)
+    expect = out0.copy()
+    expect[idx] -= 2.0 * np.linalg.solve(M, f[idx])
+    assert np.allclose(out, expect, rtol=1e-12, atol=1e-12 * np.abs(expect).max())
+    assert np.array_equal(np.delete(out, idx), np.delete(out0, idx))  # the rigid bodies' entries untouched
+    qd = rng.normal(size=n)
+    assert beam.beam_kinetic(km, qd) == pytest.approx(0.5 * qd[idx] @ M @ qd[idx], rel=1e-13)

@@ -182,9 +182,10 @@ def beam_energy(q, first, nel, L, ea, ei, sh):
 # beam_weight; km.beam_param[bm] = element length, EA, EI, eta, rho A).  Their rows of km.minv are zero:
 # the beam's own constant mass acts through its inverse, formed once by the compiler.
 
-BEAM_ROWS = 10  # rows the workspace's ws.F gets beyond its dense-output rows when the model has beams
+BAND = 4  # entries per row of a beam's banded Cholesky factor (`km.beam_band`): L[i, i - k], k = 0 .. 3
+BEAM_ROWS = 11  # rows the workspace's ws.F gets beyond its dense-output rows when the model has beams
 # (scratch of the beams' kernels, `beam_row`; no array of its own, so a model without beams passes no more)
-ROW_FORCE, ROW_E, ROW_ED, ROW_Q, ROW_SHAPE, ROW_DE, ROW_DK, ROW_FE = 0, 1, 2, 3, 4, 7, 8, 9
+ROW_FORCE, ROW_E, ROW_ED, ROW_Q, ROW_SHAPE, ROW_DE, ROW_DK, ROW_FE, ROW_SOLVE = 0, 1, 2, 3, 4, 7, 8, 9, 10
 
 
 @kernel(inline=True)
@@ -213,17 +214,28 @@ def beam_local(first, b, c):
 
 
 @kernel
-def beam_minv_mul(km, f, sign, out):
-    """out += sign M^-1 f on the coordinates of every beam (f, out over the whole q)."""
+def beam_minv_mul(km, ws, f, sign, out):
+    """out += sign M^-1 f on the coordinates of every beam (f, out over the whole q), in O(elements):
+    a beam's mass is its scalar mass Mbar (position and slope per node, half-bandwidth 3) times the
+    2x2 identity, so M^-1 f is two banded triangular solves with Mbar's Cholesky factor (`km.beam_band`)
+    per direction.  Scratch: the beams' row ROW_SOLVE."""
+    y = beam_row(ws, ROW_SOLVE)
     for bm in range(km.beam_info.shape[0]):
         first = km.beam_info[bm, 0]
-        nb = NODE_COORDS * (km.beam_info[bm, 1] + 1)
-        mo = km.beam_info[bm, 2]
-        for i in range(nb):
-            s = 0.0
-            for j in range(nb):
-                s += km.beam_minv[mo + i * nb + j] * f[beam_qindex(first, j)]
-            out[beam_qindex(first, i)] += sign * s
+        ns = 2 * (km.beam_info[bm, 1] + 1)
+        bo = 2 * km.beam_info[bm, 3]  # beam_weight has 4 entries per node, the band BAND per scalar (2 per node)
+        for c in range(2):
+            for i in range(ns):  # L y = f
+                s = f[beam_qindex(first, 2 * i + c)]
+                for k in range(1, min(i, BAND - 1) + 1):
+                    s -= km.beam_band[bo + BAND * i + k] * y[i - k]
+                y[i] = s / km.beam_band[bo + BAND * i]
+            for i in range(ns - 1, -1, -1):  # L^T x = y
+                s = y[i]
+                for k in range(1, min(ns - 1 - i, BAND - 1) + 1):
+                    s -= km.beam_band[bo + BAND * (i + k) + k] * y[i + k]
+                y[i] = s / km.beam_band[bo + BAND * i]
+                out[beam_qindex(first, 2 * i + c)] += sign * y[i]
 
 
 @kernel
@@ -384,7 +396,8 @@ def beam_strain_energy(km, q):
 
 @kernel
 def beam_kinetic(km, qd):
-    """Every beam's kinetic energy q'^T M q' / 2 (its constant mass)."""
+    """Every beam's kinetic energy q'^T M q' / 2 (its constant mass, 7 coordinates either side of the
+    diagonal: two neighbouring nodes)."""
     T = 0.0
     for bm in range(km.beam_info.shape[0]):
         first = km.beam_info[bm, 0]
@@ -392,6 +405,6 @@ def beam_kinetic(km, qd):
         mo = km.beam_info[bm, 2]
         for i in range(nb):
             vi = qd[beam_qindex(first, i)]
-            for j in range(nb):
+            for j in range(max(0, i - 2 * NODE_COORDS + 1), min(nb, i + 2 * NODE_COORDS)):
                 T += 0.5 * vi * km.beam_mass[mo + i * nb + j] * qd[beam_qindex(first, j)]
     return T

@@ -219,7 +219,7 @@ def refine(km, ws, x):
                         ws.v[k + i] += minv[k + i] * ws.J[r, a, i] * x[r]
         if km.beam_info.shape[0] > 0:
             beam_constraint_force(ws, x, beam_row(ws, 0))
-            beam_minv_mul(km, beam_row(ws, 0), -1.0, ws.v)
+            beam_minv_mul(km, ws, beam_row(ws, 0), -1.0, ws.v)
         rnorm = 0.0
         for r in range(m):
             ws.res[r] = ws.b[r] - jac_dot(ws, r, ws.v)
@@ -280,7 +280,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
         for k in range(n):
             ws.qdd[k] = minv[k] * ws.Qe[k]
         if beams:
-            beam_minv_mul(km, ws.Qe, 1.0, ws.qdd)
+            beam_minv_mul(km, ws, ws.Qe, 1.0, ws.qdd)
         return 0
     st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
@@ -291,7 +291,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
     for k in range(n):
         ws.qdd[k] = minv[k] * ws.Qe[k]
     if beams:
-        beam_minv_mul(km, ws.Qe, 1.0, ws.qdd)
+        beam_minv_mul(km, ws, ws.Qe, 1.0, ws.qdd)
     for r in range(m):
         cd = ws.Ct[r] + jac_dot(ws, r, qd)
         gb = ws.gam[r] - 2.0 * alpha * cd - beta * beta * ws.C[r]
@@ -304,7 +304,7 @@ def accelerations(km, cfg, t, q, qd, contact, ws, stats):
         jac_t_sub(ws, r, ws.lam[r], minv, 1.0, ws.qdd)
     if beams:
         beam_constraint_force(ws, ws.lam, beam_row(ws, 0))
-        beam_minv_mul(km, beam_row(ws, 0), 1.0, ws.qdd)
+        beam_minv_mul(km, ws, beam_row(ws, 0), 1.0, ws.qdd)
     if km.joint_friction.shape[0] > 0:
         st = joint_friction(km, cfg, q, qd, contact, ws, stats)
         if st != 0:
@@ -573,7 +573,7 @@ def project(km, t, y, ws, stats):
             jac_t_sub(ws, r, ws.dl[r], minv, 1.0, q)
         if km.beam_info.shape[0] > 0:
             beam_constraint_force(ws, ws.dl, beam_row(ws, 0))
-            beam_minv_mul(km, beam_row(ws, 0), 1.0, q)
+            beam_minv_mul(km, ws, beam_row(ws, 0), 1.0, q)
     body_trig(q, ws.cs)
     st = constraint_rows_eval(km, q, qd, t, ws.cs, ws.C, ws.J, ws.Ct, ws.gam, ws.xreg, ws.xmode)
     if st != 0:
@@ -590,7 +590,7 @@ def project(km, t, y, ws, stats):
         jac_t_sub(ws, r, ws.dl[r], minv, 1.0, qd)
     if km.beam_info.shape[0] > 0:
         beam_constraint_force(ws, ws.dl, beam_row(ws, 0))
-        beam_minv_mul(km, beam_row(ws, 0), 1.0, qd)
+        beam_minv_mul(km, ws, beam_row(ws, 0), 1.0, qd)
     if restore:
         restore_kinetic_energy(minv, qd, before, ws.Ct)
     ws.flags[FL_REG_SEEN] = 0

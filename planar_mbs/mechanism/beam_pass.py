@@ -73,7 +73,7 @@ class _BeamPass:
         nbeam = len(self.beam_statements)
         info = np.zeros((nbeam, 4), np.int64)
         param = np.zeros((nbeam, N_BEAM_PARAM))
-        mass, minv = [], []
+        mass, minv, band = [], [], []
         body_beam = np.full(self.nbody, -1, np.int64)
         mo = wo = 0
         for bm, st in enumerate(self.beam_statements):
@@ -85,11 +85,12 @@ class _BeamPass:
             info[bm] = (first, nel, mo, wo)
             mass.append(M.ravel())
             minv.append(B.inverse_mass(M).ravel())
+            band.append(B.band_factor(M).ravel())
             mo, wo = mo + M.size, wo + M.shape[0]
             body_beam[first:first + 2 * (nel + 1)] = bm
             self._beam_start(first, nel, p)
         self.a.update(beam_info=info, beam_param=param, beam_mass=np.concatenate(mass),
-                      beam_minv=np.concatenate(minv), body_beam=body_beam)
+                      beam_minv=np.concatenate(minv), beam_band=np.concatenate(band), body_beam=body_beam)
 
     def _beam_weights(self):
         """Every beam's constant generalised weight, once gravity is known."""

@@ -3,9 +3,11 @@ element, `kernel/beam.py`, run as plain Python).
 
 A beam of n elements of length L_e has n + 1 nodes of 4 coordinates (x, y, dx/ds, dy/ds), node k's
 at ``4 k .. 4 k + 3`` of the beam's own coordinate vector.  Its consistent mass matrix is constant
-and banded (each element couples two nodes); the time loop reads its inverse (`inverse_mass`,
-from its Cholesky factor: symmetric positive definite), so the accelerations of a beam cost one
-dense product per right-hand side and nothing is factored while a run goes.  The time loop holds
+and banded (each element couples two nodes), and it is the scalar mass of the node's position and
+slope times the 2x2 identity.  The time loop solves with the scalar mass's banded Cholesky factor
+(`band_factor`: two triangular solves per direction, linear in the elements), and reads the dense
+inverse (`inverse_mass`) only for the few entries at nodes that carry joints and contacts (the Schur
+complement, a node's mobility); nothing is factored while a run goes.  The time loop holds
 each node as two bodies of the rigid-body layout with no mass of their own: its position (x, y) and
 its slope (dx/ds, dy/ds), the third coordinate of each unused.
 """
@@ -16,6 +18,7 @@ import numpy as np
 from ..pykernel import beam as pybeam  # the kernel's element as plain Python, without numba
 
 NODE_COORDS = 4
+BAND = pybeam.BAND
 
 
 def beam_mass(nel: int, Le: float, rho_a: float) -> np.ndarray:
@@ -36,6 +39,17 @@ def inverse_mass(M: np.ndarray) -> np.ndarray:
     Linv = np.linalg.solve(L, np.eye(M.shape[0]))
     Minv = Linv.T @ Linv
     return 0.5 * (Minv + Minv.T)
+
+
+def band_factor(M: np.ndarray) -> np.ndarray:
+    """The Cholesky factor L of the scalar mass Mbar = M[0::2, 0::2] (M = Mbar times the 2x2 identity:
+    x and y never couple), row by row as L[i, i - k], k = 0 .. BAND - 1 (half-bandwidth 3: a node's
+    position and slope couple with its neighbours' only), for `kernel.beam.beam_minv_mul`."""
+    L = np.linalg.cholesky(M[0::2, 0::2])
+    band = np.zeros((L.shape[0], BAND))
+    for k in range(BAND):
+        band[k:, k] = np.diagonal(L, -k)
+    return band
 
 
 def gravity_force(nel: int, Le: float, rho_a: float, g) -> np.ndarray:

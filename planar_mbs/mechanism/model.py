@@ -345,6 +345,7 @@ class KernelModel(NamedTuple):
     beam_param: np.ndarray = np.zeros((0, 5))  # (nbeam, BP_*): element length, EA, EI, damping time eta, rho A
     beam_mass: np.ndarray = np.zeros(0)  # every beam's constant mass matrix (nb x nb, nb = 4 (elements + 1)), row by row
     beam_minv: np.ndarray = np.zeros(0)  # its inverse, the same layout
+    beam_band: np.ndarray = np.zeros(0)  # the Cholesky factor of its scalar mass (kernel/beam.py BAND per scalar coordinate, offset 2 beam_info[:, 3])
     beam_weight: np.ndarray = np.zeros(0)  # every beam's constant generalised weight (nb each)
     body_beam: np.ndarray = np.zeros(0, dtype=np.int64)  # (nbody,) int: the beam of a node body, -1 for a rigid body (empty without beams)
 
