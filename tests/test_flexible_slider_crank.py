@@ -126,3 +126,23 @@ def test_midpoint_deflection_follows_the_kineto_elastodynamic_mode():
     print(f"peak ours {np.abs(ours).max():.4e}  modal {peak:.4e}  largest difference {np.abs(ours - ref).max():.3e}")
     assert np.abs(ours).max() == pytest.approx(peak, rel=0.02)
     assert np.abs(ours - ref).max() < 0.04 * peak
+
+
+def test_the_cost_section_of_the_beams_page_is_the_benchmark_s():
+    """docs/beams.md "Cost" shows the tables `benchmarks/beam_cost.py` renders from its JSON, and what the
+    page says of them holds: each element count within 2 % of the fitted line, the rigid rod's steps a
+    revolution, thousands of times the rigid rod's steps with 8 elements."""
+    import json
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import beam_cost
+
+    data = json.loads((ROOT / "docs" / "beam_cost.json").read_text(encoding="utf-8"))
+    page = (ROOT / "docs" / "beams.md").read_text(encoding="utf-8")
+    assert beam_cost.markdown(data) in page
+    assert data["machine"].split(",")[0] in page.split("## Cost")[1].split("|")[0]
+    assert max(abs(r["fit_deviation"]) for r in data["per_step"]) < 0.02
+    assert [r["elements"] for r in data["per_step"]] == list(beam_cost.ELEMENTS)
+    text = " ".join(page.split())
+    assert f"{data['ratio']['rigid']['steps'] // 2} steps a revolution" in text
+    assert "costs thousands of times the rigid one" in text and 1000 < data["ratio"]["steps_ratio"] < 10000
