@@ -16,7 +16,7 @@ import planar_mbs as mbs
 from chains import ORDERS, crank_angle_reference, parallelogram_chain, pendulum_chain
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
-OLD_RULE = "1e-8,2,0,1e-3,1,0.03,1e-3"  # REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD = TAU
+OLD_RULE = "1e-8,2,0,1e-3,1,0.03,1e-3,0"  # REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD = TAU, no UNIT_MASS
 
 
 def lost_rank(res) -> bool:

@@ -21,8 +21,9 @@ cache misses made the cost per right-hand side grow faster than N.
 
 S loses rank at a singular position (for an instant) and with redundant joints
 (for good).  S is factored as it is while every pivot stays above TAU of its
-diagonal (one solve, exact to rounding: today's mechanisms pay nothing more);
-otherwise ``S + REG D`` (D = diag S) is factored, which stays positive
+diagonal (one solve, exact to rounding: today's mechanisms pay nothing more), or
+when the small pivot is only its masses' (`scaled_by_masses`: the same complement
+with unit masses factors healthily); otherwise ``S + REG D`` (D = diag S) is factored, which stays positive
 definite, and the system is solved by iterated Tikhonov regularisation
 (`multipliers`): exact to rounding for the well-conditioned part, the
 minimum-norm multipliers for redundant rows, and a soft constraint (a penalty of
@@ -53,6 +54,7 @@ from .workspace import FL_RANK_LOST, FL_REG_SEEN, FL_SCHUR_REG, FL_STEP_REG  # R
 from .workspace import JW_A0, JW_FREE, JW_LIMIT, JW_S, JW_T, JW_TARGET, JW_V
 
 SINGULAR = 4
+EXACT_PIVOT = 1e-12  # relative pivot above which S is factored exactly when only its masses make it badly scaled
 DRIFT = 8
 JOINT_FRICTION = int(Status.JOINT_FRICTION)
 FRICTION_ITER = 100  # fixed-point sweeps of the friction joints' solve (each contracts by about mu r / L)
@@ -129,6 +131,9 @@ def schur_factor(km, ws, stats):
     if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
         ws.flags[FL_SCHUR_REG] = 0
         return 0
+    if ws.solver[7] != 0.0 and km.beam_info.shape[0] == 0 and km.unit_minv.shape[0] > 0 and scaled_by_masses(km, ws):
+        ws.flags[FL_SCHUR_REG] = 0
+        return 0
     if km.beam_info.shape[0] > 0:
         beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0],
                             km.body_beam, km.beam_info, km.beam_minv)
@@ -144,6 +149,22 @@ def schur_factor(km, ws, stats):
     if ws.flags[FL_RANK_LOST] == 0 and withholds(ws.S, ws.first, ws.ptr, ws.sdiag, ws.solver[6]):
         ws.flags[FL_RANK_LOST] = 1
     return 0
+
+
+@kernel(inline=True)
+def scaled_by_masses(km, ws):
+    """S has a pivot below TAU of its diagonal: is that the mechanism's geometry (a singular position,
+    redundant joints, a long chain: then it is regularised) or only its masses (light bodies beside heavy
+    ones: pivots down to about the mass ratio of the diagonal, however regular the mechanism)?  The same
+    Schur complement with unit masses (km.unit_minv) tells: when it factors with healthy pivots, S is
+    factored exactly (pivots above EXACT_PIVOT, far above rounding) and used; returns whether it was.
+    (The iterated Tikhonov solve converges by REG / (s + REG) per sweep: at a mass ratio of 1e6 the
+    relative eigenvalues s come near REG, and it neither converged nor kept the constraints.)"""
+    schur_assemble(km.unit_minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
+    if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) >= 0:
+        return False
+    schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
+    return cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, EXACT_PIVOT) < 0
 
 
 @kernel

@@ -91,7 +91,7 @@ class Workspace(NamedTuple):
     res: np.ndarray  # (m,) residual of the multiplier refinement
     dl: np.ndarray  # (m,) projection corrections
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
-    solver: np.ndarray  # (7,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD] (`solver_settings`)
+    solver: np.ndarray  # (8,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD, UNIT_MASS] (`solver_settings`)
     xreg: np.ndarray  # (max(ninstr, 1), 3) expression registers: value, d/dt, d2/dt2 (`kernel.expressions`)
     xmode: np.ndarray  # (ninstr,) frozen 0/1 of a comparison row, or a table's piece (LIVE: computed afresh)
     xfault: np.ndarray  # (2,) [force element, t] of the first non-finite expression value (-1: none)
@@ -184,14 +184,16 @@ WITHHELD = 1e-6  # relative pivot (d_j / S_jj, of the regularised factor) at or 
 # has the mechanism lost rank (a singular position, redundant joints).  Pivots between WITHHELD and TAU are
 # regular rows of a large or badly scaled mechanism (an 800-bar chain's are 1e-3 of their diagonal), solved
 # exactly by the regularised solve and not reported.
-# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD] so that experiments need no recompilation)
+UNIT_MASS = 1.0  # 1: a pivot below TAU is first checked against the unit-mass complement (`dynamics.scaled_by_masses`)
+# (ws.solver holds [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD, UNIT_MASS] so that experiments need no
+# recompilation)
 
 
 def solver_settings() -> np.ndarray:
-    """[REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD] of the multiplier solve (`dynamics.schur_factor`,
+    """[REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD, UNIT_MASS] of the multiplier solve (`dynamics.schur_factor`,
     `dynamics.multipliers`) and the velocity projection (`dynamics.project`)."""
-    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore,rate,withheld"
-    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE, RATE, WITHHELD])
+    env = os.environ.get("PLANAR_MBS_SOLVER")  # experiments only: "reg,refine,tol,tau,restore,rate,withheld,unit_mass"
+    settings = np.array([REG, float(REFINE), REFINE_TOL, TAU, RESTORE, RATE, WITHHELD, UNIT_MASS])
     if env:  # the values given replace the first ones, the rest keep their defaults
         given = [float(v) for v in env.split(",")][: settings.size]
         settings[: len(given)] = given

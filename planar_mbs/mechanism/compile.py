@@ -376,7 +376,7 @@ class _LayoutPasses:
         nb, nj, nd, nc, nf = self.nbody, self.njoint, self.ndriver, self.nclear, self.nforce
         f, i = np.float64, np.int64
         self.a = dict(
-            body_mass=np.zeros(nb, f), body_inertia=np.zeros(nb, f), minv=np.zeros(3 * nb, f),
+            body_mass=np.zeros(nb, f), body_inertia=np.zeros(nb, f), minv=np.zeros(3 * nb, f), unit_minv=np.zeros(3 * nb, f),
             gravity=np.zeros(2, f),
             joint_type=np.zeros(nj, i), joint_body=np.full((nj, 2), -1, i),
             joint_point=np.zeros((nj, 2, 2), f), joint_axis=np.zeros((nj, 2), f),
@@ -449,6 +449,7 @@ class _BodyPass:
                                             hint=f"a unit typo? e.g. `{key} = 0.3 {unit}`")
         self.a["body_mass"][k], self.a["body_inertia"][k] = m, inertia
         self.a["minv"][3 * k:3 * k + 3] = (1.0 / m, 1.0 / m, 1.0 / inertia)
+        self.a["unit_minv"][3 * k:3 * k + 3] = (1.0, 1.0, m / inertia)
         self.q0[3 * k:3 * k + 2] = f.vector("position", U.LENGTH, (0.0, 0.0))
         self.q0[3 * k + 2] = f.scalar("angle", U.ANGLE, 0.0)
         self.qd0[3 * k:3 * k + 2] = f.vector("velocity", U.VELOCITY, (0.0, 0.0))
