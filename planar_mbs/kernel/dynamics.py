@@ -118,12 +118,14 @@ def cholesky(S, first, ptr, lastrow, sdiag, tau):
 @kernel(inline=True)
 def schur_factor(km, ws, stats):
     """Factor S exactly when every pivot is healthy (above TAU of its diagonal: S is
-    well conditioned, one solve is exact to rounding); otherwise factor S + REG diag(S)
-    for the iterated Tikhonov solve of `multipliers` (ws.flags[FL_SCHUR_REG] = 1).
-    In an eigendirection of relative size s the regularised answer is off by
-    (REG / (s + REG))^(REFINE + 1), below rounding for s > TAU: switching is seamless.
+    well conditioned, one solve is exact to rounding), or when only its masses make a pivot small
+    (`scaled_by_masses`); otherwise factor S + REG D for the iterated Tikhonov solve of `multipliers`
+    (ws.flags[FL_SCHUR_REG] = 1), D the diagonal of S in the heaviest-mass metric (`regularise`; diag S
+    itself with equal masses or beams).  In an eigendirection of relative size s the regularised answer
+    is off by (REG / (s + REG))^(REFINE + 1), below rounding for s > TAU: switching is seamless.
     Only a row with no Jacobian at all (or a NaN) fails: SINGULAR."""
-    if km.beam_info.shape[0] > 0:
+    beams = km.beam_info.shape[0] > 0
+    if beams:
         beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0,
                             km.body_beam, km.beam_info, km.beam_minv)
     else:
@@ -131,10 +133,13 @@ def schur_factor(km, ws, stats):
     if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) < 0:
         ws.flags[FL_SCHUR_REG] = 0
         return 0
-    if ws.solver[7] != 0.0 and km.beam_info.shape[0] == 0 and km.unit_minv.shape[0] > 0 and scaled_by_masses(km, ws):
-        ws.flags[FL_SCHUR_REG] = 0
-        return 0
-    if km.beam_info.shape[0] > 0:
+    if ws.solver[7] != 0.0 and not beams and km.unit_minv.shape[0] > 0:
+        if scaled_by_masses(km, ws):
+            ws.flags[FL_SCHUR_REG] = 0
+            return 0
+        schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
+        regularise(ws, ws.solver[0])
+    elif beams:
         beam_schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, ws.solver[0],
                             km.body_beam, km.beam_info, km.beam_minv)
     else:
@@ -156,15 +161,31 @@ def scaled_by_masses(km, ws):
     """S has a pivot below TAU of its diagonal: is that the mechanism's geometry (a singular position,
     redundant joints, a long chain: then it is regularised) or only its masses (light bodies beside heavy
     ones: pivots down to about the mass ratio of the diagonal, however regular the mechanism)?  The same
-    Schur complement with unit masses (km.unit_minv) tells: when it factors with healthy pivots, S is
-    factored exactly (pivots above EXACT_PIVOT, far above rounding) and used; returns whether it was.
+    Schur complement in the heaviest-mass metric (km.unit_minv: every body at the heaviest one's mass)
+    tells: when it factors with healthy pivots, S is factored exactly (pivots above EXACT_PIVOT, far above
+    rounding) and used; returns whether it was.  Its diagonal stays in ws.rdiag for `regularise`.
     (The iterated Tikhonov solve converges by REG / (s + REG) per sweep: at a mass ratio of 1e6 the
-    relative eigenvalues s come near REG, and it neither converged nor kept the constraints.)"""
+    relative eigenvalues s of S come near REG, and it neither converged nor kept the constraints.)"""
     schur_assemble(km.unit_minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
+    for r in range(ws.rdiag.shape[0]):
+        ws.rdiag[r] = ws.sdiag[r]
     if cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, ws.solver[3]) >= 0:
         return False
     schur_assemble(km.minv, ws.J, ws.rowbody, ws.first, ws.ptr, ws.S, ws.sdiag, 0.0)
     return cholesky(ws.S, ws.first, ws.ptr, ws.lastrow, ws.sdiag, EXACT_PIVOT) < 0
+
+
+@kernel(inline=True)
+def regularise(ws, reg):
+    """S_rr += reg D_rr, D = ws.rdiag (the diagonal in the heaviest-mass metric), written as
+    S_rr (1 + reg D_rr / S_rr): with equal masses D = diag S and this is S_rr (1 + reg), bit for bit.
+    Regularised in this metric, a direction of S that is small only through light bodies (relative to
+    diag S) is not small against D: the sweeps solve it exactly; only the geometry's vanishing directions
+    (a singular position, redundant joints) are damped."""
+    for r in range(ws.sdiag.shape[0]):
+        k = ws.ptr[r] - ws.first[r] + r
+        s = ws.sdiag[r]
+        ws.S[k] = s * (1.0 + reg * (ws.rdiag[r] / s)) if s > 0.0 else s + reg * ws.rdiag[r]
 
 
 @kernel

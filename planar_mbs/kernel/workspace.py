@@ -90,6 +90,7 @@ class Workspace(NamedTuple):
     sstats: np.ndarray  # (N_STATS,) scratch counters for `observe`
     res: np.ndarray  # (m,) residual of the multiplier refinement
     dl: np.ndarray  # (m,) projection corrections
+    rdiag: np.ndarray  # (m,) the diagonal of S in the heaviest-mass metric (km.unit_minv), the regularisation's scale
     v: np.ndarray  # (n,) M^-1 Cq^T x scratch of the multiplier refinement
     solver: np.ndarray  # (8,) [REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD, UNIT_MASS] (`solver_settings`)
     xreg: np.ndarray  # (max(ninstr, 1), 3) expression registers: value, d/dt, d2/dt2 (`kernel.expressions`)
@@ -235,7 +236,7 @@ def make_workspace(km: KernelModel) -> Workspace:
         Qe=np.zeros(n), qdd=np.zeros(n), K=np.zeros((N_STAGES, N)), F=np.zeros((N_DENSE_ROWS + (BEAM_ROWS if beam_coords(km) else 0), N)), f=np.zeros(N),
         ya=np.zeros(N), yb=np.zeros(N), ys=np.zeros(N), yt=np.zeros(N),
         gs=np.zeros((nc, 5)), dense=dense, flags=flags, sstats=np.zeros(N_STATS, dtype=np.int64),
-        res=np.zeros(m), dl=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
+        res=np.zeros(m), dl=np.zeros(m), rdiag=np.zeros(m), v=np.zeros(n), solver=solver_settings(), xreg=xreg, xmode=xmode, xfault=xfault,
         pw=np.zeros(nw), pf=np.zeros(nw), pk=np.zeros((N_STAGES, nw)), wk=np.zeros((N_WK, nw)),
         fv=np.zeros((nf, catalog.N_FORCE_VALUES)), fsave=np.zeros(6), wF=np.zeros(N_DENSE_ROWS), energy0=np.zeros(2 + nc),
         z=np.zeros(nz), zd=np.zeros(nz),

@@ -209,6 +209,17 @@ SINGLETONS = ("gravity", "simulate")
 # params, the element lists, the arrays `self.a`); `Compiler` at the end joins them and runs
 # them in order.  Names: symbols and params, layout (ids, sizes, arrays), bodies, joints,
 # clearance joints, drivers, forces, settings, checks.
+
+def heaviest_metric(minv: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """The inverse masses of the bodies at the heaviest one's mass, each keeping its radius of gyration:
+    ``minv_b m_b / m_max`` (km.unit_minv).  The Schur complement in this metric has the geometry's
+    conditioning without the mass ratios (`kernel.dynamics.scaled_by_masses`); with equal masses it is
+    S itself, bit for bit (the factor is exactly 1).  A beam's node bodies (no mass of their own) get 0."""
+    heaviest = float(mass.max(initial=0.0))
+    if heaviest <= 0.0:
+        return np.zeros_like(minv)
+    return minv * np.repeat(mass / heaviest, 3)
+
 class _SymbolPasses:
     """Passes 1-2: one statement per name, then every param resolved."""
 
@@ -449,7 +460,6 @@ class _BodyPass:
                                             hint=f"a unit typo? e.g. `{key} = 0.3 {unit}`")
         self.a["body_mass"][k], self.a["body_inertia"][k] = m, inertia
         self.a["minv"][3 * k:3 * k + 3] = (1.0 / m, 1.0 / m, 1.0 / inertia)
-        self.a["unit_minv"][3 * k:3 * k + 3] = (1.0, 1.0, m / inertia)
         self.q0[3 * k:3 * k + 2] = f.vector("position", U.LENGTH, (0.0, 0.0))
         self.q0[3 * k + 2] = f.scalar("angle", U.ANGLE, 0.0)
         self.qd0[3 * k:3 * k + 2] = f.vector("velocity", U.VELOCITY, (0.0, 0.0))
@@ -1363,6 +1373,7 @@ class _CheckPass:
             if arr.dtype == np.float64 and not np.all(np.isfinite(arr)):  # pragma: no cover - guarded above
                 raise ModelError(f"non-finite values in {name}", self.spec.path, hint="this is a bug in planar_mbs")
         self.a.update(self.programs.arrays())
+        self.a["unit_minv"] = heaviest_metric(self.a["minv"], self.a["body_mass"])
         _number_states(self.a["clearance_param"])
         kernel = frozen(reorder(KernelModel(**{k: np.ascontiguousarray(v) for k, v in self.a.items()})))
 

@@ -341,8 +341,9 @@ class KernelModel(NamedTuple):
     joint_friction: np.ndarray = np.zeros(0, dtype=np.int64)  # (njfriction,) int: the joints with friction, in order
     # beams (kernel/beam.py): node k of a beam is two massless bodies, its position and its slope (first + 2 k,
     # first + 2 k + 1); none by default
-    # (3 nbody,) the inverse mass of the same bodies at unit mass, (1, 1, m / I) each: the geometry's own metric,
-    # which tells a mechanism near a loss of rank from one whose masses only make S badly scaled (`dynamics.schur_factor`)
+    # (3 nbody,) the inverse mass of the same bodies at the heaviest one's mass, each keeping its radius of gyration
+    # (`compile.heaviest_metric`): the geometry's own metric, which tells a mechanism near a loss of rank from one
+    # whose masses only make S badly scaled, and regularises S in the geometry's directions (`dynamics.schur_factor`)
     unit_minv: np.ndarray = np.zeros(0)
     beam_info: np.ndarray = np.zeros((0, 4), dtype=np.int64)  # (nbeam, 4) int: first node body, elements, offset in beam_mass and beam_minv, offset in beam_weight
     beam_param: np.ndarray = np.zeros((0, 5))  # (nbeam, BP_*): element length, EA, EI, damping time eta, rho A
