@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import planar_mbs as mbs
-from chains import ORDERS, crank_angle_reference, parallelogram_chain, pendulum_chain
+from chains import ORDERS, crank_angle_reference, parallelogram_chain, pendulum_chain, pendulum_tree
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 OLD_RULE = "1e-8,2,0,1e-3,1,0.03,1e-3,0"  # REG, REFINE, REFINE_TOL, TAU, RESTORE, RATE, WITHHELD = TAU, no UNIT_MASS
@@ -60,6 +60,32 @@ def test_a_long_uniform_chain_has_not_lost_rank(monkeypatch, N, order):
     if order == "chain":
         monkeypatch.setenv("PLANAR_MBS_SOLVER", OLD_RULE)
         assert lost_rank(mbs.simulate(mbs.compile_text(text)))  # pivots near 1e-3 of their diagonal
+
+
+@pytest.mark.parametrize("order", ORDERS)
+@pytest.mark.parametrize("depth", [4, 7])
+def test_a_tree_has_not_lost_rank(depth, order):
+    """Binary trees of 15 and 127 bars in four text orders: no loss of rank reported, the joints kept."""
+    res = mbs.simulate(mbs.compile_text(pendulum_tree(depth, order)))
+    assert not lost_rank(res)
+    assert max(res["system.position_error"]) < 1e-6 * 0.1 * depth
+
+
+@pytest.mark.slow  # the assembly of a thousand bars takes tens of seconds
+def test_a_thousand_bar_tree_has_not_lost_rank():
+    res = mbs.simulate(mbs.compile_text(pendulum_tree(10, "shuffled")))
+    assert not lost_rank(res)
+    assert max(res["system.position_error"]) < 1e-6
+
+
+@pytest.mark.parametrize("coupler", [1e-4, 1e-6])
+def test_light_couplers_still_lose_rank_at_the_singular_position(coupler):
+    """Mass ratios do not hide a real loss of rank: the IFToMM chain with light couplers still reports
+    it, near the closed form's first singular position."""
+    text = parallelogram_chain(2, t_end=1.0, integrator="dop853", rtol=1e-12, atol=1e-14, output_step=0.001,
+                               coupler_mass=coupler)
+    res = mbs.simulate(mbs.compile_text(text))
+    assert lost_rank(res)
 
 
 def test_redundant_joints_have_lost_rank():
