@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..lazy import lazy
-from .portable import matvec, min_norm_step, rotate
+from .portable import LARGE_ROWS, envelope_factor, matvec, min_norm_step, rotate
 from .model import (CP_BREAKDOWN, CP_CLEARANCE, CP_KIND, CP_NX, CP_NY, CP_R_BEARING, CP_R_JOURNAL, JOINT_ROWS,
                     JP_PHI0, JointType, KernelModel, Model, PairKind)
 
@@ -47,6 +47,14 @@ else:  # each loaded on its first use (see the comments: not on the light paths)
 MAX_NEWTON = 50
 POSITION_TOL = 1e-12  # m (and rad): residual of C at an assembled pose
 RANK_TOL = 1e-9  # singular values below this x the largest count as zero
+
+
+def clearly_full_rank(Cq: np.ndarray) -> bool:
+    """Whether Cq (LARGE_ROWS rows or more) has full row rank by its envelope factor, every row's
+    remainder above `portable.CLEAR` of the largest row (far above RANK_TOL): the O(m n²) SVD of a
+    thousand-body model took seconds, the envelope factor a fraction of one.  A nearer row is left to
+    the SVD."""
+    return Cq.shape[0] >= LARGE_ROWS and envelope_factor(Cq) is not None
 
 
 def clearance_start(model: Model) -> np.ndarray:
@@ -292,7 +300,8 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
         q += min_norm_step(Cq, -C, RANK_TOL)
     C, Cq, Ct = _evaluate(km, q, qd, t, m)
     finite = bool(np.all(np.isfinite(Cq)))
-    if finite:  # singular values for the rank test
+    full = finite and clearly_full_rank(Cq)
+    if finite and not full:  # singular values for the rank test
         sv = np.linalg.svd(Cq, compute_uv=False)
     if not finite or not np.all(np.isfinite(C)) or np.max(np.abs(C)) > 1e-9:
         worst = int(np.argmax(np.abs(np.nan_to_num(C, nan=np.inf))))
@@ -306,7 +315,7 @@ def _positions(model: Model, km: KernelModel, owners: list[str], q, qd, t: float
             "check the joint points and the bodies' `position`/`angle`; the mechanism may not "
             "close with these lengths",
         )
-    dependent = _dependent_rows(Cq, owners, sv)
+    dependent = [] if full else _dependent_rows(Cq, owners, sv)
     drivers = [n for n in dependent if n in set(model.driver_names)]
     if drivers:
         raise _model_error(
@@ -466,6 +475,8 @@ def constraint_report(model: Model, q: np.ndarray, t: float = 0.0) -> dict:
 
 def _rank(km: KernelModel, q, t, m):
     _, Cq, _ = _evaluate(km, q, np.zeros_like(q), t, m)
+    if np.all(np.isfinite(Cq)) and clearly_full_rank(Cq):
+        return m, Cq, None
     sv = np.linalg.svd(Cq, compute_uv=False)
     tol = RANK_TOL * max(sv[0] if len(sv) else 0.0, 1.0)
     return int(np.count_nonzero(sv > tol)), Cq, sv
