@@ -23,7 +23,8 @@ S loses rank at a singular position (for an instant) and with redundant joints
 (for good).  S is factored as it is while every pivot stays above TAU of its
 diagonal (one solve, exact to rounding: today's mechanisms pay nothing more), or
 when the small pivot is only its masses' (`scaled_by_masses`: the same complement
-with unit masses factors healthily); otherwise ``S + REG D`` (D = diag S) is factored, which stays positive
+in the heaviest-mass metric factors healthily); otherwise ``S + REG D`` is factored (D the
+diagonal of that complement, `regularise`; diag S with equal masses), which stays positive
 definite, and the system is solved by iterated Tikhonov regularisation
 (`multipliers`): exact to rounding for the well-conditioned part, the
 minimum-norm multipliers for redundant rows, and a soft constraint (a penalty of
