@@ -204,12 +204,6 @@ RESERVED = {"ground": "the fixed body", "system": "the name of the system signal
 SINGLETONS = ("gravity", "simulate")
 
 
-# ------------------------------------------------------------------ the passes
-# Each pass is a small class of methods over one shared state (`self`: the spec, the resolved
-# params, the element lists, the arrays `self.a`); `Compiler` at the end joins them and runs
-# them in order.  Names: symbols and params, layout (ids, sizes, arrays), bodies, joints,
-# clearance joints, drivers, forces, settings, checks.
-
 def heaviest_metric(minv: np.ndarray, mass: np.ndarray) -> np.ndarray:
     """The inverse masses of the bodies at the heaviest one's mass, each keeping its radius of gyration:
     ``minv_b m_b / m_max`` (km.unit_minv).  The Schur complement in this metric has the geometry's
@@ -219,6 +213,13 @@ def heaviest_metric(minv: np.ndarray, mass: np.ndarray) -> np.ndarray:
     if heaviest <= 0.0:
         return np.zeros_like(minv)
     return minv * np.repeat(mass / heaviest, 3)
+
+
+# ------------------------------------------------------------------ the passes
+# Each pass is a small class of methods over one shared state (`self`: the spec, the resolved
+# params, the element lists, the arrays `self.a`); `Compiler` at the end joins them and runs
+# them in order.  Names: symbols and params, layout (ids, sizes, arrays), bodies, joints,
+# clearance joints, drivers, forces, settings, checks.
 
 class _SymbolPasses:
     """Passes 1-2: one statement per name, then every param resolved."""

@@ -10,10 +10,10 @@ minimum-norm Newton steps are written with those alone: the step is a Householde
 pivoting of the transposed Jacobian (G. H. Golub and C. F. Van Loan, *Matrix Computations*, §5.4.1
 and §5.7), O(m² n) for m rows and n coordinates.  From LARGE_ROWS rows on (a chain of more than a
 hundred bodies) the step first tries the sparse path: each row touches one or two bodies, so A Aᵀ has
-an envelope of a few rows in the kernel's row order (`mechanism.ordering`), and its envelope Cholesky
+an envelope of a few rows in reverse Cuthill-McKee row order (`row_order`), and its envelope Cholesky
 (George and Liu) with exactly rounded dot products (`math.fsum`) gives x = Aᵀ (A Aᵀ)⁻¹ b in
-O(m · width²).  A row whose remainder is below the rank tolerance, or a solution whose residual is
-not at rounding, leaves the decision to the QR (redundant joints, near-singular poses).
+O(m · width²).  A row less than CLEAR clear of the others, or a solution whose residual is not at
+rounding, leaves the decision to the QR (redundant joints, near-singular poses).
 """
 from __future__ import annotations
 
