@@ -17,7 +17,6 @@ Two tables, time-loop wall seconds (`wall_time`), the least of REPEAT runs after
 from __future__ import annotations
 
 import json
-import platform
 import sys
 from pathlib import Path
 
@@ -25,6 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import planar_mbs as mbs  # noqa: E402
 
@@ -82,17 +82,11 @@ def ratio_table() -> dict:
 
 
 def machine() -> str:
-    import numba
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    import os
-    return f"{cpu}, {os.cpu_count()} cores; Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}"
+    """The machine in one line, from `run.machine` (the benchmarks' own description of it)."""
+    from run import machine as described
+
+    m = described()
+    return f"{m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, numba {m['numba']}"
 
 
 def markdown(data: dict) -> str:
