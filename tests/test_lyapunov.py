@@ -164,7 +164,9 @@ def test_benettin_after_a_long_transient_neither_stops_nor_drifts():
     revolutions at rtol 1e-6 (chaotic for hundreds, then the journal closes for good), Benettin from the
     final state at the Lyapunov settings.  A reference left unprojected carried a residual just below the
     bound, and a pull-back by s put (1 - s) times it into the companion: "the constraints gave way" for one
-    perturbed direction in five.  Every direction must now run and agree with Floquet's estimate."""
+    perturbed direction in five.  Every direction must now run and agree with Floquet's estimate (with
+    its default difference step, which must resolve multipliers of about 3e-3 above the integration
+    error)."""
     from planar_mbs import load_model
     from planar_mbs.run.lyapunov import floquet_exponent, mechanism_exponent
     from planar_mbs.run.stepper import Stepper
@@ -182,7 +184,7 @@ def test_benettin_after_a_long_transient_neither_stops_nor_drifts():
     fl = floquet_exponent(settled, period)
     assert fl.closure < 1e-6
     assert fl.value < -1.0
-    assert np.allclose(values, fl.value, rtol=0.15)
+    assert np.allclose(values, fl.value, rtol=0.05)
 
 
 def test_a_mechanism_without_freedom_is_refused_in_words(tmp_path):
