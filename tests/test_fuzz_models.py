@@ -146,6 +146,7 @@ def mutated_model(draw):
 
 
 @pytest.mark.slow  # 1200 compiled models (~10 s); the random-text fuzz stays in the default run
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # a hostile number must not leak numpy's warnings
 @FUZZ
 @given(mutated_model())
 def test_mutated_shipped_models_give_only_model_errors(case):

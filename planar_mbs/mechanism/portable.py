@@ -135,6 +135,13 @@ def min_norm_step(A: np.ndarray, b: np.ndarray, rank_tol: float) -> np.ndarray:
         x = envelope_step(A, b)
         if x is not None:
             return x
+    with np.errstate(over="ignore", invalid="ignore"):  # a hostile model's huge entries: no rank, no warning
+        return _pivoted_step(A, b, rank_tol)
+
+
+def _pivoted_step(A: np.ndarray, b: np.ndarray, rank_tol: float) -> np.ndarray:
+    """`min_norm_step` by Householder reflections with column pivoting of Aᵀ."""
+    m, n = A.shape
     X = np.array(A.T, dtype=np.float64, order="C")  # column i is row perm[i] of A
     perm = np.arange(m)
     tol = rank_tol * max(math.sqrt(float((X * X).sum(axis=0).max(initial=0.0))), 1.0)
