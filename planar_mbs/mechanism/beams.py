@@ -13,6 +13,8 @@ its slope (dx/ds, dy/ds), the third coordinate of each unused.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..pykernel import beam as pybeam  # the kernel's element as plain Python, without numba
@@ -34,21 +36,46 @@ def beam_mass(nel: int, Le: float, rho_a: float) -> np.ndarray:
 
 
 def inverse_mass(M: np.ndarray) -> np.ndarray:
-    """M^-1 through its Cholesky factor (M is symmetric positive definite), symmetrised."""
-    L = np.linalg.cholesky(M)
-    Linv = np.linalg.solve(L, np.eye(M.shape[0]))
-    Minv = Linv.T @ Linv
-    return 0.5 * (Minv + Minv.T)
+    """M^-1 = Mbar^-1 times the 2x2 identity, Mbar^-1 by the band factor's solves on every unit
+    vector at once, symmetrised.  Element by element, without BLAS or LAPACK, so that its bits, and
+    a run's, do not depend on the kernels the processor makes OpenBLAS choose (docs/numerics.md)."""
+    band = band_factor(M)
+    n = band.shape[0]
+    X = np.eye(n)
+    for i in range(n):  # L Y = I, one row of all the columns at a time
+        for k in range(1, min(BAND, i + 1)):
+            X[i] -= band[i, k] * X[i - k]
+        X[i] /= band[i, 0]
+    for i in range(n - 1, -1, -1):  # L^T X = Y
+        for k in range(1, min(BAND, n - i)):
+            X[i] -= band[i + k, k] * X[i + k]
+        X[i] /= band[i, 0]
+    X = 0.5 * (X + X.T)
+    Minv = np.zeros_like(M)
+    Minv[0::2, 0::2] = Minv[1::2, 1::2] = X
+    return Minv
 
 
 def band_factor(M: np.ndarray) -> np.ndarray:
     """The Cholesky factor L of the scalar mass Mbar = M[0::2, 0::2] (M = Mbar times the 2x2 identity:
     x and y never couple), row by row as L[i, i - k], k = 0 .. BAND - 1 (half-bandwidth 3: a node's
-    position and slope couple with its neighbours' only), for `kernel.beam.beam_minv_mul`."""
-    L = np.linalg.cholesky(M[0::2, 0::2])
-    band = np.zeros((L.shape[0], BAND))
-    for k in range(BAND):
-        band[k:, k] = np.diagonal(L, -k)
+    position and slope couple with its neighbours' only), for `kernel.beam.beam_minv_mul`.  Formed in
+    Python floats in a fixed order (no LAPACK), the same bits on every processor."""
+    Mbar = M[0::2, 0::2]
+    n = Mbar.shape[0]
+    band = np.zeros((n, BAND))
+    for i in range(n):
+        for k in range(min(BAND - 1, i), -1, -1):  # L[i, j] for j = i - k, left to right
+            j = i - k
+            acc = float(Mbar[i, j])
+            for p in range(1, min(BAND - k, j + 1)):  # columns j - p shared by rows i and j
+                acc -= band[i, k + p] * band[j, p]
+            if k == 0:
+                if not acc > 0.0:
+                    raise np.linalg.LinAlgError("the beam's mass matrix is not positive definite")
+                band[i, 0] = math.sqrt(acc)
+            else:
+                band[i, k] = acc / band[j, 0]
     return band
 
 
