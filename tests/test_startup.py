@@ -80,6 +80,20 @@ def test_run_through_the_executable_skips_teardown_but_keeps_code_output_and_fil
     assert read_results(out).time[-1] == pytest.approx(1e-3)
 
 
+def test_a_run_prints_its_summary_without_loading_rich(tmp_path):
+    """rich (about 20 ms to load and set up) is left to progress bars and errors: a run's summary and
+    warnings are plain lines, the same text."""
+    argv = ["mbs", "run", MODEL, "--t-end", "1ms", "-o", str(tmp_path / "a.h5")]
+    code = ("import os, sys\n_exit = os._exit\n"
+            "def ending(c):\n    print('RICH' if 'rich' in sys.modules else 'NO RICH', file=sys.stderr, flush=True)\n"
+            "    _exit(c)\n"
+            f"os._exit = ending\nsys.argv = {argv!r}\nfrom planar_mbs.cli.entry import main\nmain()\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert res.returncode == 0, res.stderr
+    assert "NO RICH" in res.stderr
+    assert res.stdout.startswith("finished at t = 0.001 s") and "time-loop wall time" in res.stdout
+
+
 @pytest.mark.parametrize("argv, code, text", [
     (["check", MODEL], 0, "clearance joints"),
     (["check", MODEL, "--set", "speed=3 m"], 2, "error"),

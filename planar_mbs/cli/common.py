@@ -128,6 +128,18 @@ def stream_failure() -> str:
         out.failure and out.wrote else ""
 
 
+STYLES = {"bold": "1", "yellow": "33"}
+
+
+def say(text: str, *, stderr: bool = False, style: str = "") -> None:
+    """Write one line as it is, in ``style`` on a terminal that takes colours (not under NO_COLOR or
+    TERM=dumb): the run's summary and warnings, without loading rich (about 20 ms of a 2 ms run)."""
+    stream = sys.stderr if stderr else sys.stdout
+    if style and stream.isatty() and "NO_COLOR" not in os.environ and os.environ.get("TERM") != "dumb":
+        text = f"\033[{STYLES[style]}m{text}\033[0m"
+    stream.write(text + "\n")
+
+
 def console(stderr: bool = False):
     stream = sys.stderr if stderr else sys.stdout
     width = None if stream.isatty() else 160  # no terminal (pipes, tests): do not cut names
@@ -335,7 +347,5 @@ def print_model_warnings(model) -> None:
 def print_assembly(changes) -> None:
     """What the assembly changed in the stated initial state (beyond the tolerance): `mbs check` and
     `mbs run` print it."""
-    if changes:
-        con = console()
-        for line in changes:
-            con.print(line, markup=False)
+    for line in changes:
+        say(line)

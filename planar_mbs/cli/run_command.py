@@ -34,7 +34,7 @@ from .common import (
     positive_time,
 )
 from .common import console as _console
-from .common import internal_error, print_assembly, print_model_warnings
+from .common import internal_error, print_assembly, print_model_warnings, say
 
 # Loaded once `announce_if_cold` has said that the solver compiles (lark, numpy, h5py come with the
 # model), or only by the option that needs them (rerun, typer, the sweep's scan, rich's progress bar).
@@ -292,18 +292,15 @@ def _print_summary(res, out: Path) -> None:
     a = res.attrs
     worst = (f"{hdf5.peak(res, 'system.position_error'):.3g}" if "system.position_error" in res.signals
              else "not kept (--keep)")
-    con = _console()
     state = "finished" if a.get("complete") else f"stopped ({a.get('status', '?')})"
-    con.print(f"[bold]{state}[/] at t = {a.get('t_reached', float('nan')):.6g} s → {out}")
-    con.print(
-        f"  steps {a.get('n_steps', 0):,}   rejected {a.get('n_rejected', 0):,}   "
-        f"rhs evaluations {a.get('n_rhs', 0):,}   contact events {a.get('n_contact_events', 0):,}"
-    )
-    con.print(f"  time-loop wall time {a.get('wall_time', 0.0):.3f} s   "
-              f"largest constraint error {worst}   outputs {hdf5.row_count(res):,}")
+    say(f"{state} at t = {a.get('t_reached', float('nan')):.6g} s → {out}", style="bold")
+    say(f"  steps {a.get('n_steps', 0):,}   rejected {a.get('n_rejected', 0):,}   "
+        f"rhs evaluations {a.get('n_rhs', 0):,}   contact events {a.get('n_contact_events', 0):,}")
+    say(f"  time-loop wall time {a.get('wall_time', 0.0):.3f} s   "
+        f"largest constraint error {worst}   outputs {hdf5.row_count(res):,}")
     print_assembly(list(a.get("assembly_changes", [])))
     for warning in a.get("warnings") or []:
-        _console(stderr=True).print(f"warning: {warning}", markup=False, style="yellow")
+        say(f"warning: {warning}", stderr=True, style="yellow")
 
 
 class _Progress:
