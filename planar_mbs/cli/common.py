@@ -133,7 +133,7 @@ STYLES = {"bold": "1", "yellow": "33"}
 
 def say(text: str, *, stderr: bool = False, style: str = "") -> None:
     """Write one line as it is, in ``style`` on a terminal that takes colours (not under NO_COLOR or
-    TERM=dumb): the run's summary and warnings, without loading rich (about 20 ms of a 2 ms run)."""
+    TERM=dumb): the run's summary and warnings, without loading rich (about 20 ms of a short run's start)."""
     stream = sys.stderr if stderr else sys.stdout
     if style and stream.isatty() and "NO_COLOR" not in os.environ and os.environ.get("TERM") != "dumb":
         text = f"\033[{STYLES[style]}m{text}\033[0m"

@@ -54,7 +54,8 @@ def _beam_matrices(st: Statement, nel: int, p: dict) -> tuple[np.ndarray, np.nda
     try:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
             M = B.beam_mass(nel, Le, p["rho_a"])
-            out = (M, B.inverse_mass(M), B.band_factor(M))
+            band = B.band_factor(M)
+            out = (M, B.inverse_mass(M, band), band)
             stiff = np.array([p["EA"] / Le, p["EI"] / Le ** 3, p["eta"] * p["EA"] / Le])
     except (FloatingPointError, OverflowError, ZeroDivisionError, np.linalg.LinAlgError):
         raise _beyond_floats(st) from None

@@ -35,11 +35,12 @@ def beam_mass(nel: int, Le: float, rho_a: float) -> np.ndarray:
     return M
 
 
-def inverse_mass(M: np.ndarray) -> np.ndarray:
-    """M^-1 = Mbar^-1 times the 2x2 identity, Mbar^-1 by the band factor's solves on every unit
-    vector at once, symmetrised.  Element by element, without BLAS or LAPACK, so that its bits, and
-    a run's, do not depend on the kernels the processor makes OpenBLAS choose (docs/numerics.md)."""
-    band = band_factor(M)
+def inverse_mass(M: np.ndarray, band: np.ndarray | None = None) -> np.ndarray:
+    """M^-1 = Mbar^-1 times the 2x2 identity, Mbar^-1 by the solves of its band factor (`band_factor`,
+    given or formed) on every unit vector at once, symmetrised.  Element by element, without BLAS or
+    LAPACK, so that its bits, and a run's, do not depend on the kernels the processor makes OpenBLAS
+    choose (docs/numerics.md)."""
+    band = band_factor(M) if band is None else band
     n = band.shape[0]
     X = np.eye(n)
     for i in range(n):  # L Y = I, one row of all the columns at a time
