@@ -362,7 +362,8 @@ A cached kernel loads without numba's target-context refresh, which imported eve
 (scipy.linalg among them) and compiled its reference-counting runtime, none of which the kernels' machine code
 calls (`kernel/jit.py`), and without parsing its linking bitcode (0.8 MB for the time loop, 40–60 ms), which numba
 needs only to compile another function against it: the symbols come from the object file's symbol table.  The modules defining typer commands do not postpone their annotations; a command that
-only prints ends without the interpreter's teardown, as `run` does; the CLI keeps BLAS on one thread.
+only prints ends without the interpreter's teardown, as `run` does; a run prints its summary and warnings as
+plain lines and loads rich (about 20 ms) only for a progress bar or an error; the CLI keeps BLAS on one thread.
 `benchmarks/process.py` writes the package's byte-code before its rounds, as pip does at install (an editable
 install under `PYTHONDONTWRITEBYTECODE=1` compiles every module in every process: `mbs check`
 1.57× instead of 1.29×).  Results files keep one compound dataset per entity instead of one per signal (a 40-link
