@@ -243,3 +243,27 @@ def test_plot_module_imports_no_matplotlib():
            "print('matplotlib' in sys.modules, 'rerun' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+def test_stick_phases_are_shaded_where_the_block_moves_with_the_belt():
+    """The belt oscillator's block is held by static friction and carried at the belt's 50 mm/s, then
+    slips back on its spring: a time panel of its contact shades exactly the phases in which the block
+    moves with the belt (to the stuck contact's compliance), and no sample at which it slips."""
+    from pathlib import Path
+
+    import planar_mbs as mbs
+
+    model = mbs.load_model(Path(__file__).resolve().parents[1] / "models" / "belt_oscillator.mbs")
+    r = mbs.simulate(model, t_end=2.5)
+    fig = P.series_figure(r, [["on_belt.friction_force"]])
+    (shade,) = [c for c in fig.axes[0].collections if c.get_label() == "on_belt stuck"]
+    spans = [(p.vertices[:, 0].min(), p.vertices[:, 0].max()) for p in shade.get_paths()]
+    t, v = np.asarray(r.time), np.asarray(r["block.vx"])
+    inside = np.zeros(len(t), bool)
+    for a, b in spans:
+        inside |= (t > a) & (t < b)
+    slipping = np.abs(v - 0.05) > 1e-3
+    assert len(spans) >= 2 and inside.sum() > 0.3 * len(t)
+    assert np.abs(v[inside] - 0.05).max() < 1e-4
+    assert not (slipping & inside).any()
+    assert slipping[~inside].mean() > 0.9  # outside the shade it slips (but at the turning samples)

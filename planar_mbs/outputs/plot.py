@@ -297,15 +297,38 @@ def series_figure(results: "Results", panels: Sequence[Sequence[str]], against: 
                 ax.plot(xs, ys, lw=0.7, label=name)
         if startup is not None and against is None:
             _mark_startup(ax, results, panel, startup)
+        stuck = _mark_stick(ax, results, panel) if against is None else False
         if len(panel) == 1:
             ax.set_ylabel(words_label(panel[0], shown_unit(panel[0])))
         else:
             ax.set_ylabel(f"[{pretty_unit(units.pop())}]" if len(units) == 1 else "")
+        if len(panel) > 1 or stuck:
             ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, lw=0.3, alpha=0.6)
     axes[-1].set_xlabel(xlabel)
     fig.suptitle(title if title is not None else _title(results), fontsize="medium")
     return fig
+
+
+STUCK = (0.17, 0.63, 0.17)  # as the rerun timeline draws a stuck contact's force
+
+
+def _mark_stick(ax, results: "Results", panel: Sequence[str]) -> bool:
+    """Shade the samples at which the friction of an element the panel shows sticks (its ``stick``
+    signal), one shade per element, from each stuck sample to the next sample; True if any."""
+    t = np.asarray(results.time, float)
+    shaded = False
+    for element in dict.fromkeys(n.rsplit(".", 1)[0] for n in panel):
+        if f"{element}.stick" not in results:
+            continue
+        stuck = np.asarray(results[f"{element}.stick"]) > 0.5
+        if stuck.any():
+            through_next = stuck.copy()
+            through_next[1:] |= stuck[:-1]
+            ax.fill_between(t, 0, 1, where=through_next, step="post", transform=ax.get_xaxis_transform(),
+                            color=STUCK, alpha=0.18, lw=0, zorder=0, label=f"{element} stuck")
+            shaded = True
+    return shaded
 
 
 def _mark_startup(ax, results: "Results", panel: Sequence[str], startup: float) -> None:
