@@ -47,21 +47,9 @@ def _beyond_floats(st: Statement):
                              "e.g. `length = 0.3 m  section = rectangle(width = 20 mm, height = 10 mm)`")
 
 
-def _beam_matrices(st: Statement, nel: int, p: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The beam's mass matrix, its inverse and its band factor; a model error where they or its element
-    stiffnesses (EA / L_e, EI / L_e^3) leave floating point or the mass is not positive definite there."""
-    Le = p["length"] / nel
-    try:
-        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
-            M = B.beam_mass(nel, Le, p["rho_a"])
-            band = B.band_factor(M)
-            out = (M, B.inverse_mass(M, band), band)
-            stiff = np.array([p["EA"] / Le, p["EI"] / Le ** 3, p["eta"] * p["EA"] / Le])
-    except (FloatingPointError, OverflowError, ZeroDivisionError, np.linalg.LinAlgError):
-        raise _beyond_floats(st) from None
-    if not (all(np.isfinite(a).all() for a in out) and np.isfinite(stiff).all()):
+def _require_finite(st: Statement, *values) -> None:
+    if not all(np.isfinite(v).all() for v in values):
         raise _beyond_floats(st)
-    return out
 
 
 class _BeamPass:
@@ -101,24 +89,26 @@ class _BeamPass:
         mo = wo = 0
         for bm, st in enumerate(self.beam_statements):
             first, nel = self.beam_first[st.name], self.beam_elements[st.name]
-            try:
-                p = self._beam_params(st)
-            except OverflowError:  # a section's powers of a huge size, in Python floats
+            try:  # a size beyond floats: Python's powers raise, numpy's give inf, the mass is no longer definite
+                with np.errstate(all="ignore"):
+                    p = self._beam_params(st)
+                    Le = p["length"] / nel
+                    M = B.beam_mass(nel, Le, p["rho_a"])
+                    L = B.band_factor(M)
+                    Minv = B.inverse_mass(L)
+                    self._beam_start(first, nel, p)
+                    stiff = np.array([p["EA"] / Le, p["EI"] / Le ** 3, p["eta"] * p["EA"] / Le])
+            except (OverflowError, np.linalg.LinAlgError):
                 raise _beyond_floats(st) from None
-            param[bm, [BP_LENGTH, BP_EA, BP_EI, BP_ETA, BP_RHO_A]] = (p["length"] / nel, p["EA"], p["EI"],
-                                                                      p["eta"], p["rho_a"])
-            M, Minv, L = _beam_matrices(st, nel, p)
+            span = slice(3 * first, 3 * (first + 2 * (nel + 1)))
+            _require_finite(st, M, Minv, L, stiff, self.q0[span], self.qd0[span])
+            param[bm, [BP_LENGTH, BP_EA, BP_EI, BP_ETA, BP_RHO_A]] = (Le, p["EA"], p["EI"], p["eta"], p["rho_a"])
             info[bm] = (first, nel, mo, wo)
             mass.append(M.ravel())
             minv.append(Minv.ravel())
             band.append(L.ravel())
             mo, wo = mo + M.size, wo + M.shape[0]
             body_beam[first:first + 2 * (nel + 1)] = bm
-            with np.errstate(over="ignore", invalid="ignore"):
-                self._beam_start(first, nel, p)
-            span = slice(3 * first, 3 * (first + 2 * (nel + 1)))
-            if not (np.isfinite(self.q0[span]).all() and np.isfinite(self.qd0[span]).all()):
-                raise _beyond_floats(st)
         self.a.update(beam_info=info, beam_param=param, beam_mass=np.concatenate(mass),
                       beam_minv=np.concatenate(minv), beam_band=np.concatenate(band), body_beam=body_beam)
 
@@ -129,8 +119,7 @@ class _BeamPass:
                 weights = [B.gravity_force(int(nel), Le, rho_a, self.a["gravity"])
                            for (_, nel, _, _), (Le, _, _, _, rho_a) in zip(self.a["beam_info"], self.a["beam_param"])]
             for st, w in zip(self.beam_statements, weights):
-                if not np.isfinite(w).all():
-                    raise _beyond_floats(st)
+                _require_finite(st, w)
             self.a["beam_weight"] = np.concatenate(weights)
 
     def _fill_slope(self, k: int, st: Statement, label: str, f, bi: int, bj: int) -> None:

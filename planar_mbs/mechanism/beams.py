@@ -35,12 +35,11 @@ def beam_mass(nel: int, Le: float, rho_a: float) -> np.ndarray:
     return M
 
 
-def inverse_mass(M: np.ndarray, band: np.ndarray | None = None) -> np.ndarray:
-    """M^-1 = Mbar^-1 times the 2x2 identity, Mbar^-1 by the solves of its band factor (`band_factor`,
-    given or formed) on every unit vector at once, symmetrised.  Element by element, without BLAS or
-    LAPACK, so that its bits, and a run's, do not depend on the kernels the processor makes OpenBLAS
-    choose (docs/numerics.md)."""
-    band = band_factor(M) if band is None else band
+def inverse_mass(band: np.ndarray) -> np.ndarray:
+    """M^-1 = Mbar^-1 times the 2x2 identity, Mbar^-1 by the solves of its band factor (`band_factor`)
+    on every unit vector at once, symmetrised.  Element by element, without BLAS or LAPACK, so that its
+    bits, and a run's, do not depend on the kernels the processor makes OpenBLAS choose
+    (docs/numerics.md)."""
     n = band.shape[0]
     X = np.eye(n)
     for i in range(n):  # L Y = I, one row of all the columns at a time
@@ -52,7 +51,7 @@ def inverse_mass(M: np.ndarray, band: np.ndarray | None = None) -> np.ndarray:
             X[i] -= band[i + k, k] * X[i + k]
         X[i] /= band[i, 0]
     X = 0.5 * (X + X.T)
-    Minv = np.zeros_like(M)
+    Minv = np.zeros((2 * n, 2 * n))
     Minv[0::2, 0::2] = Minv[1::2, 1::2] = X
     return Minv
 
